@@ -1,0 +1,33 @@
+"""pv_hdrvol: high-dynamic-range volume rendering for PyVista, VTK and ParaView.
+
+Public names only; the pipeline is ``data`` -> ``rays`` -> ``render`` -> ``image`` ->
+``integrations``.
+"""
+from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
+from .data.transfer import TransferFunction
+from .image.hdr import HDRImage, load
+from .params import PRECISIONS, RenderOptions
+from .rays.camera import Camera, Rays
+from .render.grid import BlockGrid, render_volume
+
+__version__ = "0.1.0"
+
+
+def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, preference="point", options=None,
+           block_mask=None, progress_bar=False, progress=None, **option_kwargs):
+    """Render a volume to an :class:`HDRImage` (see :func:`render_volume` for all options).
+
+    ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
+    a :class:`GridVolume`; ``scalars``/``preference`` pick the array of a dataset.
+    """
+    from .render.grid import as_volume
+
+    volume = as_volume(data, scalars=scalars, preference=preference)
+    return render_volume(volume, tf, camera, size, options, block_mask=block_mask, progress_bar=progress_bar,
+                         progress=progress, **option_kwargs)
+
+
+__all__ = [
+    "BlockGrid", "Camera", "GridVolume", "HDRImage", "PRECISIONS", "Rays", "RenderOptions", "ScalarsError",
+    "TransferFunction", "load", "render", "render_volume", "volume_from_array", "volume_from_dataset",
+]

@@ -1,0 +1,1 @@
+"""Datasets to flat arrays: image volumes and transfer-function tables."""

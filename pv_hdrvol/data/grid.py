@@ -1,0 +1,174 @@
+"""Image volumes (``pyvista.ImageData``, ``vtkImageData`` or numpy arrays) as flat arrays."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validate import as_choice, as_vector
+
+# Dtypes the kernels read natively (no copy); anything else is converted once.
+_NATIVE = (np.uint8, np.int8, np.uint16, np.int16, np.float32, np.float64)
+
+
+class ScalarsError(ValueError):
+    """The requested scalars are missing or not usable for volume rendering."""
+
+
+@dataclass(frozen=True)
+class GridVolume:
+    """A scalar field on a uniform grid, ready for the kernels.
+
+    Attributes
+    ----------
+    values : ndarray, shape (nz, ny, nx)
+        Point values, C-contiguous, x fastest (VTK order). Never the caller's array
+        when it had to be cleaned (NaN/inf) or converted.
+    origin, spacing : ndarray, shape (3,)
+        World position of ``values[0, 0, 0]`` and the distance between points (x, y, z).
+    value_range : (float, float)
+        Finite minimum and maximum (NaN ignored).
+    has_nan : bool
+        Whether NaN points exist: samples touching them are empty.
+    """
+
+    values: np.ndarray
+    origin: np.ndarray
+    spacing: np.ndarray
+    value_range: tuple
+    has_nan: bool
+    name: str = ""
+
+    @property
+    def dims(self):
+        """Points along (x, y, z)."""
+        nz, ny, nx = self.values.shape
+        return nx, ny, nz
+
+    @property
+    def bounds(self):
+        """``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the sampled domain."""
+        hi = self.origin + (np.array(self.dims) - 1) * self.spacing
+        return (self.origin[0], hi[0], self.origin[1], hi[1], self.origin[2], hi[2])
+
+
+def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *, order="zyx", name=""):
+    """Make a :class:`GridVolume` from a 3-D numpy array.
+
+    Parameters
+    ----------
+    values : ndarray, 3-D, any real numeric dtype
+        ``order="zyx"`` (default): ``values[k, j, i]`` is at x index i; ``"xyz"``: the
+        transpose, as ``pyvista.ImageData`` ``dimensions`` order.
+    spacing, origin : sequence of 3 floats
+        Spacing must be > 0 on every axis.
+
+    Notes
+    -----
+    NaN points are kept and treated as empty space by the kernels (a sample whose
+    interpolation stencil touches a NaN contributes nothing). ``+inf``/``-inf`` are
+    clamped to the largest/smallest finite value, on a copy.
+    """
+    as_choice("order", order, ("zyx", "xyz"))
+    arr = np.asarray(values)
+    if arr.ndim != 3:
+        raise ValueError(f"volume values must be a 3-D array; got {arr.ndim}-D with shape {arr.shape}")
+    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+        raise TypeError(f"volume values must have a real numeric dtype; got {arr.dtype}")
+    if arr.size == 0:
+        raise ValueError(f"volume values must not be empty; got shape {arr.shape}")
+    if order == "xyz":
+        arr = arr.transpose(2, 1, 0)
+    spacing = as_vector("spacing", spacing)
+    if np.any(spacing <= 0):
+        raise ValueError(f"spacing must be > 0 on every axis; got {tuple(spacing)}")
+    origin = as_vector("origin", origin)
+    if arr.dtype.type not in _NATIVE:
+        arr = arr.astype(np.float32 if arr.dtype.itemsize <= 4 and np.issubdtype(arr.dtype, np.floating) else np.float64)
+    has_nan = False
+    if np.issubdtype(arr.dtype, np.floating):
+        finite = np.isfinite(arr)
+        if not finite.all():
+            has_nan = bool(np.isnan(arr).any())
+            fin = arr[finite]
+            lo, hi = (float(fin.min()), float(fin.max())) if fin.size else (0.0, 0.0)
+            arr = np.array(arr, copy=True)  # never touch the caller's data
+            arr[np.isposinf(arr)] = hi
+            arr[np.isneginf(arr)] = lo
+            vr = (lo, hi)
+        else:
+            vr = (float(arr.min()), float(arr.max()))
+    else:
+        vr = (float(arr.min()), float(arr.max()))
+    arr = np.ascontiguousarray(arr)
+    return GridVolume(arr, origin, spacing, vr, has_nan, name)
+
+
+def volume_from_dataset(dataset, scalars=None, preference="point"):
+    """Make a :class:`GridVolume` from a ``pyvista.ImageData`` or ``vtkImageData``.
+
+    Parameters
+    ----------
+    scalars : str, optional
+        Array name; default: the active scalars, else the only array.
+    preference : {"point", "cell"}
+        Which association to prefer when the name exists in both. Cell data is
+        rendered as a point field at the cell centres (the domain shrinks by half a
+        cell on every side).
+    """
+    as_choice("preference", preference, ("point", "cell"))
+    try:
+        import pyvista as pv
+    except ImportError:  # pragma: no cover - vtk-only environments
+        pv = None
+    ds = dataset
+    if pv is not None and not isinstance(ds, pv.DataSet):
+        try:
+            ds = pv.wrap(ds)
+        except Exception:
+            raise TypeError(f"expected a pyvista.ImageData or vtkImageData; got {type(dataset).__name__}") from None
+    cls_name = ds.GetClassName() if hasattr(ds, "GetClassName") else type(ds).__name__
+    if cls_name not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
+        raise TypeError(f"expected image data (pyvista.ImageData / vtkImageData); got {cls_name}")
+    dims = tuple(int(d) for d in ds.GetDimensions())
+    if min(dims) < 1 or np.prod(dims) == 0:
+        raise ValueError(f"the image has no points (dimensions {dims})")
+    if pv is not None and hasattr(ds, "point_data"):
+        pdata, cdata = ds.point_data, ds.cell_data
+        pnames, cnames = list(pdata.keys()), list(cdata.keys())
+    else:  # pragma: no cover
+        raise TypeError("volume_from_dataset needs pyvista")
+    if scalars is None:
+        active = ds.active_scalars_name
+        if active:
+            scalars = active
+        elif len(pnames) + len(cnames) == 1:
+            scalars = (pnames + cnames)[0]
+        else:
+            raise ScalarsError(
+                f"scalars must be given: the dataset has no active scalars and several arrays "
+                f"(point: {pnames}, cell: {cnames})")
+    if not isinstance(scalars, str):
+        raise TypeError(f"scalars must be an array name (str); got {scalars!r}")
+    in_point, in_cell = scalars in pnames, scalars in cnames
+    if not (in_point or in_cell):
+        raise ScalarsError(f"scalars {scalars!r} not found; point arrays: {pnames}, cell arrays: {cnames}")
+    use_cell = in_cell and (preference == "cell" or not in_point)
+    arr = np.asarray(cdata[scalars] if use_cell else pdata[scalars])
+    if arr.ndim != 1:
+        raise ScalarsError(f"scalars {scalars!r} must have one component; got shape {arr.shape}")
+    spacing = np.array(ds.GetSpacing(), dtype=np.float64)
+    origin = np.array(ds.GetOrigin(), dtype=np.float64)
+    if hasattr(ds, "GetDirectionMatrix"):
+        m = ds.GetDirectionMatrix()
+        dm = np.array([[m.GetElement(i, j) for j in range(3)] for i in range(3)])
+        if not np.allclose(dm, np.eye(3)):
+            raise ValueError("oriented images (a direction matrix other than identity) are not supported yet")
+    if use_cell:
+        cdims = tuple(max(d - 1, 1) for d in dims)
+        shape = cdims[::-1]
+        origin = origin + 0.5 * spacing * (np.array(dims) > 1)
+    else:
+        shape = dims[::-1]
+    # np.asarray of a VTK array is a view: volume_from_array copies before any change.
+    return volume_from_array(arr.reshape(shape), spacing, origin, name=scalars)

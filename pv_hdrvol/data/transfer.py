@@ -1,0 +1,265 @@
+"""Transfer functions for high-dynamic-range data, and their lookup tables."""
+from __future__ import annotations
+
+import numpy as np
+
+from .._validate import as_choice, as_int, as_real
+
+SCALES = ("linear", "log", "symlog")
+SCALE_CODES = {"linear": 0, "log": 1, "symlog": 2}
+COLOR_SPACES = ("rgb", "hsv")
+
+#: Default table resolution: fine enough that a log ramp over 16 decades moves by
+#: 2.4e-4 decades per entry.
+DEFAULT_TABLE_SIZE = 65536
+MIN_TABLE_SIZE = 256
+MAX_TABLE_SIZE = 2**24
+
+# The largest opacity a segment of one unit distance may have: keeps the extinction
+# finite (-ln(2**-52) = 36 per unit distance, i.e. opaque for any practical purpose).
+_ALPHA_MAX = 1.0 - 2.0**-52
+
+
+def scale_forward(values, scale, linthresh=1.0):
+    """Map data values to the transfer function's axis (vectorised, float64).
+
+    ``log`` maps values <= 0 to ``-inf``; ``symlog`` is
+    ``sign(v) * log10(1 + |v| / linthresh)``.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    if scale == "linear":
+        return v.copy()
+    if scale == "log":
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = np.log10(np.where(v > 0, v, np.nan))
+        return np.where(v > 0, out, -np.inf)
+    return np.sign(v) * np.log10(1.0 + np.abs(v) / linthresh)
+
+
+def _rgb_to_hsv(rgb):
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    mx = rgb.max(axis=-1)
+    mn = rgb.min(axis=-1)
+    d = mx - mn
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where(mx == r, ((g - b) / d) % 6.0, np.where(mx == g, (b - r) / d + 2.0, (r - g) / d + 4.0))
+        s = np.where(mx > 0, d / mx, 0.0)
+    h = np.where(d > 0, h / 6.0, 0.0)
+    return np.stack([h, s, mx], axis=-1)
+
+
+def _hsv_to_rgb(hsv):
+    h, s, v = hsv[..., 0] % 1.0, hsv[..., 1], hsv[..., 2]
+    i = np.floor(h * 6.0)
+    f = h * 6.0 - i
+    p, q, t = v * (1 - s), v * (1 - s * f), v * (1 - s * (1 - f))
+    i = i.astype(int) % 6
+    choices_r = [v, q, p, p, t, v]
+    choices_g = [t, v, v, q, p, p]
+    choices_b = [p, p, t, v, v, q]
+    r = np.choose(i, choices_r)
+    g = np.choose(i, choices_g)
+    b = np.choose(i, choices_b)
+    return np.stack([r, g, b], axis=-1)
+
+
+class TransferFunction:
+    """Colour and opacity over scalar value, for data that spans many decades.
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+        Control-point positions in data units, strictly increasing, n >= 2. The first
+        and last set the table's range; data outside it takes the end entries.
+    colors : array_like, shape (n, 3)
+        Linear RGB emission at each control point, >= 0 (values above 1 are allowed:
+        emission is HDR).
+    opacities : array_like, shape (n,)
+        Opacity in [0, 1] reached over one ``opacity_unit_distance`` (see
+        :class:`~pv_hdrvol.RenderOptions`).
+    scale : {"linear", "log", "symlog"}
+        Axis on which control points are interpolated and the table is sampled.
+        ``log`` needs positive control points; data <= 0 maps below the range.
+        ``symlog`` suits signed data spanning decades.
+    linthresh : float
+        Linear range of ``symlog`` around zero.
+    color_space : {"rgb", "hsv"}
+        Space in which colours are interpolated between control points.
+    table_size : int
+        Entries of the lookup table, 256 .. 2**24 (default 65,536). Samples between
+        entries are interpolated linearly.
+
+    Notes
+    -----
+    The table stores colour and *extinction* ``sigma = -ln(1 - a * global_alpha) / d``
+    per world unit; a segment of length ``s`` then has opacity ``1 - exp(-sigma s)``
+    whatever the step (opacity correction).
+
+    Examples
+    --------
+    >>> import pv_hdrvol as hv
+    >>> tf = hv.TransferFunction.ramp(1e-3, 1e4, scale="log", cmap="gray", opacity=(0, 1))
+    >>> float(tf.opacity_at(10.0))  # halfway in log10 between 1e-3 and 1e4
+    0.5714285714285714
+    """
+
+    def __init__(self, values, colors, opacities, *, scale="linear", linthresh=1.0,
+                 color_space="rgb", table_size=DEFAULT_TABLE_SIZE):
+        self.scale = as_choice("scale", scale, SCALES)
+        self.color_space = as_choice("color_space", color_space, COLOR_SPACES)
+        self.linthresh = as_real("linthresh", linthresh, low=0, low_open=True)
+        self.table_size = as_int("table_size", table_size, low=MIN_TABLE_SIZE, high=MAX_TABLE_SIZE)
+        values = np.array(values, dtype=np.float64).reshape(-1)
+        colors = np.array(colors, dtype=np.float64)
+        opacities = np.array(opacities, dtype=np.float64).reshape(-1)
+        n = values.size
+        if n < 2:
+            raise ValueError(f"a transfer function needs at least 2 control points; got {n}")
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"control-point values must be finite; got {values}")
+        if np.any(np.diff(values) <= 0):
+            raise ValueError(f"control-point values must be strictly increasing; got {values}")
+        if self.scale == "log" and values[0] <= 0:
+            raise ValueError(f"scale='log' needs positive control-point values; got vmin={values[0]!r}")
+        if colors.shape != (n, 3):
+            raise ValueError(f"colors must have shape ({n}, 3) to match values; got {colors.shape}")
+        if not np.all(np.isfinite(colors)) or np.any(colors < 0):
+            raise ValueError("colors must be finite and >= 0")
+        if opacities.shape != (n,):
+            raise ValueError(f"opacities must have shape ({n},) to match values; got {opacities.shape}")
+        if not np.all(np.isfinite(opacities)) or np.any(opacities < 0) or np.any(opacities > 1):
+            raise ValueError(f"opacities must lie in [0, 1]; got min {opacities.min()!r}, max {opacities.max()!r}")
+        self.values, self.colors, self.opacities = values, colors, opacities
+        for a in (self.values, self.colors, self.opacities):
+            a.flags.writeable = False
+        self._axis = scale_forward(values, self.scale, self.linthresh)
+        self._tables = {}
+
+    # -- factories ---------------------------------------------------------------
+    @classmethod
+    def ramp(cls, vmin, vmax, *, scale="linear", cmap="viridis", opacity=(0.0, 1.0), n_colors=64,
+             linthresh=1.0, table_size=DEFAULT_TABLE_SIZE):
+        """Colormap ``cmap`` over ``[vmin, vmax]`` with opacity ramping along the axis.
+
+        Parameters
+        ----------
+        vmin, vmax : float
+            Range in data units (``vmin > 0`` for ``scale="log"``).
+        cmap : str or matplotlib colormap
+            A matplotlib colormap name (``"gray"`` works without matplotlib).
+        opacity : sequence of float
+            Opacities spread evenly along the *scaled* axis, interpolated between.
+        n_colors : int
+            Control points taken from the colormap.
+        """
+        vmin = as_real("vmin", vmin)
+        vmax = as_real("vmax", vmax)
+        if vmax <= vmin:
+            raise ValueError(f"vmax must be > vmin; got vmin={vmin!r}, vmax={vmax!r}")
+        scale = as_choice("scale", scale, SCALES)
+        if scale == "log" and vmin <= 0:
+            raise ValueError(f"scale='log' needs vmin > 0; got vmin={vmin!r}")
+        n = as_int("n_colors", n_colors, low=2, high=4096)
+        ops = np.array(opacity, dtype=np.float64).reshape(-1)
+        if ops.size < 1:
+            raise ValueError("opacity must hold at least one value")
+        if ops.size == 1:
+            ops = np.repeat(ops, 2)
+        a0, a1 = scale_forward([vmin, vmax], scale, linthresh)
+        axis = np.linspace(a0, a1, n)
+        values = _scale_inverse(axis, scale, linthresh)
+        values[0], values[-1] = vmin, vmax
+        colors = colormap_rgb(cmap, np.linspace(0.0, 1.0, n))
+        opac = np.interp(np.linspace(0, 1, n), np.linspace(0, 1, ops.size), ops)
+        return cls(values, colors, opac, scale=scale, linthresh=linthresh, table_size=table_size)
+
+    from_colormap = ramp
+
+    # -- evaluation --------------------------------------------------------------
+    @property
+    def vmin(self):
+        return float(self.values[0])
+
+    @property
+    def vmax(self):
+        return float(self.values[-1])
+
+    @property
+    def axis_range(self):
+        """``(a0, a1)``: the range on the scaled axis."""
+        return float(self._axis[0]), float(self._axis[-1])
+
+    def _positions(self, values):
+        a = scale_forward(values, self.scale, self.linthresh)
+        a0, a1 = self.axis_range
+        return np.clip(a, a0, a1)
+
+    def color_at(self, values):
+        """Interpolated RGB at data ``values`` (exact control-point interpolation)."""
+        a = self._positions(values)
+        if self.color_space == "rgb":
+            return np.stack([np.interp(a, self._axis, self.colors[:, c]) for c in range(3)], axis=-1)
+        hsv = _rgb_to_hsv(self.colors)
+        hue = np.unwrap(hsv[:, 0] * 2 * np.pi) / (2 * np.pi)  # shortest way round the hue circle
+        out = np.stack([np.interp(a, self._axis, ch) for ch in (hue, hsv[:, 1], hsv[:, 2])], axis=-1)
+        return _hsv_to_rgb(out)
+
+    def opacity_at(self, values):
+        """Interpolated opacity at data ``values``."""
+        return np.interp(self._positions(values), self._axis, self.opacities)
+
+    def table(self, dtype=np.float64, global_alpha=1.0, unit_distance=1.0, size=None):
+        """Sample the function into a lookup table.
+
+        Returns
+        -------
+        rgb : ndarray, shape (size, 3), ``dtype``
+        sigma : ndarray, shape (size,), ``dtype``
+            Extinction per world unit, ``-ln(1 - a * global_alpha) / unit_distance``.
+        """
+        size = self.table_size if size is None else as_int("table size", size, low=2, high=MAX_TABLE_SIZE)
+        key = (np.dtype(dtype).str, float(global_alpha), float(unit_distance), size)
+        if key not in self._tables:
+            a0, a1 = self.axis_range
+            axis = np.linspace(a0, a1, size)
+            values = _scale_inverse(axis, self.scale, self.linthresh)
+            values[0], values[-1] = self.vmin, self.vmax
+            rgb = self.color_at(values)
+            alpha = np.minimum(self.opacity_at(values) * global_alpha, _ALPHA_MAX)
+            sigma = -np.log1p(-alpha) / unit_distance
+            self._tables = {key: (np.ascontiguousarray(rgb, dtype=dtype), np.ascontiguousarray(sigma, dtype=dtype))}
+        return self._tables[key]
+
+    def __repr__(self):
+        return (f"TransferFunction({self.values.size} points, range [{self.vmin:.6g}, {self.vmax:.6g}], "
+                f"scale={self.scale!r}, color_space={self.color_space!r}, table_size={self.table_size})")
+
+
+def _scale_inverse(axis, scale, linthresh):
+    axis = np.asarray(axis, dtype=np.float64)
+    if scale == "linear":
+        return axis.copy()
+    if scale == "log":
+        return 10.0 ** axis
+    return np.sign(axis) * linthresh * (10.0 ** np.abs(axis) - 1.0)
+
+
+def colormap_rgb(cmap, t):
+    """RGB of colormap ``cmap`` (a name or a matplotlib colormap) at ``t`` in [0, 1]."""
+    t = np.asarray(t, dtype=np.float64)
+    if isinstance(cmap, str) and cmap in ("gray", "grey"):
+        return np.repeat(t[:, None], 3, axis=1)
+    try:
+        import matplotlib
+    except ImportError:  # pragma: no cover - matplotlib comes with pyvista
+        raise ValueError(f"cmap {cmap!r} needs matplotlib; only 'gray' works without it") from None
+    if isinstance(cmap, str):
+        try:
+            cm = matplotlib.colormaps[cmap]
+        except KeyError:
+            raise ValueError(f"cmap {cmap!r} is not a matplotlib colormap name") from None
+    elif callable(cmap):
+        cm = cmap
+    else:
+        raise TypeError(f"cmap must be a colormap name or a matplotlib colormap; got {cmap!r}")
+    return np.asarray(cm(t), dtype=np.float64)[:, :3]

@@ -1,0 +1,1 @@
+"""Linear float images: HDRImage, display mapping, OpenEXR/npy I/O."""

@@ -1,0 +1,65 @@
+"""The default display mapping: exposure, clamp, sRGB encoding.
+
+A baseline only; tone-mapping operators live elsewhere.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: Rec. 709 / sRGB luminance weights of linear RGB.
+LUMINANCE_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
+
+
+def luminance(rgb):
+    """Linear luminance ``0.2126 R + 0.7152 G + 0.0722 B`` of an (..., >=3) array."""
+    rgb = np.asarray(rgb)
+    return rgb[..., 0] * 0.2126 + rgb[..., 1] * 0.7152 + rgb[..., 2] * 0.0722
+
+
+def srgb_encode(linear):
+    """IEC 61966-2-1 sRGB transfer function of linear values in [0, 1]."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def srgb_decode(encoded):
+    """Inverse of :func:`srgb_encode`."""
+    x = np.clip(np.asarray(encoded, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4))
+
+
+def auto_exposure(rgb, percentile=99.0):
+    """Stops that bring the ``percentile`` of non-zero luminance to 1.0 (0 if all black)."""
+    y = luminance(rgb)
+    y = y[np.isfinite(y) & (y > 0)]
+    if y.size == 0:
+        return 0.0
+    ref = float(np.percentile(y, percentile))
+    return float(-np.log2(ref)) if ref > 0 else 0.0
+
+
+def display(rgba, exposure_stops=None, *, background=(0.0, 0.0, 0.0)):
+    """Map linear premultiplied RGBA to 8-bit sRGB.
+
+    Parameters
+    ----------
+    rgba : ndarray, shape (rows, cols, 4)
+        Linear, premultiplied.
+    exposure_stops : float or None
+        Scale by ``2**exposure_stops`` before clamping; ``None``: :func:`auto_exposure`.
+    background : 3 floats
+        Linear colour shown through transparent pixels.
+
+    Returns
+    -------
+    ndarray, shape (rows, cols, 3), uint8
+    """
+    rgba = np.asarray(rgba, dtype=np.float64)
+    if rgba.ndim != 3 or rgba.shape[2] != 4:
+        raise ValueError(f"rgba must have shape (rows, cols, 4); got {rgba.shape}")
+    if exposure_stops is None:
+        exposure_stops = auto_exposure(rgba)
+    bg = np.asarray(background, dtype=np.float64).reshape(1, 1, 3)
+    lin = rgba[..., :3] * (2.0 ** float(exposure_stops)) + (1.0 - rgba[..., 3:4]) * bg
+    lin = np.nan_to_num(lin, nan=0.0, posinf=1.0, neginf=0.0)
+    return np.round(srgb_encode(lin) * 255.0).astype(np.uint8)

@@ -1,0 +1,229 @@
+"""HDRImage: the linear float result of a render."""
+from __future__ import annotations
+
+import io as _io
+import os
+import pathlib
+
+import numpy as np
+
+from . import display as _display
+from . import io as _fileio
+
+
+class HDRImage:
+    """A linear, premultiplied RGBA image with depth.
+
+    Parameters
+    ----------
+    rgba : ndarray, shape (rows, cols, 4), float32 or float64
+        Linear light, premultiplied alpha, row 0 at the top.
+    depth : ndarray, shape (rows, cols), optional
+        Distance along each ray to where accumulated opacity first reached the
+        render's ``depth_threshold``; ``inf`` where it never did.
+    metadata : dict, optional
+        Render parameters; saved in EXR headers.
+
+    Examples
+    --------
+    >>> import numpy as np, pv_hdrvol as hv
+    >>> img = hv.HDRImage(np.full((2, 3, 4), 0.25, np.float32))
+    >>> img.shape, img.peak_luminance
+    ((2, 3), 0.25)
+    """
+
+    def __init__(self, rgba, depth=None, metadata=None):
+        rgba = np.asarray(rgba)
+        if rgba.ndim != 3 or rgba.shape[2] != 4:
+            raise ValueError(f"rgba must have shape (rows, cols, 4); got {rgba.shape}")
+        if rgba.dtype not in (np.float32, np.float64):
+            if rgba.dtype == np.float16:
+                rgba = rgba.astype(np.float32)
+            else:
+                raise TypeError(f"rgba must be float32 or float64; got {rgba.dtype}")
+        if depth is None:
+            depth = np.full(rgba.shape[:2], np.inf)
+        depth = np.asarray(depth, dtype=np.float64)
+        if depth.shape != rgba.shape[:2]:
+            raise ValueError(f"depth must have shape {rgba.shape[:2]}; got {depth.shape}")
+        self.rgba = rgba
+        self.depth = depth
+        self.metadata = dict(metadata or {})
+
+    # -- basic facts -------------------------------------------------------------
+    @property
+    def shape(self):
+        """``(rows, cols)``."""
+        return self.rgba.shape[:2]
+
+    @property
+    def luminance(self):
+        """Linear luminance (rows, cols), float64."""
+        return _display.luminance(self.rgba.astype(np.float64))
+
+    @property
+    def peak_luminance(self):
+        y = self.luminance
+        y = y[np.isfinite(y)]
+        return float(y.max()) if y.size else 0.0
+
+    @property
+    def min_nonzero_luminance(self):
+        """Smallest luminance above zero (0.0 if the image is black)."""
+        y = self.luminance
+        y = y[np.isfinite(y) & (y > 0)]
+        return float(y.min()) if y.size else 0.0
+
+    @property
+    def dynamic_range_decades(self):
+        """``log10(peak / smallest non-zero luminance)``; 0 for a black image."""
+        lo = self.min_nonzero_luminance
+        return float(np.log10(self.peak_luminance / lo)) if lo > 0 else 0.0
+
+    def stats(self):
+        """Dict of the statistics above, plus coverage and distinct luminance levels."""
+        y = self.luminance
+        return {
+            "shape": self.shape,
+            "dtype": str(self.rgba.dtype),
+            "peak_luminance": self.peak_luminance,
+            "min_nonzero_luminance": self.min_nonzero_luminance,
+            "dynamic_range_decades": self.dynamic_range_decades,
+            "covered_fraction": float(np.mean(self.rgba[..., 3] > 0)),
+            "distinct_luminance_levels": int(np.unique(y[y > 0]).size),
+            "nan_pixels": int(np.isnan(self.rgba).any(axis=2).sum()),
+        }
+
+    def __repr__(self):
+        r, c = self.shape
+        return (f"HDRImage({c}x{r}, {self.rgba.dtype}, peak luminance {self.peak_luminance:.4g}, "
+                f"{self.dynamic_range_decades:.2f} decades, {self.metadata.get('precision', '?')} compositing)")
+
+    # -- display -----------------------------------------------------------------
+    def to_display(self, exposure_stops=None, background=(0.0, 0.0, 0.0)):
+        """8-bit sRGB (rows, cols, 3) by exposure and clamp; ``None``: auto exposure."""
+        return _display.display(self.rgba, exposure_stops, background=background)
+
+    def exposures(self, stops):
+        """The image at several exposures (stops relative to the auto exposure).
+
+        Returns
+        -------
+        list of ndarray, each (rows, cols, 3) uint8
+        """
+        base = _display.auto_exposure(self.rgba)
+        return [self.to_display(base + float(s)) for s in np.atleast_1d(stops)]
+
+    def save_png(self, path, exposure_stops=None):
+        """Write the default display mapping as an 8-bit PNG."""
+        _write_png(path, self.to_display(exposure_stops))
+
+    def _repr_png_(self):
+        buf = _io.BytesIO()
+        _write_png(buf, self.to_display())
+        return buf.getvalue()
+
+    # -- files -------------------------------------------------------------------
+    def save(self, path, pixel_type="float32"):
+        """Save as OpenEXR (``.exr``: RGBA + Z, metadata in the header) or ``.npy``.
+
+        ``pixel_type="float16"`` writes half RGBA (about 4.8e-4 relative error,
+        saturating at 65504); depth is always float32. float32 round-trips bit-exact.
+        """
+        path = pathlib.Path(os.fspath(path))
+        ext = path.suffix.lower()
+        if ext == ".exr":
+            _fileio.write_exr(path, self.rgba, self.depth, self.metadata, pixel_type)
+        elif ext == ".npy":
+            _fileio.write_npy(path, self.rgba, self.depth)
+        elif ext == ".png":
+            self.save_png(path)
+        else:
+            raise ValueError(f"unknown image extension {ext!r}; use .exr, .npy or .png")
+        return path
+
+    @classmethod
+    def load(cls, path):
+        """Read an image written by :meth:`save` (or any RGB(A) OpenEXR file)."""
+        path = pathlib.Path(os.fspath(path))
+        ext = path.suffix.lower()
+        if ext == ".exr":
+            rgba, depth, meta = _fileio.read_exr(path)
+            return cls(rgba, depth, meta)
+        if ext == ".npy":
+            rgba, depth = _fileio.read_npy(path)
+            return cls(rgba, depth)
+        raise ValueError(f"unknown image extension {ext!r}; use .exr or .npy")
+
+    # -- VTK / PyVista -----------------------------------------------------------
+    def to_vtk(self):
+        """A 2-D ``vtkImageData`` with point arrays ``rgba`` (4 comp.) and ``depth``.
+
+        VTK's row 0 is the bottom: rows are flipped here.
+        """
+        from vtkmodules.util.numpy_support import numpy_to_vtk
+        from vtkmodules.vtkCommonDataModel import vtkImageData
+
+        rows, cols = self.shape
+        img = vtkImageData()
+        img.SetDimensions(cols, rows, 1)
+        rgba = np.ascontiguousarray(self.rgba[::-1].reshape(-1, 4))
+        arr = numpy_to_vtk(rgba, deep=True)
+        arr.SetName("rgba")
+        img.GetPointData().AddArray(arr)
+        img.GetPointData().SetActiveScalars("rgba")
+        dep = numpy_to_vtk(np.ascontiguousarray(self.depth[::-1].reshape(-1)), deep=True)
+        dep.SetName("depth")
+        img.GetPointData().AddArray(dep)
+        return img
+
+    def to_pyvista(self):
+        """As :meth:`to_vtk`, wrapped as ``pyvista.ImageData``."""
+        import pyvista as pv
+
+        return pv.wrap(self.to_vtk())
+
+    @classmethod
+    def from_pyvista(cls, image, rgba="rgba", depth="depth"):
+        """Inverse of :meth:`to_pyvista` / :meth:`to_vtk` (rows flipped back)."""
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+
+        dims = image.GetDimensions()
+        if dims[2] != 1:
+            raise ValueError(f"expected a 2-D image (z dimension 1); got dimensions {dims}")
+        cols, rows = dims[0], dims[1]
+        pd = image.GetPointData()
+        arr = pd.GetArray(rgba)
+        if arr is None or arr.GetNumberOfComponents() != 4:
+            raise ValueError(f"the image has no 4-component point array {rgba!r}")
+        data = vtk_to_numpy(arr).reshape(rows, cols, 4)[::-1]
+        d = pd.GetArray(depth)
+        dep = vtk_to_numpy(d).reshape(rows, cols)[::-1] if d is not None else None
+        return cls(np.array(data), None if dep is None else np.array(dep))
+
+
+def load(path):
+    """Read an :class:`HDRImage` from ``.exr`` or ``.npy``."""
+    return HDRImage.load(path)
+
+
+def _write_png(target, rgb_u8):
+    """Minimal PNG writer (zlib, 8-bit RGB): no imaging library needed."""
+    import struct
+    import zlib
+
+    rgb_u8 = np.ascontiguousarray(rgb_u8, dtype=np.uint8)
+    h, w, c = rgb_u8.shape
+    color_type = {3: 2, 4: 6}[c]
+    raw = b"".join(b"\x00" + rgb_u8[r].tobytes() for r in range(h))
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, color_type, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b"")
+    if hasattr(target, "write"):
+        target.write(png)
+    else:
+        with open(os.fspath(target), "wb") as f:
+            f.write(png)

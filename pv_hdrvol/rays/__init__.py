@@ -1,0 +1,1 @@
+"""Cameras (and later lenses) as ray generators: ``camera.rays(size) -> Rays``."""

@@ -1,0 +1,224 @@
+"""Pinhole and parallel cameras that generate one ray per pixel."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from .._validate import as_choice, as_real, as_size, as_vector
+
+
+class Rays(NamedTuple):
+    """One ray per pixel, row 0 at the top.
+
+    Attributes
+    ----------
+    origins : ndarray, shape (height * width, 3), float64
+    directions : ndarray, shape (height * width, 3), float64, unit length
+    width, height : int
+    """
+
+    origins: np.ndarray
+    directions: np.ndarray
+    width: int
+    height: int
+
+
+# Direction from the focal point to the camera, and view-up, for Camera.fit views
+# (PyVista's conventions: view_xy looks down -z with +y up; "iso" from (1, 1, 1)).
+_VIEWS = {
+    "iso": ((1.0, 1.0, 1.0), (0.0, 0.0, 1.0)),
+    "xy": ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
+    "yx": ((0.0, 0.0, -1.0), (1.0, 0.0, 0.0)),
+    "xz": ((0.0, -1.0, 0.0), (0.0, 0.0, 1.0)),
+    "zx": ((0.0, 1.0, 0.0), (1.0, 0.0, 0.0)),
+    "yz": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    "zy": ((-1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+}
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A camera in VTK's terms.
+
+    Parameters
+    ----------
+    position, focal_point, view_up : sequence of 3 floats
+        World coordinates; ``view_up`` need not be orthogonal to the view direction
+        (it is orthogonalised) but must not be parallel to it.
+    view_angle : float
+        Vertical field of view in degrees, in (0, 180) (VTK's ``ViewAngle``).
+    parallel_projection : bool
+        Parallel (orthographic) instead of perspective projection.
+    parallel_scale : float
+        Half the height of the view in world units, for parallel projection
+        (VTK's ``ParallelScale``).
+
+    Examples
+    --------
+    >>> cam = Camera((0, 0, 10), (0, 0, 0), (0, 1, 0), parallel_projection=True, parallel_scale=2)
+    >>> rays = cam.rays((4, 4))
+    >>> rays.directions[0].tolist()
+    [0.0, 0.0, -1.0]
+    """
+
+    position: tuple = (0.0, 0.0, 1.0)
+    focal_point: tuple = (0.0, 0.0, 0.0)
+    view_up: tuple = (0.0, 1.0, 0.0)
+    view_angle: float = 30.0
+    parallel_projection: bool = False
+    parallel_scale: float = 1.0
+
+    def __post_init__(self):
+        pos = as_vector("position", self.position)
+        fp = as_vector("focal_point", self.focal_point)
+        up = as_vector("view_up", self.view_up)
+        d = fp - pos
+        if np.linalg.norm(d) == 0:
+            raise ValueError("position and focal_point must differ")
+        if np.linalg.norm(np.cross(d / np.linalg.norm(d), up)) < 1e-9 * max(np.linalg.norm(up), 1e-300):
+            raise ValueError(f"view_up {tuple(up)} must not be parallel to the view direction {tuple(d)}")
+        object.__setattr__(self, "position", tuple(pos.tolist()))
+        object.__setattr__(self, "focal_point", tuple(fp.tolist()))
+        object.__setattr__(self, "view_up", tuple(up.tolist()))
+        object.__setattr__(self, "view_angle",
+                           as_real("view_angle", self.view_angle, low=0, high=180, low_open=True, high_open=True))
+        if not isinstance(self.parallel_projection, (bool, np.bool_)):
+            raise TypeError(f"parallel_projection must be a bool; got {self.parallel_projection!r}")
+        object.__setattr__(self, "parallel_projection", bool(self.parallel_projection))
+        object.__setattr__(self, "parallel_scale",
+                           as_real("parallel_scale", self.parallel_scale, low=0, low_open=True))
+
+    # -- frame -------------------------------------------------------------------
+    def basis(self):
+        """``(right, up, forward)`` unit vectors of the camera frame."""
+        fwd = np.subtract(self.focal_point, self.position)
+        fwd /= np.linalg.norm(fwd)
+        right = np.cross(fwd, self.view_up)
+        right /= np.linalg.norm(right)
+        up = np.cross(right, fwd)
+        return right, up, fwd
+
+    @property
+    def distance(self):
+        """Distance from position to focal point."""
+        return float(np.linalg.norm(np.subtract(self.focal_point, self.position)))
+
+    def rays(self, size):
+        """One ray through the centre of each pixel.
+
+        Parameters
+        ----------
+        size : int or (width, height)
+
+        Returns
+        -------
+        Rays
+            Row 0 is the top of the image. Perspective rays start at ``position``;
+            parallel rays start on the plane through ``position`` normal to the view.
+        """
+        w, h = as_size(size)
+        right, up, fwd = self.basis()
+        half_h = self.parallel_scale if self.parallel_projection else math.tan(math.radians(self.view_angle) / 2)
+        half_w = half_h * w / h
+        x = ((np.arange(w) + 0.5) * (2.0 / w) - 1.0) * half_w
+        y = (1.0 - (np.arange(h) + 0.5) * (2.0 / h)) * half_h
+        xx, yy = np.meshgrid(x, y)
+        xx, yy = xx.reshape(-1, 1), yy.reshape(-1, 1)
+        pos = np.asarray(self.position)
+        if self.parallel_projection:
+            origins = pos + xx * right + yy * up
+            directions = np.broadcast_to(fwd, origins.shape).copy()
+        else:
+            directions = fwd + xx * right + yy * up
+            directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+            origins = np.broadcast_to(pos, directions.shape).copy()
+        return Rays(np.ascontiguousarray(origins), np.ascontiguousarray(directions), w, h)
+
+    def project(self, points, size):
+        """Pixel coordinates ``(col, row)`` (continuous, row 0 at the top) of world points."""
+        w, h = as_size(size)
+        p = np.atleast_2d(np.asarray(points, dtype=np.float64)) - np.asarray(self.position)
+        right, up, fwd = self.basis()
+        x, y, z = p @ right, p @ up, p @ fwd
+        if self.parallel_projection:
+            half_h = self.parallel_scale
+            u, v = x / half_h, y / half_h
+        else:
+            half_h = math.tan(math.radians(self.view_angle) / 2)
+            u, v = x / (z * half_h), y / (z * half_h)
+        half_w_ratio = w / h
+        col = (u / half_w_ratio + 1.0) * w / 2.0
+        row = (1.0 - v) * h / 2.0
+        return np.stack([col, row], axis=-1)
+
+    # -- constructors ------------------------------------------------------------
+    @classmethod
+    def fit(cls, bounds, view="iso", *, view_angle=30.0, parallel_projection=False, zoom=1.0):
+        """Frame ``bounds`` as PyVista's ``reset_camera`` does.
+
+        Parameters
+        ----------
+        bounds : dataset or (xmin, xmax, ymin, ymax, zmin, zmax)
+            Anything with ``.bounds`` (a PyVista dataset, a :class:`GridVolume`) or six numbers.
+        view : {"iso", "xy", "yx", "xz", "zx", "yz", "zy"}
+            Direction, as PyVista's ``view_isometric``/``view_xy``/...
+        zoom : float
+            > 1 moves closer (VTK's ``Zoom``).
+
+        Notes
+        -----
+        The distance is ``r / sin(view_angle / 2)`` with ``r`` half the bounding box
+        diagonal (VTK's ``ResetCamera``), so the bounding sphere fits the view; the
+        parallel scale is ``r``.
+        """
+        as_choice("view", view, tuple(_VIEWS))
+        zoom = as_real("zoom", zoom, low=0, low_open=True)
+        b = getattr(bounds, "bounds", bounds)
+        b = as_vector("bounds", b, 6)
+        if np.any(b[1::2] < b[0::2]):
+            raise ValueError(f"bounds must be (xmin, xmax, ymin, ymax, zmin, zmax) with min <= max; got {tuple(b)}")
+        center = 0.5 * (b[0::2] + b[1::2])
+        radius = 0.5 * float(np.linalg.norm(b[1::2] - b[0::2]))
+        if radius == 0:
+            radius = 0.5
+        direction, up = _VIEWS[view]
+        direction = np.asarray(direction) / np.linalg.norm(direction)
+        dist = radius / math.sin(math.radians(view_angle) / 2)
+        return cls(tuple(center + direction * dist / zoom), tuple(center), up, view_angle=view_angle,
+                   parallel_projection=parallel_projection, parallel_scale=radius / zoom)
+
+    @classmethod
+    def from_pyvista(cls, source):
+        """The camera of a ``pyvista.Plotter``, ``pyvista.Camera`` or ``vtkCamera``.
+
+        Renders then match what that window shows (same vertical view angle and
+        aspect taken from the size you render at).
+        """
+        cam = source
+        if hasattr(cam, "camera") and not hasattr(cam, "GetViewAngle"):
+            cam = cam.camera
+        if hasattr(cam, "GetActiveCamera"):
+            cam = cam.GetActiveCamera()
+        needed = ("GetPosition", "GetFocalPoint", "GetViewUp", "GetViewAngle")
+        if not all(hasattr(cam, n) for n in needed):
+            raise TypeError(f"expected a pyvista.Plotter, pyvista.Camera or vtkCamera; got {type(source).__name__}")
+        if hasattr(cam, "GetUseHorizontalViewAngle") and cam.GetUseHorizontalViewAngle():
+            raise ValueError("cameras with UseHorizontalViewAngle are not supported; switch it off")
+        return cls(cam.GetPosition(), cam.GetFocalPoint(), cam.GetViewUp(), view_angle=cam.GetViewAngle(),
+                   parallel_projection=bool(cam.GetParallelProjection()), parallel_scale=cam.GetParallelScale())
+
+    def to_vtk(self):
+        """A ``vtkCamera`` with the same parameters."""
+        from vtkmodules.vtkRenderingCore import vtkCamera
+
+        c = vtkCamera()
+        c.SetPosition(self.position)
+        c.SetFocalPoint(self.focal_point)
+        c.SetViewUp(self.view_up)
+        c.SetViewAngle(self.view_angle)
+        c.SetParallelProjection(self.parallel_projection)
+        c.SetParallelScale(self.parallel_scale)
+        return c

@@ -1,0 +1,1 @@
+"""Ray marching and HDR compositing."""

@@ -1,7 +1,7 @@
 """Image volumes (``pyvista.ImageData``, ``vtkImageData`` or numpy arrays) as flat arrays."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,6 +38,8 @@ class GridVolume:
     value_range: tuple
     has_nan: bool
     name: str = ""
+    #: Derived arrays (bricks, block ranges) built on first render and reused.
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def dims(self):

@@ -4,10 +4,15 @@ Nothing here validates or allocates; ``render/grid.py`` does that. Modes are sma
 integer constants inside the ``GridParams`` tuple (kept in numba's on-disk cache,
 unlike jitted callables passed as arguments).
 
+The volume is stored in bricks of ``(size + 1)**3`` points (one shared plane per
+side), so a sample's eight neighbours sit in one small contiguous block of memory
+whatever the view direction; a plain (z, y, x) array strides whole planes apart,
+which on power-of-two volumes maps every plane to the same cache set.
+
 Per ray: clip to the box, march a lattice of segments of length ``step`` (the last
-one shortened to end exactly at the exit), sample each at its midpoint, classify, and
-composite. Traversal (``_march``) is kept apart from per-sample work (``_classify``)
-and compositing (start / accumulate / finish).
+one shortened to end exactly at the exit), sample each at its midpoint, classify
+through one interleaved (N, 4) table (r, g, b, extinction), and composite (start /
+accumulate / finish inside ``_march``).
 """
 from __future__ import annotations
 
@@ -28,6 +33,11 @@ def kernel(fn):
     return numba.njit(nogil=True, cache=True, error_model="numpy")(fn)
 
 
+def inline_kernel(fn):
+    """For small per-sample helpers: inlined at numba IR level into their caller."""
+    return numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")(fn)
+
+
 def parallel_kernel(fn):
     """As :func:`kernel`, with ``prange`` over pixels."""
     return numba.njit(nogil=True, cache=True, parallel=True, error_model="numpy")(fn)
@@ -42,9 +52,6 @@ class GridParams(NamedTuple):
     inv_sx: float  # 1 / spacing
     inv_sy: float
     inv_sz: float
-    spacing_x: float
-    spacing_y: float
-    spacing_z: float
     step: float  # world units
     precision: int
     scale: int
@@ -89,7 +96,7 @@ def round_u8(x):
     return math.floor(x * 255.0 + 0.5) / 255.0
 
 
-@kernel
+@inline_kernel
 def _round(x, precision):
     if precision == F32:
         return np.float64(np.float32(x))
@@ -101,62 +108,67 @@ def _round(x, precision):
 
 
 # -- geometry --------------------------------------------------------------------------
-@kernel
-def _ray_box(o, d, lo, hi):
+@inline_kernel
+def _slab(o, d, lo, hi, t0, t1):
+    """Narrow ``[t0, t1]`` to where ``o + t d`` lies in ``[lo, hi]`` on one axis."""
+    if d != 0.0:
+        inv = 1.0 / d
+        ta = (lo - o) * inv
+        tb = (hi - o) * inv
+        if ta > tb:
+            ta, tb = tb, ta
+        return max(t0, ta), min(t1, tb)
+    if o < lo or o > hi:
+        return 1.0, 0.0
+    return t0, t1
+
+
+@inline_kernel
+def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi):
     """Entry and exit distances of the ray ``o + t d`` (t >= 0) through the box.
 
     Returns ``(t0, t1)`` with ``t1 <= t0`` when it misses.
     """
-    t0 = 0.0
-    t1 = math.inf
-    for a in range(3):
-        if d[a] != 0.0:
-            inv = 1.0 / d[a]
-            ta = (lo[a] - o[a]) * inv
-            tb = (hi[a] - o[a]) * inv
-            if ta > tb:
-                ta, tb = tb, ta
-            if ta > t0:
-                t0 = ta
-            if tb < t1:
-                t1 = tb
-        elif o[a] < lo[a] or o[a] > hi[a]:
-            return 1.0, 0.0
-    return t0, t1
+    t0, t1 = _slab(ox, dx, lo[0], hi[0], 0.0, math.inf)
+    t0, t1 = _slab(oy, dy, lo[1], hi[1], t0, t1)
+    return _slab(oz, dz, lo[2], hi[2], t0, t1)
 
 
-@kernel
+@inline_kernel
 def _cell(x, n):
     """Cell index and fraction of continuous voxel coordinate ``x`` on ``n`` points."""
-    if x <= 0.0:
-        return 0, 0.0
-    if n < 2:
+    if x <= 0.0 or n < 2:
         return 0, 0.0
     if x >= n - 1:
         return n - 2, 1.0
     i = int(x)
-    if i > n - 2:
-        i = n - 2
     return i, x - i
 
 
-@kernel
-def _trilinear(values, i, j, k, fx, fy, fz):
-    nz, ny, nx = values.shape
-    i1 = i + 1 if nx > 1 else i
-    j1 = j + 1 if ny > 1 else j
-    k1 = k + 1 if nz > 1 else k
-    c00 = values[k, j, i] + fx * (values[k, j, i1] - np.float64(values[k, j, i]))
-    c10 = values[k, j1, i] + fx * (values[k, j1, i1] - np.float64(values[k, j1, i]))
-    c01 = values[k1, j, i] + fx * (values[k1, j, i1] - np.float64(values[k1, j, i]))
-    c11 = values[k1, j1, i] + fx * (values[k1, j1, i1] - np.float64(values[k1, j1, i]))
+@inline_kernel
+def _trilinear(bricks, base, pitch, li, lj, lk, fx, fy, fz):
+    """Trilinear interpolation inside one brick of ``pitch**3`` points, at ``base``."""
+    q = base + (lk * pitch + lj) * pitch + li
+    p2 = pitch * pitch
+    v000 = np.float64(bricks[q])
+    v100 = np.float64(bricks[q + 1])
+    v010 = np.float64(bricks[q + pitch])
+    v110 = np.float64(bricks[q + pitch + 1])
+    v001 = np.float64(bricks[q + p2])
+    v101 = np.float64(bricks[q + p2 + 1])
+    v011 = np.float64(bricks[q + p2 + pitch])
+    v111 = np.float64(bricks[q + p2 + pitch + 1])
+    c00 = v000 + fx * (v100 - v000)
+    c10 = v010 + fx * (v110 - v010)
+    c01 = v001 + fx * (v101 - v001)
+    c11 = v011 + fx * (v111 - v011)
     c0 = c00 + fy * (c10 - c00)
     c1 = c01 + fy * (c11 - c01)
     return c0 + fz * (c1 - c0)
 
 
 # -- classification ---------------------------------------------------------------------
-@kernel
+@inline_kernel
 def table_position(v, p):
     """Position in [0, 1] of data value ``v`` on the table's axis (float64)."""
     if p.scale == LOG:
@@ -176,53 +188,33 @@ def table_position(v, p):
     return u
 
 
-@kernel
-def _classify(v, rgb, sigma, p):
-    """Extinction and colour of data value ``v`` (linear interpolation in the table)."""
+@inline_kernel
+def _table_index(v, n, p):
+    """Entry ``i`` and fraction ``f`` of ``v`` in a table of ``n`` rows."""
     u = table_position(v, p)
-    n = sigma.shape[0]
     if p.precision == U8:
-        # 8-bit pipeline: the value is quantised to one of 256 entries, no interpolation.
-        i = int(u * (n - 1) + 0.5)
-        return np.float64(sigma[i]), np.float64(rgb[i, 0]), np.float64(rgb[i, 1]), np.float64(rgb[i, 2])
+        # 8-bit pipeline: one of 256 entries, no interpolation
+        return int(u * (n - 1) + 0.5), 0.0
     x = u * (n - 1)
     i = int(x)
     if i > n - 2:
         i = n - 2
-    f = x - i
-    s = sigma[i] + f * (sigma[i + 1] - np.float64(sigma[i]))
-    r = rgb[i, 0] + f * (rgb[i + 1, 0] - np.float64(rgb[i, 0]))
-    g = rgb[i, 1] + f * (rgb[i + 1, 1] - np.float64(rgb[i, 1]))
-    b = rgb[i, 2] + f * (rgb[i + 1, 2] - np.float64(rgb[i, 2]))
-    return s, r, g, b
+    return i, x - i
 
 
 # -- the ray -----------------------------------------------------------------------------
-@kernel
-def _block_exit(o, d, ib, jb, kb, p):
-    """Distance at which the ray leaves block (ib, jb, kb)."""
-    size = 1 << p.block_shift
-    lo_x = p.origin_x + ib * size * p.spacing_x
-    lo_y = p.origin_y + jb * size * p.spacing_y
-    lo_z = p.origin_z + kb * size * p.spacing_z
-    t = math.inf
-    if d[0] > 0.0:
-        t = min(t, (lo_x + size * p.spacing_x - o[0]) / d[0])
-    elif d[0] < 0.0:
-        t = min(t, (lo_x - o[0]) / d[0])
-    if d[1] > 0.0:
-        t = min(t, (lo_y + size * p.spacing_y - o[1]) / d[1])
-    elif d[1] < 0.0:
-        t = min(t, (lo_y - o[1]) / d[1])
-    if d[2] > 0.0:
-        t = min(t, (lo_z + size * p.spacing_z - o[2]) / d[2])
-    elif d[2] < 0.0:
-        t = min(t, (lo_z - o[2]) / d[2])
-    return t
+@inline_kernel
+def _axis_exit(o, d, b, size):
+    """Ray parameter at which ``o + t d`` leaves block ``b`` along one axis."""
+    if d > 0.0:
+        return ((b + 1) * size - o) / d
+    if d < 0.0:
+        return (b * size - o) / d
+    return math.inf
 
 
 @kernel
-def _march(values, rgb, sigma, active, o, d, lo, hi, p):
+def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``float64``/``float32`` accumulate optical depth ``tau`` and colour with
@@ -231,17 +223,33 @@ def _march(values, rgb, sigma, active, o, d, lo, hi, p):
     sample's opacity is far below the precision's epsilon. ``float16``/``uint8``
     apply the conventional ``over`` operator in that buffer precision.
     """
-    t0, t1 = _ray_box(o, d, lo, hi)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
     depth = math.inf
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, depth, 0
-    nz, ny, nx = values.shape
+    nx = dims[0]
+    ny = dims[1]
+    nz = dims[2]
+    bz, by, bx = active.shape
+    shift = p.block_shift
+    size = 1 << shift
+    mask = size - 1
+    pitch = size + 1
+    brick_len = pitch * pitch * pitch
+    n_table = table.shape[0]
     prec = p.precision
     step = p.step
+    # the ray in voxel coordinates: position(t) = (vx, vy, vz) + t * (ux, uy, uz)
+    vx = (ox - p.origin_x) * p.inv_sx
+    vy = (oy - p.origin_y) * p.inv_sy
+    vz = (oz - p.origin_z) * p.inv_sz
+    ux = dx * p.inv_sx
+    uy = dy * p.inv_sy
+    uz = dz * p.inv_sz
     n_seg = int(math.ceil((t1 - t0) / step))
     if n_seg < 1:
         n_seg = 1
-    # start: accumulators (value, Kahan compensation)
+    # start: accumulators and their Kahan compensations
     cr = 0.0
     cg = 0.0
     cb = 0.0
@@ -250,7 +258,7 @@ def _march(values, rgb, sigma, active, o, d, lo, hi, p):
     eg = 0.0
     eb = 0.0
     et = 0.0
-    alpha = 0.0  # accumulated opacity for the `over` emulations
+    alpha = 0.0  # accumulated opacity of the `over` emulations
     samples = 0
     k = 0
     while k < n_seg:
@@ -260,29 +268,39 @@ def _march(values, rgb, sigma, active, o, d, lo, hi, p):
             tb = t1
         seg = tb - ta
         tm = 0.5 * (ta + tb)
-        xi, fx = _cell((o[0] + tm * d[0] - p.origin_x) * p.inv_sx, nx)
-        yi, fy = _cell((o[1] + tm * d[1] - p.origin_y) * p.inv_sy, ny)
-        zi, fz = _cell((o[2] + tm * d[2] - p.origin_z) * p.inv_sz, nz)
-        ib = xi >> p.block_shift
-        jb = yi >> p.block_shift
-        kb = zi >> p.block_shift
+        xi, fx = _cell(vx + tm * ux, nx)
+        yi, fy = _cell(vy + tm * uy, ny)
+        zi, fz = _cell(vz + tm * uz, nz)
+        ib = xi >> shift
+        jb = yi >> shift
+        kb = zi >> shift
         if active[kb, jb, ib] == 0:
             if p.skip_empty:
                 # jump to the first lattice segment whose midpoint lies past this block
-                te = _block_exit(o, d, ib, jb, kb, p)
+                te = min(_axis_exit(vx, ux, ib, size), _axis_exit(vy, uy, jb, size), _axis_exit(vz, uz, kb, size))
                 kn = int(math.ceil((te - t0) / step - 0.5))
                 k = kn if kn > k else k + 1
             else:
                 k += 1
             continue
         k += 1
-        v = _trilinear(values, xi, yi, zi, fx, fy, fz)
+        base = ((kb * by + jb) * bx + ib) * brick_len
+        v = _trilinear(bricks, base, pitch, xi & mask, yi & mask, zi & mask, fx, fy, fz)
         if v != v:  # NaN in the stencil: empty
             continue
-        s, r, g, b = _classify(v, rgb, sigma, p)
         samples += 1
+        i, f = _table_index(v, n_table, p)
+        s = table[i, 3] + f * (table[i + 1, 3] - np.float64(table[i, 3])) if f > 0.0 else np.float64(table[i, 3])
         if s <= 0.0:
             continue
+        if f > 0.0:
+            r = table[i, 0] + f * (table[i + 1, 0] - np.float64(table[i, 0]))
+            g = table[i, 1] + f * (table[i + 1, 1] - np.float64(table[i, 1]))
+            b = table[i, 2] + f * (table[i + 1, 2] - np.float64(table[i, 2]))
+        else:
+            r = np.float64(table[i, 0])
+            g = np.float64(table[i, 1])
+            b = np.float64(table[i, 2])
         tau_i = s * seg
         if prec == F64 or prec == F32:
             # accumulate
@@ -326,7 +344,7 @@ def _march(values, rgb, sigma, active, o, d, lo, hi, p):
 
 
 @parallel_kernel
-def render_rows(values, rgb, sigma, active, origins, directions, width, rows, lanes, lo, hi, p,
+def render_rows(bricks, table, active, dims, origins, directions, width, rows, lanes, lo, hi, p,
                 out_rgba, out_depth, out_samples):
     """Fill the pixels of ``rows`` (indices into the image), ``lanes`` rays in flight.
 
@@ -340,7 +358,9 @@ def render_rows(values, rgb, sigma, active, origins, directions, width, rows, la
             row = rows[jr]
             for c in range(width):
                 pix = row * width + c
-                r, g, b, a, dep, ns = _march(values, rgb, sigma, active, origins[pix], directions[pix],
+                r, g, b, a, dep, ns = _march(bricks, table, active, dims,
+                                             origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                                             directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                              lo, hi, p)
                 out_rgba[pix, 0] = r
                 out_rgba[pix, 1] = g
@@ -351,28 +371,50 @@ def render_rows(values, rgb, sigma, active, origins, directions, width, rows, la
 
 
 @kernel
-def block_ranges(values, shift, out_min, out_max):
-    """Min and max (NaN ignored) of the points each block's cells touch.
+def make_bricks(values, shift, out):
+    """Copy ``values`` (z, y, x) into bricks of ``(size + 1)**3`` points.
 
-    Block ``b`` covers cells ``[b * size, (b + 1) * size)``, hence points
-    ``[b * size, (b + 1) * size]``: neighbouring blocks share a plane of points.
-    A block of NaN only gets ``min = +inf, max = -inf``.
+    Brick ``(kb, jb, ib)`` holds points ``[b * size, b * size + size]`` on each axis (the
+    last plane duplicates the next brick's first: trilinear interpolation never leaves
+    a brick). Points past the volume's edge repeat the edge. ``out`` is flat, bricks in
+    (kb, jb, ib) order, points z, y, x inside.
     """
     nz, ny, nx = values.shape
-    bz, by, bx = out_min.shape
     size = 1 << shift
+    pitch = size + 1
+    bx = max(1, (max(nx - 1, 1) + size - 1) // size)
+    by = max(1, (max(ny - 1, 1) + size - 1) // size)
+    bz = max(1, (max(nz - 1, 1) + size - 1) // size)
+    q = 0
     for kb in range(bz):
         for jb in range(by):
             for ib in range(bx):
-                lo = math.inf
-                hi = -math.inf
-                for k in range(kb * size, min((kb + 1) * size + 1, nz)):
-                    for j in range(jb * size, min((jb + 1) * size + 1, ny)):
-                        for i in range(ib * size, min((ib + 1) * size + 1, nx)):
-                            v = np.float64(values[k, j, i])
-                            if v < lo:
-                                lo = v
-                            if v > hi:
-                                hi = v
-                out_min[kb, jb, ib] = lo
-                out_max[kb, jb, ib] = hi
+                for lk in range(pitch):
+                    k = min(kb * size + lk, nz - 1)
+                    for lj in range(pitch):
+                        j = min(jb * size + lj, ny - 1)
+                        for li in range(pitch):
+                            i = min(ib * size + li, nx - 1)
+                            out[q] = values[k, j, i]
+                            q += 1
+
+
+@kernel
+def block_ranges(bricks, shift, out_min, out_max):
+    """Min and max (NaN ignored) of each brick's points, i.e. of every value its cells
+    can interpolate. A brick of NaN only gets ``min = +inf, max = -inf``."""
+    pitch = (1 << shift) + 1
+    brick_len = pitch * pitch * pitch
+    flat_min = out_min.reshape(-1)
+    flat_max = out_max.reshape(-1)
+    for b in range(flat_min.shape[0]):
+        lo = math.inf
+        hi = -math.inf
+        for q in range(b * brick_len, (b + 1) * brick_len):
+            v = np.float64(bricks[q])
+            if v < lo:
+                lo = v
+            if v > hi:
+                hi = v
+        flat_min[b] = lo
+        flat_max[b] = hi

@@ -1,6 +1,7 @@
 """Render image volumes: validate, build tables and the block grid, call the kernel."""
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -43,11 +44,16 @@ def default_transfer_function(volume):
 
 
 class BlockGrid:
-    """Coarse min/max grid of a volume, for empty-space skipping and culling.
+    """The volume in bricks, with the min/max of each: empty-space skipping and culling.
+
+    Built once per :class:`GridVolume` and block size, then cached on the volume.
 
     Attributes
     ----------
+    bricks : ndarray, flat
+        ``(size + 1)**3`` points per brick (see ``_kernels.make_bricks``).
     minimum, maximum : ndarray, shape (bz, by, bx), float64
+        Range of each brick's points (NaN ignored; ``+inf/-inf`` for an all-NaN brick).
     block_size : int
         Cells per block edge.
     """
@@ -58,37 +64,63 @@ class BlockGrid:
         shape = tuple(max(1, -(-(max(n - 1, 1)) // block_size)) for n in (nz, ny, nx))
         self.block_size = block_size
         self.shift = shift
+        pitch = block_size + 1
+        self.bricks = np.empty(int(np.prod(shape)) * pitch**3, dtype=volume.values.dtype)
+        K.make_bricks(volume.values, shift, self.bricks)
         self.minimum = np.empty(shape)
         self.maximum = np.empty(shape)
-        K.block_ranges(volume.values, shift, self.minimum, self.maximum)
+        K.block_ranges(self.bricks, shift, self.minimum, self.maximum)
+
+    @classmethod
+    def of(cls, volume, block_size=8):
+        """The cached block grid of ``volume`` (built on first use)."""
+        key = ("blocks", block_size)
+        if key not in volume.cache:
+            volume.cache[key] = cls(volume, block_size)
+        return volume.cache[key]
 
     @property
     def shape(self):
         """Blocks along (z, y, x)."""
         return self.minimum.shape
 
-    def visible(self, tf, global_alpha, precision):
-        """Blocks whose value range reaches a non-zero table entry (uint8 mask)."""
-        table_size = 256 if precision == "uint8" else tf.table_size
-        rgb, sigma = tf.table(np.float64, global_alpha, 1.0, table_size)
-        nonzero = np.concatenate([[0], np.cumsum(sigma > 0)])
-        a0, a1 = tf.axis_range
-        inv = 1.0 / (a1 - a0)
-        empty_block = ~np.isfinite(self.minimum)  # all NaN
-        lo = np.where(empty_block, a0, self.minimum)
-        hi = np.where(empty_block, a0, self.maximum)
-        with np.errstate(invalid="ignore"):
-            ulo = np.clip((scale_forward(lo, tf.scale, tf.linthresh) - a0) * inv, 0, 1)
-            uhi = np.clip((scale_forward(hi, tf.scale, tf.linthresh) - a0) * inv, 0, 1)
-        ulo = np.nan_to_num(ulo, nan=0.0)
-        uhi = np.nan_to_num(uhi, nan=0.0)
+    def visible(self, sigma, params):
+        """Blocks that can reach a non-zero extinction entry (uint8 mask, z, y, x).
+
+        Mirrors the kernel's lookup (``_kernels._table_index``) on each block's value
+        range: the axis transform is monotone, so the entries a block can touch lie
+        between those of its minimum and maximum. Non-linear axes get a margin of 1e-9
+        of the axis, because the kernel's ``log10`` may differ from numpy's by an ulp.
+        """
         n = sigma.size
-        # one entry of margin each side: the kernel's log10 may differ from numpy's by an ulp
-        i0 = np.clip(np.floor(ulo * (n - 1)).astype(np.int64) - 1, 0, n - 1)
-        i1 = np.clip(np.floor(uhi * (n - 1)).astype(np.int64) + 2, 0, n - 1)
+        nonzero = np.concatenate([[0], np.cumsum(sigma > 0)])
+        all_nan = ~np.isfinite(self.minimum)
+        lo = np.where(all_nan, 0.0, self.minimum)
+        hi = np.where(all_nan, 0.0, self.maximum)
+        margin = 0.0 if params.scale == SCALE_CODES["linear"] else 1e-9
+        ulo = np.clip(_axis_position(lo, params) - margin, 0.0, 1.0)
+        uhi = np.clip(_axis_position(hi, params) + margin, 0.0, 1.0)
+        if params.precision == PRECISION_CODES["uint8"]:
+            i0 = np.floor(ulo * (n - 1) + 0.5).astype(np.int64)
+            i1 = np.floor(uhi * (n - 1) + 0.5).astype(np.int64)
+        else:
+            i0 = np.floor(ulo * (n - 1)).astype(np.int64)
+            i1 = np.ceil(uhi * (n - 1)).astype(np.int64)
         vis = (nonzero[i1 + 1] - nonzero[i0]) > 0
-        vis &= ~empty_block
-        return vis.astype(np.uint8)
+        return (vis & ~all_nan).astype(np.uint8)
+
+
+def _axis_position(values, params):
+    """``_kernels.table_position`` in numpy, unclipped (float64)."""
+    v = np.asarray(values, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if params.scale == SCALE_CODES["log"]:
+            a = np.where(v > 0, np.log10(np.where(v > 0, v, 1.0)), -np.inf)
+        elif params.scale == SCALE_CODES["symlog"]:
+            a = np.copysign(np.log10(1.0 + np.abs(v) / params.linthresh), v)
+        else:
+            a = v
+        return (a - params.axis_lo) * params.axis_inv_range
 
 
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,
@@ -157,18 +189,15 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     rgb, sigma = tf.table(table_dtype, opts.global_alpha, unit, table_size)
     if prec == "uint8":
         rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
-        rgb = rgb.astype(np.float32)
+    table = np.ascontiguousarray(np.column_stack([rgb, sigma]), dtype=table_dtype)
 
-    blocks = BlockGrid(volume, opts.block_size)
-    active = blocks.visible(tf, opts.global_alpha, prec) if opts.skip_empty else np.ones(blocks.shape, np.uint8)
-    if block_mask is not None:
-        mask = np.asarray(block_mask)
-        if mask.shape != blocks.shape:
-            raise ValueError(f"block_mask must have shape {blocks.shape} (blocks along z, y, x); got {mask.shape}")
-        if mask.dtype != np.bool_:
-            raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
-        active = active & mask.astype(np.uint8)
-    active = np.ascontiguousarray(active, dtype=np.uint8)
+    values = volume.values
+    if prec != "float64" and values.dtype == np.float64:
+        volume = _derived(volume, "float32", lambda: values.astype(np.float32))
+    if prec == "uint8":
+        # an 8-bit pipeline quantises the data to 256 levels of the table's axis
+        volume = _derived(volume, ("u8", tf.scale, tf.linthresh, tf.axis_range), lambda: _quantize_u8(values, tf))
+    blocks = BlockGrid.of(volume, opts.block_size)
 
     a0, a1 = tf.axis_range
     step_world = opts.step * float(volume.spacing.min())
@@ -177,19 +206,23 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     params = K.GridParams(
         float(volume.origin[0]), float(volume.origin[1]), float(volume.origin[2]),
         float(1.0 / volume.spacing[0]), float(1.0 / volume.spacing[1]), float(1.0 / volume.spacing[2]),
-        float(volume.spacing[0]), float(volume.spacing[1]), float(volume.spacing[2]),
         float(step_world), PRECISION_CODES[prec], SCALE_CODES[tf.scale],
         float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
         float(-math.log(opts.termination)) if opts.termination > 0 else math.inf,
         float(opts.depth_threshold), int(blocks.shift), bool(opts.skip_empty or block_mask is not None),
     )
-    values = volume.values
-    if prec != "float64" and values.dtype == np.float64:
-        values = values.astype(np.float32)
     if prec == "uint8":
-        # an 8-bit pipeline quantises the data to 256 levels of the table's axis
-        values = _quantize_u8(values, tf)
         params = params._replace(scale=SCALE_CODES["linear"], axis_lo=0.0, axis_inv_range=1.0 / 255.0)
+    dims = np.array(volume.dims, dtype=np.int64)
+    active = blocks.visible(sigma, params) if opts.skip_empty else np.ones(blocks.shape, np.uint8)
+    if block_mask is not None:
+        mask = np.asarray(block_mask)
+        if mask.shape != blocks.shape:
+            raise ValueError(f"block_mask must have shape {blocks.shape} (blocks along z, y, x); got {mask.shape}")
+        if mask.dtype != np.bool_:
+            raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
+        active = active & mask.astype(np.uint8)
+    active = np.ascontiguousarray(active, dtype=np.uint8)
 
     out_dtype = np.float64 if prec == "float64" else np.float32
     rgba = np.zeros((height * width, 4), dtype=out_dtype)
@@ -204,7 +237,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     try:
         for c in range(n_chunks):
             rows = np.ascontiguousarray(all_rows[c::n_chunks])
-            K.render_rows(values, rgb, sigma, active, rays.origins, rays.directions, width, rows, lanes,
+            K.render_rows(blocks.bricks, table, active, dims, rays.origins, rays.directions, width, rows, lanes,
                           lo, hi, params, rgba, depth, samples)
             if bar is not None:
                 bar.update(rows.size)
@@ -233,12 +266,20 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
 
 
+def _derived(volume, key, make):
+    """A cached variant of ``volume`` with other values (same geometry)."""
+    key = ("derived", key)
+    if key not in volume.cache:
+        volume.cache[key] = dataclasses.replace(volume, values=np.ascontiguousarray(make()), cache={})
+    return volume.cache[key]
+
+
 def _quantize_u8(values, tf):
     u = (scale_forward(values, tf.scale, tf.linthresh) - tf.axis_range[0]) / (tf.axis_range[1] - tf.axis_range[0])
     with np.errstate(invalid="ignore"):
         q = np.round(np.clip(u, 0, 1) * 255)
     out = np.where(np.isnan(values), np.nan, q).astype(np.float32)
-    return np.ascontiguousarray(out)
+    return out
 
 
 def _lanes():

@@ -83,7 +83,7 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
         arr = arr.transpose(2, 1, 0)
     spacing = as_vector("spacing", spacing)
     if np.any(spacing <= 0):
-        raise ValueError(f"spacing must be > 0 on every axis; got {tuple(spacing)}")
+        raise ValueError(f"spacing must be > 0 on every axis; got {tuple(spacing.tolist())}")
     origin = as_vector("origin", origin)
     if arr.dtype.type not in _NATIVE:
         arr = arr.astype(np.float32 if arr.dtype.itemsize <= 4 and np.issubdtype(arr.dtype, np.floating) else np.float64)

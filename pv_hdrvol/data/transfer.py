@@ -120,7 +120,7 @@ class TransferFunction:
         if np.any(np.diff(values) <= 0):
             raise ValueError(f"control-point values must be strictly increasing; got {values}")
         if self.scale == "log" and values[0] <= 0:
-            raise ValueError(f"scale='log' needs positive control-point values; got vmin={values[0]!r}")
+            raise ValueError(f"scale='log' needs positive control-point values; got vmin={float(values[0])!r}")
         if colors.shape != (n, 3):
             raise ValueError(f"colors must have shape ({n}, 3) to match values; got {colors.shape}")
         if not np.all(np.isfinite(colors)) or np.any(colors < 0):

@@ -79,7 +79,7 @@ class Camera:
         if np.linalg.norm(d) == 0:
             raise ValueError("position and focal_point must differ")
         if np.linalg.norm(np.cross(d / np.linalg.norm(d), up)) < 1e-9 * max(np.linalg.norm(up), 1e-300):
-            raise ValueError(f"view_up {tuple(up)} must not be parallel to the view direction {tuple(d)}")
+            raise ValueError(f"view_up {tuple(up.tolist())} must not be parallel to the view direction {tuple(d.tolist())}")
         object.__setattr__(self, "position", tuple(pos.tolist()))
         object.__setattr__(self, "focal_point", tuple(fp.tolist()))
         object.__setattr__(self, "view_up", tuple(up.tolist()))
@@ -179,7 +179,7 @@ class Camera:
         b = getattr(bounds, "bounds", bounds)
         b = as_vector("bounds", b, 6)
         if np.any(b[1::2] < b[0::2]):
-            raise ValueError(f"bounds must be (xmin, xmax, ymin, ymax, zmin, zmax) with min <= max; got {tuple(b)}")
+            raise ValueError(f"bounds must be (xmin, xmax, ymin, ymax, zmin, zmax) with min <= max; got {tuple(b.tolist())}")
         center = 0.5 * (b[0::2] + b[1::2])
         radius = 0.5 * float(np.linalg.norm(b[1::2] - b[0::2]))
         if radius == 0:

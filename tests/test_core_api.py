@@ -1,0 +1,260 @@
+"""Transfer functions, cameras, options and HDRImage: definitions, round trips, bad input."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import pv_hdrvol as hv
+from pv_hdrvol.image.display import srgb_decode, srgb_encode
+
+pytestmark = pytest.mark.core
+
+
+# -- transfer functions ------------------------------------------------------------------
+def test_log_ramp_interpolates_on_the_log_axis():
+    tf = hv.TransferFunction.ramp(1e-3, 1e4, scale="log", cmap="gray", opacity=(0.0, 1.0))
+    np.testing.assert_allclose(tf.opacity_at([1e-3, 1e-1, 10.0, 1e4, 1e9, 0.0, -1.0]),
+                               [0, 2 / 7, 4 / 7, 1, 1, 0, 0], atol=1e-12)
+
+
+def test_symlog_axis_is_odd_and_linear_near_zero():
+    tf = hv.TransferFunction.ramp(-1e6, 1e6, scale="symlog", cmap="gray", opacity=(0.0, 1.0), linthresh=1.0)
+    a = tf.opacity_at([-1e6, 0.0, 1e6, 999.0, -999.0])
+    np.testing.assert_allclose(a[:3], [0.0, 0.5, 1.0], atol=1e-12)
+    assert a[3] - 0.5 == pytest.approx(0.5 - a[4])
+    assert a[3] == pytest.approx(0.5 + 0.5 * 3 / math.log10(1 + 1e6), abs=1e-12)  # log10(1 + 999) = 3
+
+
+def test_hsv_interpolation_goes_the_short_way_round():
+    tf = hv.TransferFunction([0, 1], [[1, 0, 0], [0, 0, 1]], [1, 1], color_space="hsv")
+    np.testing.assert_allclose(tf.color_at([0.5])[0], [1.0, 0.0, 1.0], atol=1e-12)  # magenta, not green
+    rgb = hv.TransferFunction([0, 1], [[1, 0, 0], [0, 0, 1]], [1, 1])
+    np.testing.assert_allclose(rgb.color_at([0.5])[0], [0.5, 0.0, 0.5])
+
+
+@pytest.mark.parametrize("size", [256, 65536, 2**20])
+def test_table_extinction_is_opacity_corrected(size):
+    tf = hv.TransferFunction([0.0, 1.0], [[1, 1, 1]] * 2, [0.0, 0.5], table_size=size)
+    rgb, sigma = tf.table(np.float64, global_alpha=0.5, unit_distance=2.0)
+    assert rgb.shape == (size, 3) and sigma.shape == (size,)
+    assert sigma[-1] == pytest.approx(-math.log1p(-0.25) / 2.0, rel=1e-15)
+    assert np.all(np.diff(sigma) >= 0)
+
+
+def test_opaque_entries_stay_finite():
+    tf = hv.TransferFunction([0.0, 1.0], [[1, 1, 1]] * 2, [1.0, 1.0])
+    assert np.isfinite(tf.table()[1]).all()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(0, 1), min_size=2, max_size=6))
+def test_table_matches_control_points(opacities):
+    n = len(opacities)
+    values = np.linspace(-3.0, 5.0, n)
+    tf = hv.TransferFunction(values, np.tile([0.2, 0.4, 0.6], (n, 1)), opacities, table_size=(n - 1) * 256 + 1)
+    _, sigma = tf.table(np.float64, 1.0, 1.0)
+    alpha = -np.expm1(-sigma)
+    np.testing.assert_allclose(alpha[::256], np.minimum(opacities, 1 - 2.0**-52), atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs,exc,msg", [
+    (dict(values=[0, 1], colors=[[1, 1, 1]] * 2, opacities=[0, 2]), ValueError, r"opacities must lie in \[0, 1\]"),
+    (dict(values=[1, 0], colors=[[1, 1, 1]] * 2, opacities=[0, 1]), ValueError, "strictly increasing"),
+    (dict(values=[0], colors=[[1, 1, 1]], opacities=[0]), ValueError, "at least 2 control points; got 1"),
+    (dict(values=[0, 1], colors=[[1, 1]] * 2, opacities=[0, 1]), ValueError, r"colors must have shape \(2, 3\)"),
+    (dict(values=[0, 1], colors=[[1, 1, 1]] * 2, opacities=[0, 1], scale="log"), ValueError,
+     "scale='log' needs positive control-point values; got vmin=0.0"),
+    (dict(values=[0, 1], colors=[[1, 1, 1]] * 2, opacities=[0, 1], scale="ln"), ValueError,
+     r"scale must be one of \['linear', 'log', 'symlog'\]; got 'ln'"),
+    (dict(values=[0, 1], colors=[[1, 1, 1]] * 2, opacities=[0, 1], table_size=100), ValueError,
+     "table_size must be >= 256; got 100"),
+    (dict(values=[0, 1], colors=[[1, 1, 1]] * 2, opacities=[0, 1], table_size=2**24 + 1), ValueError,
+     "table_size must be <= 16777216"),
+])
+def test_transfer_function_rejects_bad_input(kwargs, exc, msg):
+    with pytest.raises(exc, match=msg):
+        hv.TransferFunction(**kwargs)
+
+
+def test_ramp_rejects_bad_ranges_and_colormaps():
+    with pytest.raises(ValueError, match="vmax must be > vmin; got vmin=2.0, vmax=1.0"):
+        hv.TransferFunction.ramp(2.0, 1.0)
+    with pytest.raises(ValueError, match="scale='log' needs vmin > 0; got vmin=-1.0"):
+        hv.TransferFunction.ramp(-1.0, 1.0, scale="log")
+    with pytest.raises(ValueError, match="cmap 'no_such_map' is not a matplotlib colormap name"):
+        hv.TransferFunction.ramp(0.0, 1.0, cmap="no_such_map")
+
+
+# -- options and render arguments ---------------------------------------------------------
+@pytest.mark.parametrize("kwargs,exc,msg", [
+    (dict(step=-1.0), ValueError, "step must be > 0; got -1.0"),
+    (dict(step=0), ValueError, "step must be > 0; got 0"),
+    (dict(step="1"), TypeError, "step must be a real number; got '1'"),
+    (dict(precision="float128"), ValueError,
+     r"precision must be one of \['float64', 'float32', 'float16', 'uint8'\]; got 'float128'"),
+    (dict(global_alpha=0.0), ValueError, "global_alpha must be > 0; got 0.0"),
+    (dict(global_alpha=2.0), ValueError, "global_alpha must be <= 1; got 2.0"),
+    (dict(termination=1.0), ValueError, "termination must be < 1; got 1.0"),
+    (dict(block_size=6), ValueError, "block_size must be a power of two; got 6"),
+    (dict(stepp=1.0), TypeError, r"unknown render option\(s\) \['stepp'\]"),
+])
+def test_render_rejects_bad_options(kwargs, exc, msg):
+    with pytest.raises(exc, match=msg):
+        hv.render(np.ones((4, 4, 4)), None, None, (4, 4), **kwargs)
+
+
+@pytest.mark.parametrize("data,size,exc,msg", [
+    (np.ones((4, 4)), (4, 4), ValueError, r"volume values must be a 3-D array; got 2-D with shape \(4, 4\)"),
+    (np.ones((0, 4, 4)), (4, 4), ValueError, "volume values must not be empty"),
+    (np.ones((4, 4, 4), bool), (4, 4), TypeError, "volume values must have a real numeric dtype; got bool"),
+    (np.ones((4, 4, 4)), (0, 4), ValueError, r"size\[0\] \(width\) must be >= 1; got 0"),
+    (np.ones((4, 4, 4)), "big", TypeError, "size must be an int or a"),
+])
+def test_render_rejects_bad_data_and_sizes(data, size, exc, msg):
+    with pytest.raises(exc, match=msg):
+        hv.render(data, None, None, size)
+
+
+def test_render_rejects_bad_spacing_and_arguments():
+    with pytest.raises(ValueError, match=r"spacing must be > 0 on every axis; got \(1.0, 0.0, 1.0\)"):
+        hv.volume_from_array(np.ones((3, 3, 3)), spacing=(1, 0, 1))
+    with pytest.raises(TypeError, match="tf must be a TransferFunction; got dict"):
+        hv.render(np.ones((3, 3, 3)), {"a": 1})
+    with pytest.raises(TypeError, match="camera must be a Camera or Rays; got str"):
+        hv.render(np.ones((3, 3, 3)), None, "iso")
+    with pytest.raises(ValueError, match="scalars names an array of a dataset"):
+        hv.render(np.ones((3, 3, 3)), scalars="density")
+
+
+def test_progress_callback_and_abort():
+    seen = []
+    hv.render(np.ones((8, 8, 8)), None, None, (16, 64), progress=seen.append)
+    assert seen[-1] == 1.0 and seen == sorted(seen) and len(seen) == 2
+    with pytest.raises(RuntimeError, match="render aborted"):
+        hv.render(np.ones((8, 8, 8)), None, None, (16, 64), progress=lambda f: False)
+
+
+# -- cameras ---------------------------------------------------------------------------------
+def test_rays_are_unit_length_and_row_zero_is_the_top():
+    cam = hv.Camera((0, 0, 10), (0, 0, 0), (0, 1, 0), view_angle=60)
+    rays = cam.rays((5, 3))
+    np.testing.assert_allclose(np.linalg.norm(rays.directions, axis=1), 1.0, rtol=1e-15)
+    top, bottom = rays.directions[0], rays.directions[-1]
+    assert top[1] > 0 > bottom[1]
+    # the centre pixel looks at the focal point; the vertical half-angle is 30 degrees
+    np.testing.assert_allclose(rays.directions[7], [0, 0, -1], atol=1e-15)
+    top_centre = rays.directions[2]
+    np.testing.assert_allclose(np.arctan2(top_centre[1], -top_centre[2]),
+                               np.arctan(math.tan(math.radians(30)) * 2 / 3), rtol=1e-12)
+
+
+def test_project_inverts_rays():
+    cam = hv.Camera((3, -4, 5), (0, 0, 0), (0, 0, 1), view_angle=40)
+    rays = cam.rays((7, 5))
+    points = rays.origins + 2.5 * rays.directions
+    cols, rows = np.meshgrid(np.arange(7) + 0.5, np.arange(5) + 0.5)
+    np.testing.assert_allclose(cam.project(points, (7, 5)), np.stack([cols.ravel(), rows.ravel()], -1), atol=1e-9)
+
+
+def test_fit_frames_the_bounding_sphere_like_vtk_reset_camera():
+    cam = hv.Camera.fit((0, 2, 0, 2, 0, 2), "iso", view_angle=30)
+    r = math.sqrt(3)
+    assert cam.distance == pytest.approx(r / math.sin(math.radians(15)))
+    np.testing.assert_allclose(np.subtract(cam.position, cam.focal_point) / cam.distance, [1 / r] * 3)
+    assert cam.focal_point == (1.0, 1.0, 1.0) and cam.parallel_scale == pytest.approx(r)
+    xy = hv.Camera.fit((0, 2, 0, 2, 0, 2), "xy")
+    assert xy.position[2] > 1.0 and xy.view_up == (0.0, 1.0, 0.0)
+
+
+def test_camera_rejects_bad_input():
+    with pytest.raises(ValueError, match="position and focal_point must differ"):
+        hv.Camera((1, 1, 1), (1, 1, 1))
+    with pytest.raises(ValueError, match="must not be parallel to the view direction"):
+        hv.Camera((0, 0, 1), (0, 0, 0), (0, 0, 5))
+    with pytest.raises(ValueError, match=r"view_angle must be < 180; got 180"):
+        hv.Camera(view_angle=180)
+    with pytest.raises(ValueError, match=r"view must be one of \['iso', 'xy'"):
+        hv.Camera.fit((0, 1, 0, 1, 0, 1), "top")
+
+
+# -- HDRImage --------------------------------------------------------------------------------
+def hdr_test_image():
+    rng = np.random.default_rng(0)
+    rgba = (10.0 ** rng.uniform(-10, 3, (6, 5, 4))).astype(np.float32)
+    rgba[0, 0] = 0.0
+    depth = rng.uniform(1, 100, (6, 5))
+    depth[1, 1] = np.inf
+    return hv.HDRImage(rgba, depth, {"precision": "float32", "step_voxels": 0.5})
+
+
+def test_statistics():
+    rgba = np.zeros((2, 2, 4), np.float32)
+    rgba[0, 0, :3] = 1e-6
+    rgba[1, 1, :3] = 100.0
+    img = hv.HDRImage(rgba)
+    assert img.peak_luminance == pytest.approx(100.0, rel=1e-6)
+    assert img.min_nonzero_luminance == pytest.approx(1e-6, rel=1e-6)
+    assert img.dynamic_range_decades == pytest.approx(8.0, abs=1e-6)
+    assert img.stats()["distinct_luminance_levels"] == 2
+    assert hv.HDRImage(np.zeros((2, 2, 4))).dynamic_range_decades == 0.0
+
+
+def test_npy_round_trip_is_exact(tmp_path):
+    img = hdr_test_image()
+    back = hv.load(img.save(tmp_path / "x.npy"))
+    np.testing.assert_array_equal(back.rgba, img.rgba)
+    np.testing.assert_array_equal(back.depth, img.depth.astype(np.float32))
+
+
+def test_exr_round_trip_float32_is_bit_exact_and_half_within_its_precision(tmp_path):
+    pytest.importorskip("OpenEXR")  # optional on ParaView's Python
+    img = hdr_test_image()
+    back = hv.load(img.save(tmp_path / "x.exr"))
+    np.testing.assert_array_equal(back.rgba, img.rgba)
+    np.testing.assert_array_equal(back.depth, img.depth.astype(np.float32))
+    assert back.metadata == img.metadata
+    half = hv.load(img.save(tmp_path / "h.exr", pixel_type="float16"))
+    ok = (img.rgba > 6.2e-5) & (img.rgba < 65504)  # half's normal range
+    np.testing.assert_allclose(half.rgba[ok], img.rgba[ok], rtol=4.9e-4)
+    with pytest.raises(ValueError, match=r"pixel_type must be one of \['float32', 'float16'\]; got 'int'"):
+        img.save(tmp_path / "y.exr", pixel_type="int")
+
+
+def test_save_rejects_unknown_extensions(tmp_path):
+    with pytest.raises(ValueError, match="unknown image extension '.jpg'; use .exr, .npy or .png"):
+        hdr_test_image().save(tmp_path / "x.jpg")
+
+
+def test_display_mapping_and_exposures():
+    rgba = np.zeros((1, 3, 4))
+    rgba[0, :, :3] = [[0.25], [0.5], [1.0]]
+    rgba[0, :, 3] = 1.0
+    img = hv.HDRImage(rgba)
+    out = img.to_display(exposure_stops=1.0)
+    np.testing.assert_array_equal(out[0, :, 0], np.round(srgb_encode([0.5, 1.0, 1.0]) * 255))
+    brackets = img.exposures([-1, 0, 1])
+    assert len(brackets) == 3 and all(b.dtype == np.uint8 and b.shape == (1, 3, 3) for b in brackets)
+    assert brackets[0][0, 2, 0] < brackets[1][0, 2, 0] <= brackets[2][0, 2, 0]
+    np.testing.assert_allclose(srgb_decode(srgb_encode(np.linspace(0, 1, 11))), np.linspace(0, 1, 11), atol=1e-12)
+
+
+def test_png_output_is_a_valid_png(tmp_path):
+    import zlib
+
+    img = hdr_test_image()
+    data = img._repr_png_()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    # decode the single IDAT chunk and compare with the display mapping
+    idat = data[data.index(b"IDAT") + 4:data.index(b"IEND") - 8]
+    raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(6, 1 + 5 * 3)
+    np.testing.assert_array_equal(raw[:, 1:].reshape(6, 5, 3), img.to_display())
+
+
+def test_hdrimage_rejects_bad_arrays():
+    with pytest.raises(ValueError, match=r"rgba must have shape \(rows, cols, 4\); got \(2, 2, 3\)"):
+        hv.HDRImage(np.zeros((2, 2, 3)))
+    with pytest.raises(TypeError, match="rgba must be float32 or float64; got uint8"):
+        hv.HDRImage(np.zeros((2, 2, 4), np.uint8))
+    with pytest.raises(ValueError, match=r"depth must have shape \(2, 2\); got \(3,\)"):
+        hv.HDRImage(np.zeros((2, 2, 4)), np.zeros(3))

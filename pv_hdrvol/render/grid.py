@@ -208,7 +208,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         float(1.0 / volume.spacing[0]), float(1.0 / volume.spacing[1]), float(1.0 / volume.spacing[2]),
         float(step_world), PRECISION_CODES[prec], SCALE_CODES[tf.scale],
         float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
-        float(-math.log(opts.termination)) if opts.termination > 0 else math.inf,
+        1.0 - opts.termination if opts.termination > 0 else math.inf,
         float(opts.depth_threshold), int(blocks.shift), bool(opts.skip_empty or block_mask is not None),
     )
     if prec == "uint8":

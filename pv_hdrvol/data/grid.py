@@ -119,31 +119,20 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
         cell on every side).
     """
     as_choice("preference", preference, ("point", "cell"))
-    try:
-        import pyvista as pv
-    except ImportError:  # pragma: no cover - vtk-only environments
-        pv = None
-    ds = dataset
-    if pv is not None and not isinstance(ds, pv.DataSet):
-        try:
-            ds = pv.wrap(ds)
-        except Exception:
-            raise TypeError(f"expected a pyvista.ImageData or vtkImageData; got {type(dataset).__name__}") from None
-    cls_name = ds.GetClassName() if hasattr(ds, "GetClassName") else type(ds).__name__
+    cls_name = dataset.GetClassName() if hasattr(dataset, "GetClassName") else type(dataset).__name__
     if cls_name not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
         raise TypeError(f"expected image data (pyvista.ImageData / vtkImageData); got {cls_name}")
+    ds = dataset
     dims = tuple(int(d) for d in ds.GetDimensions())
-    if min(dims) < 1 or np.prod(dims) == 0:
+    if min(dims) < 1:
         raise ValueError(f"the image has no points (dimensions {dims})")
-    if pv is not None and hasattr(ds, "point_data"):
-        pdata, cdata = ds.point_data, ds.cell_data
-        pnames, cnames = list(pdata.keys()), list(cdata.keys())
-    else:  # pragma: no cover
-        raise TypeError("volume_from_dataset needs pyvista")
+    # plain VTK calls: works without PyVista (ParaView's Python) and on pyvista.ImageData
+    pdata, cdata = _arrays(ds.GetPointData()), _arrays(ds.GetCellData())
+    pnames, cnames = list(pdata), list(cdata)
     if scalars is None:
-        active = ds.active_scalars_name
-        if active:
-            scalars = active
+        active = ds.GetPointData().GetScalars() or ds.GetCellData().GetScalars()
+        if active is not None and active.GetName():
+            scalars = active.GetName()
         elif len(pnames) + len(cnames) == 1:
             scalars = (pnames + cnames)[0]
         else:
@@ -156,7 +145,7 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
     if not (in_point or in_cell):
         raise ScalarsError(f"scalars {scalars!r} not found; point arrays: {pnames}, cell arrays: {cnames}")
     use_cell = in_cell and (preference == "cell" or not in_point)
-    arr = np.asarray(cdata[scalars] if use_cell else pdata[scalars])
+    arr = (cdata if use_cell else pdata)[scalars]()
     if arr.ndim != 1:
         raise ScalarsError(f"scalars {scalars!r} must have one component; got shape {arr.shape}")
     spacing = np.array(ds.GetSpacing(), dtype=np.float64)
@@ -174,3 +163,15 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
         shape = dims[::-1]
     # np.asarray of a VTK array is a view: volume_from_array copies before any change.
     return volume_from_array(arr.reshape(shape), spacing, origin, name=scalars)
+
+
+def _arrays(field_data):
+    """``{name: loader}`` of the data arrays of a vtkPointData/vtkCellData (lazy views)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    out = {}
+    for i in range(field_data.GetNumberOfArrays()):
+        arr = field_data.GetArray(i)
+        if arr is not None and arr.GetName():
+            out[arr.GetName()] = (lambda a=arr: vtk_to_numpy(a))
+    return out

@@ -44,14 +44,12 @@ def parallel_kernel(fn):
 
 
 class GridParams(NamedTuple):
-    """Everything scalar a grid render needs, converted once by ``render/grid.py``."""
+    """Everything scalar a grid render needs, converted once by ``render/grid.py``.
 
-    origin_x: float
-    origin_y: float
-    origin_z: float
-    inv_sx: float  # 1 / spacing
-    inv_sy: float
-    inv_sz: float
+    At most 15 fields: numba 0.56 on Python 3.11 rebuilds a NamedTuple used inside
+    ``prange`` with a keyword call, which it cannot compile past 15 arguments.
+    """
+
     step: float  # world units
     precision: int
     scale: int
@@ -233,6 +231,9 @@ def _axis_exit(o, d, b, size):
 def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
+    The ray ``o + t d`` is in voxel coordinates (point ``(i, j, k)`` at ``(i, j, k)``)
+    with ``t`` in world units: ``d`` is the world direction divided by the spacing.
+
     Front to back, each sample adds ``w = (1 - A) a_i`` to the accumulated opacity
     ``A`` and ``w c_i`` to the colour, with ``a_i = 1 - exp(-sigma_i seg_i)`` from
     ``expm1``. ``1 - a_i`` is never formed: in float32, 1 - 1e-7 rounds to
@@ -257,13 +258,8 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     n_table = table.shape[0]
     prec = p.precision
     step = p.step
-    # the ray in voxel coordinates: position(t) = (vx, vy, vz) + t * (ux, uy, uz)
-    vx = (ox - p.origin_x) * p.inv_sx
-    vy = (oy - p.origin_y) * p.inv_sy
-    vz = (oz - p.origin_z) * p.inv_sz
-    ux = dx * p.inv_sx
-    uy = dy * p.inv_sy
-    uz = dz * p.inv_sz
+    # the ray in voxel coordinates, t in world units: position(t) = v + t * u
+    vx, vy, vz, ux, uy, uz = ox, oy, oz, dx, dy, dz
     n_seg = int(math.ceil((t1 - t0) / step))
     if n_seg < 1:
         n_seg = 1

@@ -201,11 +201,13 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     a0, a1 = tf.axis_range
     step_world = opts.step * float(volume.spacing.min())
-    lo = np.array(volume.bounds[0::2], dtype=np.float64)
-    hi = np.array(volume.bounds[1::2], dtype=np.float64)
+    # rays in voxel coordinates with t still in world units (see _kernels._march)
+    inv_spacing = 1.0 / volume.spacing
+    origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
+    directions = np.ascontiguousarray(rays.directions * inv_spacing)
+    lo = np.zeros(3)
+    hi = np.array(volume.dims, dtype=np.float64) - 1.0
     params = K.GridParams(
-        float(volume.origin[0]), float(volume.origin[1]), float(volume.origin[2]),
-        float(1.0 / volume.spacing[0]), float(1.0 / volume.spacing[1]), float(1.0 / volume.spacing[2]),
         float(step_world), PRECISION_CODES[prec], SCALE_CODES[tf.scale],
         float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
         1.0 - opts.termination if opts.termination > 0 else math.inf,
@@ -237,7 +239,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     try:
         for c in range(n_chunks):
             rows = np.ascontiguousarray(all_rows[c::n_chunks])
-            K.render_rows(blocks.bricks, table, active, dims, rays.origins, rays.directions, width, rows, lanes,
+            K.render_rows(blocks.bricks, table, active, dims, origins, directions, width, rows, lanes,
                           lo, hi, params, rgba, depth, samples)
             if bar is not None:
                 bar.update(rows.size)

@@ -82,8 +82,9 @@ def hydrogen_density(x, y, z, n=3, l=2, m=0):  # noqa: E741
                  \\times \\begin{cases}\\cos(m\\phi) & m \\ge 0\\\\
                  \\sin(|m|\\phi) & m < 0\\end{cases}
 
-    Both :math:`\\int |\\psi|^2 dV = 1`. The product is evaluated as a polynomial in
-    ``x, y, z`` with no trigonometry and no division by ``r``:
+    Both factors are normalised, so :math:`\\int |\\psi|^2 dV = 1`. The product is
+    evaluated as a polynomial in ``x, y, z`` with no trigonometry and no division by
+    ``r``:
     :math:`r^{|m|} \\sin^{|m|}\\theta\\, \\{\\cos, \\sin\\}(|m|\\phi) =
     \\{\\mathrm{Re}, \\mathrm{Im}\\}(x + iy)^{|m|}` and
     :math:`r^{l-|m|} P_l^{|m|}(\\cos\\theta) / \\sin^{|m|}\\theta` follows the Legendre
@@ -95,9 +96,12 @@ def hydrogen_density(x, y, z, n=3, l=2, m=0):  # noqa: E741
     References
     ----------
     .. [1] D. J. Griffiths, D. F. Schroeter, *Introduction to Quantum Mechanics*,
-       3rd ed., Cambridge University Press (2018), eqs. 4.89 and 4.32.
+       3rd ed., Cambridge University Press (2018), §4.2 "The Hydrogen Atom".
     .. [2] NIST Digital Library of Mathematical Functions, §18.9 (Laguerre
        recurrence) and §14.10 (Legendre recurrences), https://dlmf.nist.gov/.
+    .. [3] M. A. Blanco, M. Flórez, M. Bermejo, "Evaluation of the rotation matrices
+       in the basis of real spherical harmonics", *J. Mol. Struct. (Theochem)* 419,
+       19–27 (1997) (real spherical harmonics).
 
     Examples
     --------
@@ -203,8 +207,9 @@ def hydrogen_orbital(n=3, l=2, m=0, size=64, extent=None, dtype=np.float64):  # 
     A cube of ``size**3`` points centred on the nucleus, in Bohr radii, with the point
     array ``"probability_density"`` (active scalars, :math:`a_0^{-3}`). The default
     ``3d_{z^2}`` orbital (``n=3, l=2, m=0``) has two nodal cones
-    (:math:`\\cos^2\\theta = 1/3`) and, at ``size=64``, spans about 16 decades between
-    its peak and the cube's corners. See :func:`hydrogen_density` for the formula and
+    (:math:`\\cos^2\\theta = 1/3`); the cube's diagonals lie on them, so its corners
+    are exactly 0. At ``size=64`` its positive values span 47 decades (peak 7.0e-4,
+    median 1.1e-12, smallest 4.9e-51). See :func:`hydrogen_density` for the formula and
     :func:`hydrogen_orbital_array` for the parameters.
 
     Examples
@@ -212,7 +217,7 @@ def hydrogen_orbital(n=3, l=2, m=0, size=64, extent=None, dtype=np.float64):  # 
     >>> grid = hydrogen_orbital(1, 0, 0, size=3, extent=1.0)
     >>> grid.dimensions, grid.active_scalars_name
     ((3, 3, 3), 'probability_density')
-    >>> abs(grid["probability_density"][13] - 1 / math.pi) < 1e-15  # the nucleus
+    >>> bool(abs(grid["probability_density"][13] - 1 / math.pi) < 1e-15)  # the nucleus
     True
     """
     import pyvista as pv
@@ -225,21 +230,31 @@ def hydrogen_orbital(n=3, l=2, m=0, size=64, extent=None, dtype=np.float64):  # 
     return grid
 
 
-def demo_transfer_function(vmax=1e-3, decades=10.0, cmap="magma", opacity=(0.0, 0.02, 0.3)):
-    """A log-scale transfer function for :func:`hydrogen_orbital`.
+def demo_transfer_function(vmax=1e-3, decades=10.0, cmap="magma", opacity=(0.0, 0.005, 0.02, 0.1),
+                           emission_gamma=0.2, n_points=64):
+    """A log-scale transfer function for :func:`hydrogen_orbital` (``n = 3``).
+
+    Colours follow ``cmap`` along ``log10(v)`` and are scaled by
+    ``(v / vmax) ** emission_gamma``, so the emission itself is high-dynamic-range
+    (``decades * emission_gamma`` decades: 2 by default) and the faint tail glows
+    dimly instead of fogging the bright lobes.
 
     Parameters
     ----------
     vmax : float
-        Top of the range (:math:`a_0^{-3}`); the default suits ``n = 3`` (peak density
-        of the ``3d_{z^2}`` orbital about 7.7e-4).
+        Top of the range (:math:`a_0^{-3}`); the default suits ``n = 3`` (the
+        ``3d_{z^2}`` peak density is 7.7e-4 at r = 6 on the z axis).
     decades : float
-        The range is ``[vmax * 10**-decades, vmax]`` on a log10 axis.
+        The range is ``[vmax * 10**-decades, vmax]`` on a log10 axis; densities
+        below it are transparent.
     cmap : str
-        Matplotlib colormap name.
+        Matplotlib colormap name (``"gray"`` works without matplotlib).
     opacity : sequence of float
-        Per-voxel opacities spread evenly over the decades: low for the faint tail so
-        that rays cross it, higher near the peak.
+        Per-voxel opacities spread evenly over the decades, interpolated between.
+    emission_gamma : float
+        Exponent of the emission scaling, >= 0 (0: plain colormap).
+    n_points : int
+        Control points.
 
     Returns
     -------
@@ -250,12 +265,25 @@ def demo_transfer_function(vmax=1e-3, decades=10.0, cmap="magma", opacity=(0.0, 
     >>> tf = demo_transfer_function()
     >>> tf.scale, tf.vmin, tf.vmax
     ('log', 1e-13, 0.001)
+    >>> gray = demo_transfer_function(cmap="gray")  # halfway: 0.5 * 10**(-5 * 0.2)
+    >>> round(float(gray.color_at(1e-8)[0]), 3)
+    0.05
     """
-    from .data.transfer import TransferFunction
+    from .data.transfer import TransferFunction, colormap_rgb
 
     vmax = as_real("vmax", vmax, low=0, low_open=True)
     decades = as_real("decades", decades, low=0, low_open=True)
-    return TransferFunction.ramp(vmax * 10.0 ** -decades, vmax, scale="log", cmap=cmap, opacity=opacity)
+    gamma = as_real("emission_gamma", emission_gamma, low=0)
+    n_points = as_int("n_points", n_points, low=2, high=4096)
+    t = np.linspace(0.0, 1.0, n_points)
+    values = vmax * 10.0 ** (decades * (t - 1.0))
+    values[-1] = vmax
+    colors = colormap_rgb(cmap, t) * (10.0 ** (gamma * decades * (t - 1.0)))[:, None]
+    ops = np.array(opacity, dtype=np.float64).reshape(-1)
+    if ops.size < 2:
+        raise ValueError(f"opacity must hold at least 2 values; got {opacity!r}")
+    opac = np.interp(t, np.linspace(0.0, 1.0, ops.size), ops)
+    return TransferFunction(values, colors, opac, scale="log")
 
 
 __all__ = ["ARRAY_NAME", "default_extent", "demo_transfer_function", "hydrogen_density", "hydrogen_orbital",

@@ -1,0 +1,41 @@
+"""Thin adapters from other tools to the pv_hdrvol pipeline; no numerics here.
+
+- :mod:`~pv_hdrvol.integrations.pyvista_accessor`: ``dataset.hdrvol.render(...)``,
+  found by PyVista through the ``pyvista.accessors`` entry point.
+- :mod:`~pv_hdrvol.integrations.vtk_algorithm`: ``HDRVolumeRenderer``, a VTK
+  algorithm (vtkImageData in, 2-D float RGBA vtkImageData out).
+- :mod:`~pv_hdrvol.integrations.cli`: the ``pv-hdrvol`` command.
+
+Submodules are imported on demand: importing this package loads neither PyVista nor VTK.
+"""
+from __future__ import annotations
+
+from ..rays.camera import Camera, Rays
+
+
+def resolve_camera(camera, bounds):
+    """A :class:`~pv_hdrvol.Camera` (or :class:`~pv_hdrvol.Rays`) from what users pass.
+
+    Parameters
+    ----------
+    camera : None, str, Camera, Rays, pyvista.Plotter, pyvista.Camera or vtkCamera
+        ``None`` means ``"iso"``; a string is a view name for
+        :meth:`Camera.fit <pv_hdrvol.Camera.fit>` (``"iso"``, ``"xy"``, ``"xz"``, ...).
+    bounds : sequence of 6 floats or dataset
+        What a view name frames.
+    """
+    if camera is None:
+        camera = "iso"
+    if isinstance(camera, str):
+        return Camera.fit(bounds, camera)
+    if isinstance(camera, (Camera, Rays)):
+        return camera
+    try:
+        return Camera.from_pyvista(camera)
+    except TypeError:
+        raise TypeError(
+            "camera must be None, a view name such as 'iso' or 'xy', a pv_hdrvol Camera or Rays, a "
+            f"pyvista.Plotter, a pyvista.Camera or a vtkCamera; got {type(camera).__name__}") from None
+
+
+__all__ = ["resolve_camera"]

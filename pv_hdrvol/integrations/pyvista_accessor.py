@@ -1,0 +1,111 @@
+"""``dataset.hdrvol``: PyVista accessor for HDR volume rendering.
+
+Registered on ``pyvista.DataSet`` when this module is imported; PyVista imports it on
+first use of ``dataset.hdrvol`` through the ``pyvista.accessors`` entry point, so
+``import pv_hdrvol`` is not needed.
+"""
+from __future__ import annotations
+
+import pyvista as pv
+
+from . import resolve_camera
+
+_IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
+
+
+@pv.register_dataset_accessor("hdrvol", pv.DataSet)
+class HDRVolAccessor:
+    """High-dynamic-range volume rendering of ``pyvista.ImageData``.
+
+    Available as ``dataset.hdrvol`` on every PyVista dataset; only image data can be
+    rendered so far.
+
+    Examples
+    --------
+    >>> import pyvista as pv, numpy as np
+    >>> grid = pv.ImageData(dimensions=(8, 8, 8))
+    >>> grid["density"] = np.geomspace(1e-6, 1.0, grid.n_points)
+    >>> grid.hdrvol.render(size=(16, 12)).shape
+    (12, 16)
+    """
+
+    def __init__(self, dataset):
+        self._dataset = dataset
+
+    def _check_renderable(self):
+        ds = self._dataset
+        name = ds.GetClassName()
+        if name in _IMAGE_CLASSES:
+            return
+        kind = type(ds).__name__
+        if name == "vtkUnstructuredGrid":
+            raise TypeError(f"hdrvol renders pyvista.ImageData only; got {kind}: tetrahedral meshes "
+                            "(UnstructuredGrid) are not supported yet")
+        raise TypeError(f"hdrvol renders pyvista.ImageData only; got {kind} "
+                        "(resample it onto an ImageData first, e.g. with dataset.sample())")
+
+    def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point",
+               progress_bar=False, progress=None, **options):
+        """Ray cast the dataset into a linear float :class:`~pv_hdrvol.HDRImage`.
+
+        The dataset is not modified.
+
+        Parameters
+        ----------
+        scalars : str, optional
+            Point or cell array to render; default: the active scalars, else the
+            only array.
+        tf : TransferFunction, optional
+            Default: a magma ramp over the data range, on a log axis when positive
+            data spans more than 3 decades.
+        camera : None, str, Camera, pyvista.Plotter, pyvista.Camera or vtkCamera
+            A view name (``"iso"`` (default), ``"xy"``, ``"xz"``, ``"yz"``, ``"yx"``,
+            ``"zx"``, ``"zy"``) frames the dataset; a Plotter or camera renders what
+            that window shows.
+        size : int or (width, height)
+            Pixels.
+        preference : {"point", "cell"}
+            Association used when ``scalars`` names both a point and a cell array.
+        progress_bar : bool
+            Show a tqdm progress bar.
+        progress : callable, optional
+            ``progress(fraction)``; returning ``False`` aborts with ``RuntimeError``.
+        **options
+            :class:`~pv_hdrvol.RenderOptions` fields: ``step``, ``precision``,
+            ``global_alpha``, ``opacity_unit_distance``, ``termination``,
+            ``depth_threshold``, ``block_size``, ``skip_empty``.
+
+        Returns
+        -------
+        HDRImage
+            ``(rows, cols, 4)`` linear premultiplied RGBA, row 0 at the top, and depth.
+
+        Raises
+        ------
+        TypeError
+            For datasets other than ImageData (tetrahedral meshes are not supported
+            yet), unknown options or an unusable camera.
+        ScalarsError
+            (a ``ValueError``) when ``scalars`` is missing or ambiguous.
+        """
+        from .. import render
+
+        self._check_renderable()
+        cam = resolve_camera(camera, self._dataset.bounds)
+        return render(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
+                      progress_bar=progress_bar, progress=progress, **options)
+
+    def __repr__(self):
+        ds = self._dataset
+        kind = type(ds).__name__
+        try:
+            self._check_renderable()
+        except TypeError:
+            return f"<hdrvol accessor of {kind}: not renderable (ImageData only; tetrahedral meshes not yet)>"
+        arrays = [f"point {n!r}" for n in ds.point_data.keys()] + [f"cell {n!r}" for n in ds.cell_data.keys()]
+        active = ds.active_scalars_name
+        return (f"<hdrvol accessor of {kind} {tuple(ds.dimensions)}; arrays: {', '.join(arrays) or 'none'}; "
+                f"active scalars: {active!r}; call .render(scalars=, tf=, camera=, size=, **options)>")
+
+
+__all__ = ["HDRVolAccessor"]

@@ -1,0 +1,296 @@
+"""``HDRVolumeRenderer``: the ray caster as a VTK pipeline algorithm.
+
+Pure VTK + pv_hdrvol (no ParaView import), so that a ParaView plugin can wrap it with
+decorators only.
+"""
+from __future__ import annotations
+
+import dataclasses
+import numbers
+import traceback
+
+from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
+from vtkmodules.vtkCommonCore import vtkOutputWindow
+from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
+
+from .._validate import as_choice, as_size
+from ..data.transfer import TransferFunction
+from ..params import RenderOptions
+from ..rays.camera import Camera, Rays
+from . import resolve_camera
+
+_SDDP = vtkStreamingDemandDrivenPipeline
+
+
+def _option_methods(field, meaning):
+    """``Set<Field>``/``Get<Field>`` for one :class:`RenderOptions` field."""
+
+    def setter(self, value):
+        self._set_options(**{field: value})
+
+    def getter(self):
+        return getattr(self._options, field)
+
+    setter.__doc__ = (f"Set ``RenderOptions.{field}``: {meaning} Validated by "
+                      ":class:`~pv_hdrvol.RenderOptions`; calls ``Modified()`` when it changes.")
+    getter.__doc__ = f"``RenderOptions.{field}``: {meaning}"
+    return setter, getter
+
+
+class HDRVolumeRenderer(VTKPythonAlgorithmBase):
+    """Volume render a ``vtkImageData`` into a 2-D float RGBA ``vtkImageData``.
+
+    Input port 0: ``vtkImageData`` (the whole extent is requested). Output: a
+    ``width x height x 1`` ``vtkImageData`` with point arrays ``"rgba"`` (4 components,
+    linear premultiplied RGBA, float32 or float64 as the precision) and ``"depth"``,
+    VTK row order (row 0 at the bottom), as :meth:`HDRImage.to_vtk
+    <pv_hdrvol.HDRImage.to_vtk>`; :meth:`HDRImage.from_pyvista
+    <pv_hdrvol.HDRImage.from_pyvista>` turns it back into an image with row 0 at the
+    top.
+
+    Properties are set VTK-style (``SetStep(0.25)``, ``GetStep()``); every render
+    option is one field of a single :class:`~pv_hdrvol.RenderOptions`, replaced (and
+    so validated) by each setter, which then calls ``Modified()`` if the value
+    changed.
+
+    Scalars: ``SetScalars(name)``, or the standard
+    ``SetInputArrayToProcess(0, 0, 0, association, name)``; by default the active
+    scalars. Progress is reported through ``UpdateProgress`` (``ProgressEvent``).
+    Setting ``AbortExecute`` during a render stops it and leaves the output empty;
+    the flag stays set until you reset it (``SetAbortExecute(0)``).
+
+    Errors (missing scalars, a bad camera, ...) are raised in ``RequestData``: VTK
+    then reports a failure (``Update()`` returns ``False``, an ``ErrorEvent`` fires,
+    the output is empty). VTK drops the Python traceback when any Python observer
+    sees the error (PyVista installs one on import), so the exception is also
+    written to the VTK output window (as VTK formats errors, ending in
+    ``"HDRVolumeRenderer (0x...): <Type>: <message>"``) and kept for
+    :meth:`GetLastError`.
+
+    Examples
+    --------
+    >>> from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    >>> source = vtkRTAnalyticSource()
+    >>> renderer = HDRVolumeRenderer()
+    >>> renderer.SetInputConnection(source.GetOutputPort())
+    >>> renderer.SetImageSize(32, 24)
+    >>> renderer.SetStep(1.0)
+    >>> renderer.Update()
+    True
+    >>> renderer.GetOutput().GetDimensions()
+    (32, 24, 1)
+    """
+
+    def __init__(self):
+        super().__init__(nInputPorts=1, inputType="vtkImageData", nOutputPorts=1, outputType="vtkImageData")
+        self._options = RenderOptions()
+        self._size = (512, 512)
+        self._scalars = None
+        self._preference = "point"
+        self._tf = None
+        self._camera = None
+        self._last_error = None
+
+    # -- render options: one RenderOptions, replaced by every setter ------------------
+    def _set_options(self, **changes):
+        new = dataclasses.replace(self._options, **changes)
+        if new != self._options:
+            self._options = new
+            self.Modified()
+
+    def SetOptions(self, options):
+        """Replace all render options at once (a :class:`~pv_hdrvol.RenderOptions`)."""
+        if not isinstance(options, RenderOptions):
+            raise TypeError(f"options must be a RenderOptions; got {type(options).__name__}")
+        if options != self._options:
+            self._options = options
+            self.Modified()
+
+    def GetOptions(self):
+        """The current :class:`~pv_hdrvol.RenderOptions` (immutable)."""
+        return self._options
+
+    SetStep, GetStep = _option_methods("step", "sample distance in voxels of the smallest spacing (> 0).")
+    SetPrecision, GetPrecision = _option_methods(
+        "precision", "compositing arithmetic, 'float32', 'float64', 'float16' or 'uint8'.")
+    SetGlobalAlpha, GetGlobalAlpha = _option_methods(
+        "global_alpha", "multiplier in (0, 1] of every transfer-function opacity.")
+    SetOpacityUnitDistance, GetOpacityUnitDistance = _option_methods(
+        "opacity_unit_distance", "world length over which a TF opacity is reached (None: smallest spacing).")
+    SetTermination, GetTermination = _option_methods(
+        "termination", "transmittance below which a ray stops, in [0, 1) (0: never).")
+    SetDepthThreshold, GetDepthThreshold = _option_methods(
+        "depth_threshold", "accumulated opacity at which depth is recorded, in (0, 1].")
+    SetBlockSize, GetBlockSize = _option_methods(
+        "block_size", "edge in cells of the empty-space-skipping blocks (a power of two).")
+    _SetSkipEmpty, GetSkipEmpty = _option_methods(
+        "skip_empty", "skip blocks that map to zero opacity (same result, less time).")
+
+    def SetSkipEmpty(self, value):
+        """Set ``RenderOptions.skip_empty`` (a bool; VTK-style 0/1 are accepted)."""
+        if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value in (0, 1):
+            value = bool(value)
+        self._SetSkipEmpty(value)
+
+    def SkipEmptyOn(self):
+        """``SetSkipEmpty(True)``."""
+        self.SetSkipEmpty(True)
+
+    def SkipEmptyOff(self):
+        """``SetSkipEmpty(False)``."""
+        self.SetSkipEmpty(False)
+
+    # -- other properties --------------------------------------------------------------
+    def SetImageSize(self, width, height=None):
+        """Output size: ``SetImageSize(w, h)``, ``SetImageSize((w, h))`` or ``SetImageSize(n)`` (square)."""
+        size = as_size(width if height is None else (width, height))
+        if size != self._size:
+            self._size = size
+            self.Modified()
+
+    def GetImageSize(self):
+        """``(width, height)`` in pixels."""
+        return self._size
+
+    def SetScalars(self, name):
+        """Name of the input array to render; ``None``: the active scalars (or the array to process)."""
+        if name is not None and not isinstance(name, str):
+            raise TypeError(f"scalars must be an array name (str) or None; got {name!r}")
+        if name != self._scalars:
+            self._scalars = name
+            self.Modified()
+
+    def GetScalars(self):
+        """The array name set with :meth:`SetScalars` (``None``: active scalars)."""
+        return self._scalars
+
+    def SetPreference(self, preference):
+        """``"point"`` or ``"cell"``: which array wins when both have the scalars' name."""
+        as_choice("preference", preference, ("point", "cell"))
+        if preference != self._preference:
+            self._preference = preference
+            self.Modified()
+
+    def GetPreference(self):
+        """``"point"`` or ``"cell"``."""
+        return self._preference
+
+    def SetTransferFunction(self, tf):
+        """A :class:`~pv_hdrvol.TransferFunction`, or ``None`` for the data-driven default."""
+        if tf is not None and not isinstance(tf, TransferFunction):
+            raise TypeError(f"the transfer function must be a pv_hdrvol TransferFunction or None; "
+                            f"got {type(tf).__name__}")
+        if tf is not self._tf:
+            self._tf = tf
+            self.Modified()
+
+    def GetTransferFunction(self):
+        """The :class:`~pv_hdrvol.TransferFunction` set last, or ``None``."""
+        return self._tf
+
+    def SetCamera(self, camera):
+        """The view: a :class:`~pv_hdrvol.Camera`, a ``vtkCamera`` or a view name.
+
+        A ``vtkCamera`` (or ``pyvista.Plotter``) is copied now: later changes to it do
+        not re-execute the pipeline; set it again. A view name (``"iso"``, ``"xy"``,
+        ...) or ``None`` (``"iso"``) frames the input's bounds at each execution.
+        """
+        if isinstance(camera, str):
+            Camera.fit((0, 1, 0, 1, 0, 1), camera)  # validates the view name now
+        elif isinstance(camera, Rays):
+            raise TypeError("SetCamera takes a Camera, a vtkCamera or a view name, not Rays: the image size "
+                            "comes from SetImageSize")
+        elif camera is not None and not isinstance(camera, Camera):
+            camera = resolve_camera(camera, None)
+        if camera != self._camera:
+            self._camera = camera
+            self.Modified()
+
+    def GetCamera(self):
+        """The :class:`~pv_hdrvol.Camera`, view name or ``None`` set last."""
+        return self._camera
+
+    def GetOutput(self, port=0):
+        """The output ``vtkImageData`` (``GetOutputDataObject(port)``, as image algorithms have)."""
+        return self.GetOutputDataObject(port)
+
+    def GetLastError(self):
+        """``"<Type>: <message>"`` of the exception that made the last execution fail, else ``None``."""
+        return self._last_error
+
+    # -- pipeline ---------------------------------------------------------------------
+    def RequestInformation(self, request, inInfo, outInfo):
+        w, h = self._size
+        info = outInfo.GetInformationObject(0)
+        info.Set(_SDDP.WHOLE_EXTENT(), 0, w - 1, 0, h - 1, 0, 0)
+        info.Set(vtkDataObject.SPACING(), 1.0, 1.0, 1.0)
+        info.Set(vtkDataObject.ORIGIN(), 0.0, 0.0, 0.0)
+        return 1
+
+    def RequestUpdateExtent(self, request, inInfo, outInfo):
+        # a ray may cross any part of the volume: always ask for all of it
+        info = inInfo[0].GetInformationObject(0)
+        info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
+        return 1
+
+    def _scalars_to_render(self):
+        if self._scalars is not None:
+            return self._scalars, self._preference
+        info = self.GetInputArrayInformation(0)
+        if info.Has(vtkDataObject.FIELD_NAME()):
+            assoc = info.Get(vtkDataObject.FIELD_ASSOCIATION()) if info.Has(vtkDataObject.FIELD_ASSOCIATION()) else 0
+            if assoc not in (vtkDataObject.FIELD_ASSOCIATION_POINTS, vtkDataObject.FIELD_ASSOCIATION_CELLS):
+                raise ValueError(f"the array to process must be a point or cell array; got association {assoc}")
+            return info.Get(vtkDataObject.FIELD_NAME()), (
+                "cell" if assoc == vtkDataObject.FIELD_ASSOCIATION_CELLS else "point")
+        return None, self._preference
+
+    def _should_abort(self):
+        check = getattr(self, "CheckAbort", None)  # VTK >= 9.4 also sees upstream aborts
+        return bool(check()) if check is not None else bool(self.GetAbortExecute())
+
+    def RequestData(self, request, inInfo, outInfo):
+        self._last_error = None
+        try:
+            return self._execute(inInfo, outInfo)
+        except Exception as exc:
+            self._last_error = f"{type(exc).__name__}: {exc}"
+            self._display_error(exc)
+            raise
+
+    def _display_error(self, exc):
+        # VTK's own message format, so that PyVista's logging and ParaView parse it
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        address = self.GetAddressAsString("vtkObject").replace("Addr=", "")
+        vtkOutputWindow.GetInstance().DisplayErrorText(
+            f"ERROR: In {where.filename}, line {where.lineno}\n"
+            f"HDRVolumeRenderer ({address}): {self._last_error}\n\n")
+
+    def _execute(self, inInfo, outInfo):
+        from .. import render
+
+        inp = vtkImageData.GetData(inInfo[0])
+        out = vtkImageData.GetData(outInfo)
+        if inp is None or inp.GetNumberOfPoints() == 0:
+            raise ValueError("HDRVolumeRenderer needs a non-empty vtkImageData on input port 0")
+        scalars, preference = self._scalars_to_render()
+        camera = resolve_camera(self._camera, inp.GetBounds())
+
+        def progress(fraction):
+            self.UpdateProgress(fraction)
+            return not self._should_abort()
+
+        try:
+            image = render(inp, self._tf, camera, self._size, scalars=scalars, preference=preference,
+                           options=self._options, progress=progress)
+        except RuntimeError:
+            if self._should_abort():
+                out.Initialize()  # an aborted render leaves no output
+                return 1
+            raise
+        out.ShallowCopy(image.to_vtk())
+        return 1
+
+
+__all__ = ["HDRVolumeRenderer"]

@@ -1,0 +1,154 @@
+"""The pv-hdrvol command, in-process and once as a real subprocess."""
+import os
+import shutil
+import struct
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import pv_hdrvol as hv
+from pv_hdrvol.datasets import hydrogen_orbital, hydrogen_orbital_array
+from pv_hdrvol.integrations.cli import main
+
+
+def _png_size(path):
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", data[16:24])  # IHDR width, height
+
+
+def _stat_line(out, label):
+    line = next(line for line in out.splitlines() if line.strip().startswith(label))
+    return line.split(":", 1)[1].strip()
+
+
+@pytest.fixture(scope="module")
+def volume_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("vol") / "orbital.vti"
+    grid = hydrogen_orbital(size=20)
+    grid["twice"] = 2 * grid["probability_density"]
+    grid.set_active_scalars("probability_density")
+    grid.save(path)
+    return path
+
+
+def test_demo_in_process(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path / "out"), "--size", "20", "16", "--grid", "20", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    exr, png = tmp_path / "out" / "demo.exr", tmp_path / "out" / "demo.png"
+    assert exr.is_file() and _png_size(png) == (20, 16)
+    image = hv.load(exr)
+    assert image.shape == (16, 20)
+    # the printed statistics are those of the written image
+    assert _stat_line(out, "peak luminance") == f"{image.peak_luminance:.6g}"
+    assert _stat_line(out, "min non-zero luminance") == f"{image.min_nonzero_luminance:.6g}"
+    assert _stat_line(out, "dynamic range") == f"{image.dynamic_range_decades:.2f} decades"
+    assert image.dynamic_range_decades > 4
+    assert image.metadata["source"] == "pv_hdrvol.datasets.hydrogen_orbital(n=3, l=2, m=0, size=20)"
+
+
+def test_render_matches_library(volume_file, tmp_path, capsys):
+    out_exr, out_png = tmp_path / "r.exr", tmp_path / "r.png"
+    args = ["render", str(volume_file), "-o", str(out_exr), "--png", str(out_png), "--size", "20", "16",
+            "--step", "0.7", "--vmin", "1e-12", "--vmax", "1e-3", "--scale", "log", "--cmap", "gray",
+            "--opacity", "0", "0.2", "--view", "xz", "--scalars", "twice", "--no-progress"]
+    assert main(args) == 0
+    assert f"wrote {out_exr}" in capsys.readouterr().out
+    grid = pv.read(volume_file)
+    tf = hv.TransferFunction.ramp(1e-12, 1e-3, scale="log", cmap="gray", opacity=(0.0, 0.2))
+    ref = hv.render(grid, tf, hv.Camera.fit(grid.bounds, "xz"), (20, 16), scalars="twice", step=0.7)
+    image = hv.load(out_exr)
+    np.testing.assert_array_equal(image.rgba, ref.rgba)  # float32 EXR round trip is exact
+    assert image.metadata["source_file"] == str(volume_file) and image.metadata["scalars"] == "twice"
+    assert _png_size(out_png) == (20, 16)
+
+
+def test_render_defaults_legacy_vtk(volume_file, tmp_path, monkeypatch):
+    legacy = tmp_path / "orbital.vtk"
+    pv.read(volume_file).save(legacy)
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", str(legacy), "--size", "12", "--no-progress"]) == 0
+    image = hv.load(tmp_path / "orbital.exr")  # default output: FILE's stem + .exr in the current directory
+    grid = pv.read(legacy)  # legacy files round spacing and origin: compare with what was read
+    ref = hv.render(grid, None, hv.Camera.fit(grid.bounds, "iso"), (12, 12))
+    np.testing.assert_array_equal(image.rgba, ref.rgba)
+
+
+def test_render_nrrd(tmp_path):
+    values, spacing, _ = hydrogen_orbital_array(size=12)
+    header = (f"NRRD0004\ntype: double\ndimension: 3\nsizes: 12 12 12\nspacings: {spacing[0]!r} {spacing[1]!r} "
+              f"{spacing[2]!r}\nencoding: raw\nendian: little\n\n")
+    nrrd = tmp_path / "orbital.nrrd"
+    nrrd.write_bytes(header.encode() + values.astype("<f8").tobytes())
+    assert main(["render", str(nrrd), "-o", str(tmp_path / "n.exr"), "--size", "10", "--no-progress"]) == 0
+    grid = pv.read(nrrd)
+    np.testing.assert_array_equal(grid.active_scalars, values.reshape(-1))
+    ref = hv.render(grid, None, hv.Camera.fit(grid.bounds, "iso"), (10, 10))
+    np.testing.assert_array_equal(hv.load(tmp_path / "n.exr").rgba, ref.rgba)
+
+
+def test_info(volume_file, tmp_path, capsys):
+    exr = tmp_path / "i.exr"
+    assert main(["render", str(volume_file), "-o", str(exr), "--size", "8", "--precision", "float64",
+                 "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(exr)]) == 0
+    out = capsys.readouterr().out
+    image = hv.load(exr)
+    assert out.startswith("i.exr: 8x8 float32\n")  # EXR stores float32
+    assert _stat_line(out, "peak luminance") == f"{image.peak_luminance:.6g}"
+    assert "  precision: float64\n" in out and f"  source_file: {volume_file}\n" in out
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["render", "{tmp}/missing.vti"], "pv-hdrvol render: error: file not found: '{tmp}/missing.vti'"),
+    (["render", "{vol}", "--scalars", "nope"],
+     "pv-hdrvol render: error: scalars 'nope' not found; point arrays: ['probability_density', 'twice'], "
+     "cell arrays: []"),
+    (["render", "{vol}", "--size", "1", "2", "3"], "pv-hdrvol render: error: --size takes N or W H; got 3 numbers"),
+    (["render", "{vol}", "--step", "-1"], "pv-hdrvol render: error: step must be > 0; got -1.0"),
+    (["render", "{vol}", "--view", "top"], "pv-hdrvol render: error: view must be one of ['iso', 'xy', 'yx', "
+                                           "'xz', 'zx', 'yz', 'zy']; got 'top'"),
+    (["render", "{vol}", "--vmin", "-1", "--scale", "log"],
+     "pv-hdrvol render: error: scale='log' needs vmin > 0; got vmin=-1.0"),
+    (["render", "{vol}", "-o", "{tmp}/x.png"],
+     "pv-hdrvol render: error: output '{tmp}/x.png' must end in .exr or .npy"),
+    (["render", "{vol}", "--png", "{tmp}/x.jpg"], "pv-hdrvol render: error: --png '{tmp}/x.jpg' must end in .png"),
+    (["render", "{tmp}/notes.txt"], "pv-hdrvol render: error: cannot read '{tmp}/notes.txt': unknown extension "
+                                    "'.txt'"),
+    (["render", "{tmp}/sphere.vtk"], "pv-hdrvol render: error: '{tmp}/sphere.vtk' holds a PolyData; pv-hdrvol "
+                                     "renders image data (ImageData) only"),
+    (["render", "{tmp}/tets.vtk"], "pv-hdrvol render: error: '{tmp}/tets.vtk' holds a UnstructuredGrid; pv-hdrvol "
+                                   "renders image data (ImageData) only (tetrahedral meshes are not supported yet)"),
+    (["demo", "--orbital", "2", "2", "0"], "pv-hdrvol demo: error: l must satisfy 0 <= l < n = 2; got l=2"),
+    (["info", "{tmp}/missing.exr"], "pv-hdrvol info: error: file not found: '{tmp}/missing.exr'"),
+    (["info", "{tmp}/notes.txt"], "pv-hdrvol info: error: unknown image extension '.txt'; use .exr or .npy"),
+    (["info", "{tmp}/fake.exr"], "pv-hdrvol info: error: cannot read '{tmp}/fake.exr': "),
+    (["paint"], "pv-hdrvol: error: argument COMMAND: invalid choice: 'paint'"),
+])
+def test_user_errors_exit_2_without_traceback(args, message, volume_file, tmp_path, capsys):
+    (tmp_path / "notes.txt").write_text("not a volume")
+    (tmp_path / "fake.exr").write_bytes(b"not an exr")
+    pv.Sphere().save(tmp_path / "sphere.vtk")
+    pv.ImageData(dimensions=(3, 3, 3)).triangulate().save(tmp_path / "tets.vtk")
+    args = [a.format(tmp=tmp_path, vol=volume_file) for a in args]
+    with pytest.raises(SystemExit) as exit_info:
+        main(args + (["--no-progress"] if args[0] in ("render", "demo") else []))
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert message.format(tmp=tmp_path) in err
+    assert "Traceback" not in err
+
+
+def test_console_script_demo(tmp_path):
+    script = shutil.which("pv-hdrvol")
+    command = [script] if script else [sys.executable, "-m", "pv_hdrvol.integrations.cli"]
+    result = subprocess.run(command + ["demo", "-o", str(tmp_path), "--size", "16", "--grid", "16"],
+                            capture_output=True, text=True, timeout=300, env={**os.environ, "PYTHONWARNINGS": ""})
+    assert result.returncode == 0, result.stderr
+    assert "dynamic range:" in result.stdout and "decades" in result.stdout
+    assert _png_size(tmp_path / "demo.png") == (16, 16)
+    assert hv.load(tmp_path / "demo.exr").shape == (16, 16)

@@ -1,0 +1,265 @@
+"""HDRVolumeRenderer in a plain VTK pipeline."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+from vtkmodules.vtkCommonCore import vtkCommand, vtkOutputWindow, vtkStringOutputWindow
+from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as SDDP
+from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+from vtkmodules.vtkRenderingCore import vtkCamera
+
+import pv_hdrvol as hv
+from pv_hdrvol.datasets import demo_transfer_function, hydrogen_orbital_array
+from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
+
+W, H = 24, 64  # 64 rows: the render reports progress in more than one chunk
+
+
+def _image_data():
+    """A plain vtkImageData (no PyVista) holding the 2p_z orbital and a second array."""
+    values, spacing, origin = hydrogen_orbital_array(2, 1, 0, size=17, extent=12.0)
+    img = vtkImageData()
+    img.SetDimensions(17, 17, 17)
+    img.SetSpacing(spacing)
+    img.SetOrigin(origin)
+    arr = numpy_to_vtk(values.reshape(-1), deep=True)
+    arr.SetName("probability_density")
+    img.GetPointData().AddArray(arr)
+    img.GetPointData().SetActiveScalars("probability_density")
+    cells = numpy_to_vtk(np.linspace(0.0, 1.0, img.GetNumberOfCells()), deep=True)
+    cells.SetName("ramp")
+    img.GetCellData().AddArray(cells)
+    vec = numpy_to_vtk(np.ones((img.GetNumberOfPoints(), 3)), deep=True)
+    vec.SetName("vector")
+    img.GetPointData().AddArray(vec)
+    return img
+
+
+def _camera():
+    cam = hv.Camera((40.0, -30.0, 20.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=35.0)
+    vcam = vtkCamera()
+    vcam.SetPosition(cam.position)
+    vcam.SetFocalPoint(cam.focal_point)
+    vcam.SetViewUp(cam.view_up)
+    vcam.SetViewAngle(cam.view_angle)
+    return cam, vcam
+
+
+def _renderer(source):
+    alg = HDRVolumeRenderer()
+    if isinstance(source, vtkImageData):
+        alg.SetInputDataObject(source)
+    else:
+        alg.SetInputConnection(source.GetOutputPort())
+    alg.SetImageSize(W, H)
+    return alg
+
+
+def _rgba(output):
+    """Output arrays back in (rows, cols) order with row 0 at the top."""
+    cols, rows, one = output.GetDimensions()
+    assert one == 1
+    rgba = vtk_to_numpy(output.GetPointData().GetArray("rgba")).reshape(rows, cols, 4)[::-1]
+    depth = vtk_to_numpy(output.GetPointData().GetArray("depth")).reshape(rows, cols)[::-1]
+    return rgba, depth
+
+
+def test_matches_hv_render_exactly():
+    data = _image_data()
+    cam, vcam = _camera()
+    tf = demo_transfer_function(vmax=5e-3)
+    alg = _renderer(data)
+    alg.SetTransferFunction(tf)
+    alg.SetCamera(vcam)
+    alg.SetStep(0.6)
+    alg.SetPrecision("float64")
+    alg.SetGlobalAlpha(0.5)
+    alg.SetTermination(0.0)
+    assert alg.Update() is True
+    out = alg.GetOutputDataObject(0)
+    assert alg.GetOutput() is out
+    assert out.GetDimensions() == (W, H, 1) and out.GetExtent() == (0, W - 1, 0, H - 1, 0, 0)
+    assert out.GetPointData().GetArray("rgba").GetNumberOfComponents() == 4
+    rgba, depth = _rgba(out)
+    ref = hv.render(data, tf, cam, (W, H), step=0.6, precision="float64", global_alpha=0.5, termination=0.0)
+    assert rgba.dtype == np.float64
+    np.testing.assert_array_equal(rgba, ref.rgba)
+    np.testing.assert_array_equal(depth, ref.depth)
+    assert ref.rgba[..., 3].max() > 0.01  # not a trivially empty picture
+    np.testing.assert_array_equal(hv.HDRImage.from_pyvista(out).rgba, ref.rgba)
+
+
+def test_defaults_and_source_connection():
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-6, 6, -6, 6, -6, 6)
+    alg = _renderer(source)
+    alg.SetStep(1.0)
+    assert alg.Update() is True
+    # the whole input was requested and rendered with the default (iso) camera
+    assert source.GetOutput().GetExtent() == (-6, 6, -6, 6, -6, 6)
+    ref = hv.render(source.GetOutput(), None, hv.Camera.fit(source.GetOutput().GetBounds(), "iso"), (W, H), step=1.0)
+    np.testing.assert_array_equal(_rgba(alg.GetOutputDataObject(0))[0], ref.rgba)
+
+
+def test_whole_extent_from_request_information():
+    alg = _renderer(_image_data())
+    alg.SetImageSize(40, 30)
+    alg.UpdateInformation()
+    assert alg.GetOutputInformation(0).Get(SDDP.WHOLE_EXTENT()) == (0, 39, 0, 29, 0, 0)
+
+
+def test_progress_events_and_abort():
+    alg = _renderer(_image_data())
+    seen = []
+    alg.AddObserver(vtkCommand.ProgressEvent, lambda obj, event: seen.append(obj.GetProgress()))
+    assert alg.Update() is True
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)
+    assert any(0.0 < f < 1.0 for f in seen)
+
+    aborter = HDRVolumeRenderer()
+    aborter.SetInputDataObject(_image_data())
+    aborter.SetImageSize(W, H)
+
+    def stop(obj, event):
+        if 0.0 < obj.GetProgress() < 1.0:
+            obj.SetAbortExecute(1)
+
+    aborter.AddObserver(vtkCommand.ProgressEvent, stop)
+    assert aborter.Update() is True  # an abort is not an error
+    assert aborter.GetOutputDataObject(0).GetNumberOfPoints() == 0
+    assert aborter.GetAbortExecute() == 1 and aborter.GetLastError() is None
+
+
+def test_input_is_not_modified():
+    data = _image_data()
+    mtime = data.GetMTime()
+    before = {data.GetPointData().GetArrayName(i): vtk_to_numpy(data.GetPointData().GetArray(i)).copy()
+              for i in range(data.GetPointData().GetNumberOfArrays())}
+    alg = _renderer(data)
+    alg.SetScalars("probability_density")
+    assert alg.Update() is True
+    assert data.GetMTime() == mtime
+    assert data.GetPointData().GetNumberOfArrays() == len(before)
+    assert data.GetPointData().GetScalars().GetName() == "probability_density"
+    for name, values in before.items():
+        np.testing.assert_array_equal(vtk_to_numpy(data.GetPointData().GetArray(name)), values)
+
+
+class _CapturedErrors:
+    """Route the VTK output window to a string while the block runs (restoring the old one)."""
+
+    def __enter__(self):
+        self.previous = vtkOutputWindow.GetInstance()
+        self.window = vtkStringOutputWindow()
+        vtkOutputWindow.SetInstance(self.window)
+        return self
+
+    def __exit__(self, *exc):
+        vtkOutputWindow.SetInstance(self.previous)
+        self.text = self.window.GetOutput()
+
+
+@pytest.mark.parametrize(("scalars", "message"), [
+    ("nope", "ScalarsError: scalars 'nope' not found; point arrays: "
+             "['probability_density', 'vector'], cell arrays: ['ramp']"),
+    ("vector", "ScalarsError: scalars 'vector' must have one component; got shape (4913, 3)"),
+])
+def test_errors_fail_the_update_with_the_message(scalars, message):
+    alg = _renderer(_image_data())
+    assert alg.Update() is True and alg.GetOutputDataObject(0).GetNumberOfPoints() == W * H
+    alg.SetScalars(scalars)
+    events = []
+    alg.AddObserver(vtkCommand.ErrorEvent, lambda obj, event: events.append(event))
+    with _CapturedErrors() as captured:
+        ok = alg.Update()
+    assert ok is False
+    assert events == ["ErrorEvent"]
+    assert alg.GetLastError() == message
+    assert "HDRVolumeRenderer (0x" in captured.text and message in captured.text
+    assert alg.GetOutputDataObject(0).GetNumberOfPoints() == 0  # the previous picture is gone
+    # fixing the cause clears the error
+    alg.SetScalars("probability_density")
+    with _CapturedErrors() as captured:
+        assert alg.Update() is True
+    assert alg.GetLastError() is None and captured.text == ""
+
+
+def test_input_array_to_process_selects_cell_data():
+    data = _image_data()
+    alg = _renderer(data)
+    alg.SetStep(1.0)
+    alg.SetInputArrayToProcess(0, 0, 0, vtkDataObject.FIELD_ASSOCIATION_CELLS, "ramp")
+    assert alg.Update() is True
+    ref = hv.render(data, None, hv.Camera.fit(data.GetBounds(), "iso"), (W, H), scalars="ramp",
+                    preference="cell", step=1.0)
+    np.testing.assert_array_equal(_rgba(alg.GetOutputDataObject(0))[0], ref.rgba)
+
+
+def test_setters_validate_through_render_options_and_modify():
+    alg = HDRVolumeRenderer()
+    assert alg.GetOptions() == hv.RenderOptions()
+    t0 = alg.GetMTime()
+    alg.SetStep(0.25)
+    t1 = alg.GetMTime()
+    assert t1 > t0 and alg.GetStep() == 0.25 and alg.GetOptions() == hv.RenderOptions(step=0.25)
+    alg.SetStep(0.25)  # unchanged value: no Modified()
+    assert alg.GetMTime() == t1
+    alg.SetSkipEmpty(0)
+    assert alg.GetSkipEmpty() is False and alg.GetMTime() > t1
+    alg.SkipEmptyOn()
+    assert alg.GetSkipEmpty() is True
+    alg.SetOpacityUnitDistance(2.0)
+    alg.SetDepthThreshold(0.5)
+    alg.SetBlockSize(16)
+    assert alg.GetOptions() == hv.RenderOptions(step=0.25, opacity_unit_distance=2.0, depth_threshold=0.5,
+                                                block_size=16)
+    with pytest.raises(ValueError, match=r"step must be > 0; got 0"):
+        alg.SetStep(0)
+    with pytest.raises(ValueError, match=r"precision must be one of \['float64', 'float32', 'float16', 'uint8'\]; "
+                                         r"got 'double'"):
+        alg.SetPrecision("double")
+    with pytest.raises(ValueError, match=r"global_alpha must be <= 1; got 2"):
+        alg.SetGlobalAlpha(2)
+    with pytest.raises(ValueError, match=r"block_size must be a power of two; got 12"):
+        alg.SetBlockSize(12)
+    with pytest.raises(TypeError, match=r"skip_empty must be a bool; got 'yes'"):
+        alg.SetSkipEmpty("yes")
+    assert alg.GetOptions().step == 0.25  # failed setters change nothing
+    with pytest.raises(TypeError, match=r"options must be a RenderOptions; got dict"):
+        alg.SetOptions({"step": 1.0})
+
+    alg.SetImageSize(320, 200)
+    assert alg.GetImageSize() == (320, 200)
+    alg.SetImageSize((64, 48))
+    assert alg.GetImageSize() == (64, 48)
+    with pytest.raises(ValueError, match=r"size\[0\] \(width\) must be >= 1; got 0"):
+        alg.SetImageSize(0, 10)
+    with pytest.raises(TypeError, match=r"the transfer function must be a pv_hdrvol TransferFunction or None; got str"):
+        alg.SetTransferFunction("magma")
+    with pytest.raises(ValueError, match=r"preference must be one of \['point', 'cell'\]; got 'points'"):
+        alg.SetPreference("points")
+    with pytest.raises(TypeError, match=r"scalars must be an array name \(str\) or None; got 3"):
+        alg.SetScalars(3)
+    with pytest.raises(ValueError, match=r"view must be one of \['iso', .*\]; got 'front'"):
+        alg.SetCamera("front")
+    with pytest.raises(TypeError, match=r"camera must be None, a view name .*; got float"):
+        alg.SetCamera(1.5)
+    _, vcam = _camera()
+    alg.SetCamera(vcam)
+    assert isinstance(alg.GetCamera(), hv.Camera) and alg.GetCamera().view_angle == 35.0
+
+
+def test_module_does_not_import_pyvista():
+    # ParaView's Python has VTK but not necessarily PyVista: the algorithm module must not need it
+    code = "import sys; import pv_hdrvol.integrations.vtk_algorithm; print('pyvista' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_rays_are_refused_as_camera():
+    rays = hv.Camera().rays((4, 4))
+    with pytest.raises(TypeError, match=r"SetCamera takes a Camera, a vtkCamera or a view name, not Rays"):
+        HDRVolumeRenderer().SetCamera(rays)

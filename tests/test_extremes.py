@@ -140,6 +140,15 @@ def test_one_voxel_volume_has_no_thickness():
     assert np.isinf(img.depth).all()
 
 
+def test_a_flat_volume_renders_nothing_even_edge_on():
+    vals = np.ones((5, 5, 1))  # one point thick along x
+    tf = hv.TransferFunction.ramp(0, 2, cmap="gray", opacity=(1, 1))
+    edge_on = hv.Camera((0.0, 2.0, 10.0), (0.0, 2.0, 0.0), (0, 1, 0), parallel_projection=True, parallel_scale=3)
+    seen = []
+    img = hv.render(vals, tf, edge_on, (8, 8), progress=seen.append)
+    assert not img.rgba.any() and seen == [1.0]
+
+
 @pytest.mark.parametrize("scale", [1e-15, 1e15])
 def test_huge_and_tiny_spacing_give_the_same_picture(scale):
     vals = np.linspace(0, 1, 12 * 10 * 8).reshape(8, 10, 12)

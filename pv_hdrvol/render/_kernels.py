@@ -149,13 +149,14 @@ def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi):
 
 
 @inline_kernel
-def _cell(x, n):
-    """Cell index and fraction of continuous voxel coordinate ``x`` on ``n`` points."""
-    if x <= 0.0 or n < 2:
-        return 0, 0.0
-    if x >= n - 1:
-        return n - 2, 1.0
-    i = int(x)
+def _cell(x, x_max, n):
+    """Cell index and fraction of voxel coordinate ``x`` on ``n >= 2`` points.
+
+    Branch-free: ``x`` is clamped to ``[0, x_max = n - 1]`` and the index to ``n - 2``
+    (so ``x = n - 1`` gives the last cell with fraction 1).
+    """
+    x = min(max(x, 0.0), x_max)
+    i = min(int(x), n - 2)
     return i, x - i
 
 
@@ -231,6 +232,9 @@ def _axis_exit(o, d, b, size):
 def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
+    Needs at least 2 points on every axis (a flat volume has no thickness and is not
+    rendered: ``render/grid.py`` returns an empty image before calling).
+
     The ray ``o + t d`` is in voxel coordinates (point ``(i, j, k)`` at ``(i, j, k)``)
     with ``t`` in world units: ``d`` is the world direction divided by the spacing.
 
@@ -249,6 +253,9 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     nx = dims[0]
     ny = dims[1]
     nz = dims[2]
+    x_max = nx - 1.0
+    y_max = ny - 1.0
+    z_max = nz - 1.0
     bz, by, bx = active.shape
     shift = p.block_shift
     size = 1 << shift
@@ -281,9 +288,9 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
             tb = t1
         seg = tb - ta
         tm = 0.5 * (ta + tb)
-        xi, fx = _cell(vx + tm * ux, nx)
-        yi, fy = _cell(vy + tm * uy, ny)
-        zi, fz = _cell(vz + tm * uz, nz)
+        xi, fx = _cell(vx + tm * ux, x_max, nx)
+        yi, fy = _cell(vy + tm * uy, y_max, ny)
+        zi, fz = _cell(vz + tm * uz, z_max, nz)
         ib = xi >> shift
         jb = yi >> shift
         kb = zi >> shift

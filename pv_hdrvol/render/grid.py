@@ -231,6 +231,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     depth = np.full(height * width, np.inf, dtype=np.float64)
     samples = np.zeros(height * width, dtype=np.int64)
 
+    # a volume with one point along an axis has no thickness: nothing to integrate
+    flat = min(volume.dims) < 2
     n_chunks = max(1, min(height // _CHUNK_TARGET_ROWS, 64)) if (progress or progress_bar) else 1
     all_rows = np.arange(height, dtype=np.int64)
     lanes = _lanes()
@@ -239,8 +241,9 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     try:
         for c in range(n_chunks):
             rows = np.ascontiguousarray(all_rows[c::n_chunks])
-            K.render_rows(blocks.bricks, table, active, dims, origins, directions, width, rows, lanes,
-                          lo, hi, params, rgba, depth, samples)
+            if not flat:
+                K.render_rows(blocks.bricks, table, active, dims, origins, directions, width, rows, lanes,
+                              lo, hi, params, rgba, depth, samples)
             if bar is not None:
                 bar.update(rows.size)
             if progress is not None and progress((c + 1) / n_chunks) is False:

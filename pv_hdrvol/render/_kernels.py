@@ -11,7 +11,7 @@ which on power-of-two volumes maps every plane to the same cache set.
 
 Per ray: clip to the box, march a lattice of segments of length ``step`` (the last
 one shortened to end exactly at the exit), sample each at its midpoint, classify
-through one interleaved (N, 4) table (r, g, b, extinction), and composite (start /
+through one interleaved (N, 4) table (r, g, b, opacity per step), and composite (start /
 accumulate / finish inside ``_march``).
 """
 from __future__ import annotations
@@ -111,14 +111,6 @@ def _kahan_add(total, comp, x, precision):
     y = _round(x - comp, precision)
     t = _round(total + y, precision)
     return t, _round(_round(t - total, precision) - y, precision)
-
-
-@inline_kernel
-def _segment_opacity(tau):
-    """``1 - exp(-tau)``, by its series below 1e-3 (relative error < 1e-16), else expm1."""
-    if tau < 1e-3:
-        return tau * (1.0 - tau * (0.5 - tau * (1.0 / 6.0 - tau * (1.0 / 24.0 - tau * (1.0 / 120.0)))))
-    return -math.expm1(-tau)
 
 
 # -- geometry --------------------------------------------------------------------------
@@ -229,8 +221,12 @@ def _axis_exit(o, d, b, size):
 
 
 @kernel
-def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
+def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
+
+    ``table`` rows are ``(r, g, b, a)`` with ``a`` the opacity of one full ``step``
+    (opacity-corrected on the host), so full segments need no exponential; ``sigma``
+    (extinction per world unit, same rows) serves the shorter last segment.
 
     Needs at least 2 points on every axis (a flat volume has no thickness and is not
     rendered: ``render/grid.py`` returns an empty image before calling).
@@ -239,8 +235,7 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     with ``t`` in world units: ``d`` is the world direction divided by the spacing.
 
     Front to back, each sample adds ``w = (1 - A) a_i`` to the accumulated opacity
-    ``A`` and ``w c_i`` to the colour, with ``a_i = 1 - exp(-sigma_i seg_i)`` from
-    ``expm1``. ``1 - a_i`` is never formed: in float32, 1 - 1e-7 rounds to
+    ``A`` and ``w c_i`` to the colour. ``1 - a_i`` is never formed: in float32, 1 - 1e-7 rounds to
     1 - 1.19e-7, and multiplying transmittance by it loses 19% over 4,096 samples;
     ``A`` itself is small there and sums exactly. float32 adds compensated (Kahan)
     sums with every operation rounded to float32. ``float16``/``uint8`` apply the
@@ -283,11 +278,8 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     k = 0
     while k < n_seg:
         ta = t0 + k * step
-        tb = ta + step
-        if tb > t1 or k == n_seg - 1:
-            tb = t1
-        seg = tb - ta
-        tm = 0.5 * (ta + tb)
+        last = k == n_seg - 1
+        tm = 0.5 * (ta + t1) if last else ta + 0.5 * step
         xi, fx = _cell(vx + tm * ux, x_max, nx)
         yi, fy = _cell(vy + tm * uy, y_max, ny)
         zi, fz = _cell(vz + tm * uz, z_max, nz)
@@ -310,8 +302,8 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
             continue
         samples += 1
         i, f = _table_index(v, n_table, p)
-        s = table[i, 3] + f * (table[i + 1, 3] - np.float64(table[i, 3])) if f > 0.0 else np.float64(table[i, 3])
-        if s <= 0.0:
+        a_i = table[i, 3] + f * (table[i + 1, 3] - np.float64(table[i, 3])) if f > 0.0 else np.float64(table[i, 3])
+        if a_i <= 0.0:
             continue
         if f > 0.0:
             r = table[i, 0] + f * (table[i + 1, 0] - np.float64(table[i, 0]))
@@ -321,7 +313,11 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
             r = np.float64(table[i, 0])
             g = np.float64(table[i, 1])
             b = np.float64(table[i, 2])
-        a_i = _segment_opacity(s * seg)
+        if last:
+            # the table holds the opacity of one full step; the last segment is shorter,
+            # so take its opacity from the extinction (a_i may have rounded to 1)
+            s = sigma[i] + f * (sigma[i + 1] - np.float64(sigma[i])) if f > 0.0 else np.float64(sigma[i])
+            a_i = -math.expm1(-s * (t1 - ta))
         if prec == F64:
             # accumulate: plain float64 sums are accurate to ~n eps
             w = (1.0 - alpha) * a_i
@@ -353,7 +349,7 @@ def _march(bricks, table, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
 
 
 @parallel_kernel
-def render_rows(bricks, table, active, dims, origins, directions, width, rows, lanes, lo, hi, p,
+def render_rows(bricks, table, sigma, active, dims, origins, directions, width, rows, lanes, lo, hi, p,
                 out_rgba, out_depth, out_samples):
     """Fill the pixels of ``rows`` (indices into the image), ``lanes`` rays in flight.
 
@@ -367,7 +363,7 @@ def render_rows(bricks, table, active, dims, origins, directions, width, rows, l
             row = rows[jr]
             for c in range(width):
                 pix = row * width + c
-                r, g, b, a, dep, ns = _march(bricks, table, active, dims,
+                r, g, b, a, dep, ns = _march(bricks, table, sigma, active, dims,
                                              origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                              directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                              lo, hi, p)

@@ -84,16 +84,16 @@ class BlockGrid:
         """Blocks along (z, y, x)."""
         return self.minimum.shape
 
-    def visible(self, sigma, params):
-        """Blocks that can reach a non-zero extinction entry (uint8 mask, z, y, x).
+    def visible(self, opacity, params):
+        """Blocks that can reach a non-zero opacity entry (uint8 mask, z, y, x).
 
         Mirrors the kernel's lookup (``_kernels._table_index``) on each block's value
         range: the axis transform is monotone, so the entries a block can touch lie
         between those of its minimum and maximum. Non-linear axes get a margin of 1e-9
         of the axis, because the kernel's ``log10`` may differ from numpy's by an ulp.
         """
-        n = sigma.size
-        nonzero = np.concatenate([[0], np.cumsum(sigma > 0)])
+        n = opacity.size
+        nonzero = np.concatenate([[0], np.cumsum(opacity > 0)])
         all_nan = ~np.isfinite(self.minimum)
         lo = np.where(all_nan, 0.0, self.minimum)
         hi = np.where(all_nan, 0.0, self.maximum)
@@ -186,10 +186,15 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     table_dtype = np.float64 if prec == "float64" else np.float32
     unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else float(volume.spacing.min())
     table_size = 256 if prec == "uint8" else tf.table_size
-    rgb, sigma = tf.table(table_dtype, opts.global_alpha, unit, table_size)
+    step_world = opts.step * float(volume.spacing.min())
+    rgb, sigma = tf.table(np.float64, opts.global_alpha, unit, table_size)
+    # opacity correction on the host: the opacity of one full step, 1 - exp(-sigma step)
+    alpha_step = -np.expm1(-sigma * step_world)
     if prec == "uint8":
         rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
-    table = np.ascontiguousarray(np.column_stack([rgb, sigma]), dtype=table_dtype)
+        alpha_step = np.round(alpha_step * 255) / 255
+    table = np.ascontiguousarray(np.column_stack([rgb, alpha_step]), dtype=table_dtype)
+    sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
 
     values = volume.values
     if prec != "float64" and values.dtype == np.float64:
@@ -200,7 +205,6 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     blocks = BlockGrid.of(volume, opts.block_size)
 
     a0, a1 = tf.axis_range
-    step_world = opts.step * float(volume.spacing.min())
     # rays in voxel coordinates with t still in world units (see _kernels._march)
     inv_spacing = 1.0 / volume.spacing
     origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
@@ -216,7 +220,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     if prec == "uint8":
         params = params._replace(scale=SCALE_CODES["linear"], axis_lo=0.0, axis_inv_range=1.0 / 255.0)
     dims = np.array(volume.dims, dtype=np.int64)
-    active = blocks.visible(sigma, params) if opts.skip_empty else np.ones(blocks.shape, np.uint8)
+    active = blocks.visible(table[:, 3], params) if opts.skip_empty else np.ones(blocks.shape, np.uint8)
     if block_mask is not None:
         mask = np.asarray(block_mask)
         if mask.shape != blocks.shape:
@@ -242,7 +246,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         for c in range(n_chunks):
             rows = np.ascontiguousarray(all_rows[c::n_chunks])
             if not flat:
-                K.render_rows(blocks.bricks, table, active, dims, origins, directions, width, rows, lanes,
+                K.render_rows(blocks.bricks, table, sigma, active, dims, origins, directions, width, rows, lanes,
                               lo, hi, params, rgba, depth, samples)
             if bar is not None:
                 bar.update(rows.size)

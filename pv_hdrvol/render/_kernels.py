@@ -106,11 +106,11 @@ def _round(x, precision):
 
 
 @inline_kernel
-def _kahan_add(total, comp, x, precision):
-    """Compensated ``total + x`` in ``precision``: returns the new total and compensation."""
-    y = _round(x - comp, precision)
-    t = _round(total + y, precision)
-    return t, _round(_round(t - total, precision) - y, precision)
+def _kahan_add32(total, comp, x):
+    """Compensated float32 ``total + x``: returns the new total and compensation."""
+    y = x - comp
+    t = total + y
+    return t, (t - total) - y
 
 
 # -- geometry --------------------------------------------------------------------------
@@ -237,8 +237,8 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
     Front to back, each sample adds ``w = (1 - A) a_i`` to the accumulated opacity
     ``A`` and ``w c_i`` to the colour. ``1 - a_i`` is never formed: in float32, 1 - 1e-7 rounds to
     1 - 1.19e-7, and multiplying transmittance by it loses 19% over 4,096 samples;
-    ``A`` itself is small there and sums exactly. float32 adds compensated (Kahan)
-    sums with every operation rounded to float32. ``float16``/``uint8`` apply the
+    ``A`` itself is small there and sums exactly. float32 works in float32 arithmetic
+    with compensated (Kahan) sums. ``float16``/``uint8`` apply the
     conventional ``over`` operator in that buffer precision, for comparison.
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
@@ -265,15 +265,21 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
     n_seg = int(math.ceil((t1 - t0) / step))
     if n_seg < 1:
         n_seg = 1
-    # start: premultiplied colour and opacity, and their Kahan compensations (float32)
+    # start: premultiplied colour and opacity (float64, and the emulations) ...
     cr = 0.0
     cg = 0.0
     cb = 0.0
     alpha = 0.0
-    er = 0.0
-    eg = 0.0
-    eb = 0.0
-    ea = 0.0
+    # ... and in float32, with Kahan compensations
+    one32 = np.float32(1.0)
+    r32 = np.float32(0.0)
+    g32 = np.float32(0.0)
+    b32 = np.float32(0.0)
+    a32 = np.float32(0.0)
+    er32 = np.float32(0.0)
+    eg32 = np.float32(0.0)
+    eb32 = np.float32(0.0)
+    ea32 = np.float32(0.0)
     samples = 0
     k = 0
     while k < n_seg:
@@ -326,13 +332,13 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
             cb += w * b
             alpha += w
         elif prec == F32:
-            # float32 with compensated sums, every operation rounded to float32
-            a_i = _round(a_i, prec)
-            w = _round(_round(1.0 - alpha, prec) * a_i, prec)
-            cr, er = _kahan_add(cr, er, _round(w * r, prec), prec)
-            cg, eg = _kahan_add(cg, eg, _round(w * g, prec), prec)
-            cb, eb = _kahan_add(cb, eb, _round(w * b, prec), prec)
-            alpha, ea = _kahan_add(alpha, ea, w, prec)
+            # float32 arithmetic throughout, with compensated sums
+            w32 = (one32 - a32) * np.float32(a_i)
+            r32, er32 = _kahan_add32(r32, er32, w32 * np.float32(r))
+            g32, eg32 = _kahan_add32(g32, eg32, w32 * np.float32(g))
+            b32, eb32 = _kahan_add32(b32, eb32, w32 * np.float32(b))
+            a32, ea32 = _kahan_add32(a32, ea32, w32)
+            alpha = np.float64(a32)
         else:
             # the conventional `over` operator in a half-float or 8-bit buffer
             a_i = _round(a_i, prec)
@@ -345,34 +351,42 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
             depth = tm
         if alpha >= p.alpha_stop:
             break
+    # finish
+    if prec == F32:
+        return np.float64(r32), np.float64(g32), np.float64(b32), np.float64(a32), depth, samples
     return cr, cg, cb, alpha, depth, samples
 
 
 @parallel_kernel
-def render_rows(bricks, table, sigma, active, dims, origins, directions, width, rows, lanes, lo, hi, p,
-                out_rgba, out_depth, out_samples):
-    """Fill the pixels of ``rows`` (indices into the image), ``lanes`` rays in flight.
+def render_tiles(bricks, table, sigma, active, dims, origins, directions, width, height, tile, tile_rows, lanes,
+                 lo, hi, p, out_rgba, out_depth, out_samples):
+    """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
-    Lane ``l`` renders rows ``rows[l::lanes]``; lanes are split among threads, so every
-    thread's work is spread over the whole image (balanced without dynamic scheduling,
-    which numba 0.56 lacks).
+    Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
+    (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
+    ``l, l + lanes, ...``; lanes are split among threads, so each thread's work is
+    spread over the image (balanced without dynamic scheduling, which numba 0.56
+    lacks).
     """
-    n_rows = rows.shape[0]
+    tiles_x = (width + tile - 1) // tile
+    n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
-        for jr in range(lane, n_rows, lanes):
-            row = rows[jr]
-            for c in range(width):
-                pix = row * width + c
-                r, g, b, a, dep, ns = _march(bricks, table, sigma, active, dims,
-                                             origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                                             directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                             lo, hi, p)
-                out_rgba[pix, 0] = r
-                out_rgba[pix, 1] = g
-                out_rgba[pix, 2] = b
-                out_rgba[pix, 3] = a
-                out_depth[pix] = dep
-                out_samples[pix] = ns
+        for t in range(lane, n_tiles, lanes):
+            row0 = tile_rows[t // tiles_x] * tile
+            col0 = (t % tiles_x) * tile
+            for row in range(row0, min(row0 + tile, height)):
+                for col in range(col0, min(col0 + tile, width)):
+                    pix = row * width + col
+                    r, g, b, a, dep, ns = _march(bricks, table, sigma, active, dims,
+                                                 origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                                                 directions[pix, 0], directions[pix, 1], directions[pix, 2],
+                                                 lo, hi, p)
+                    out_rgba[pix, 0] = r
+                    out_rgba[pix, 1] = g
+                    out_rgba[pix, 2] = b
+                    out_rgba[pix, 3] = a
+                    out_depth[pix] = dep
+                    out_samples[pix] = ns
 
 
 @kernel

@@ -14,8 +14,8 @@ from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays
 from . import _kernels as K
 
-# Renders expected to take longer than this (seconds) show a progress bar when asked.
-_CHUNK_TARGET_ROWS = 32
+# Rays are cast in square tiles of this many pixels a side (cache locality).
+_TILE = 8
 
 
 def as_volume(data, scalars=None, preference="point"):
@@ -237,19 +237,21 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     # a volume with one point along an axis has no thickness: nothing to integrate
     flat = min(volume.dims) < 2
-    n_chunks = max(1, min(height // _CHUNK_TARGET_ROWS, 64)) if (progress or progress_bar) else 1
-    all_rows = np.arange(height, dtype=np.int64)
+    tile_count_y = -(-height // _TILE)
+    n_chunks = max(1, min(tile_count_y // 4, 64)) if (progress or progress_bar) else 1
+    all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
     lanes = _lanes()
     bar = _progress_bar(progress_bar, height)
     t_start = time.perf_counter()
     try:
         for c in range(n_chunks):
-            rows = np.ascontiguousarray(all_rows[c::n_chunks])
+            # each chunk is every n_chunks-th row of tiles: a uniform sample of the image
+            tile_rows = np.ascontiguousarray(all_tile_rows[c::n_chunks])
             if not flat:
-                K.render_rows(blocks.bricks, table, sigma, active, dims, origins, directions, width, rows, lanes,
-                              lo, hi, params, rgba, depth, samples)
+                K.render_tiles(blocks.bricks, table, sigma, active, dims, origins, directions, width, height,
+                               _TILE, tile_rows, lanes, lo, hi, params, rgba, depth, samples)
             if bar is not None:
-                bar.update(rows.size)
+                bar.update(int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum()))
             if progress is not None and progress((c + 1) / n_chunks) is False:
                 raise RuntimeError("render aborted")
     finally:

@@ -211,17 +211,17 @@ def _table_index(v, n, p):
 
 # -- the ray -----------------------------------------------------------------------------
 @inline_kernel
-def _axis_exit(o, d, b, size):
-    """Ray parameter at which ``o + t d`` leaves block ``b`` along one axis."""
-    if d > 0.0:
-        return ((b + 1) * size - o) / d
-    if d < 0.0:
-        return (b * size - o) / d
+def _axis_exit(o, inv_d, b, size):
+    """Ray parameter at which ``o + t d`` leaves block ``b`` along one axis (``inv_d = 1/d``)."""
+    if inv_d > 0.0:
+        return ((b + 1) * size - o) * inv_d
+    if inv_d < 0.0:
+        return (b * size - o) * inv_d
     return math.inf
 
 
 @kernel
-def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
+def _march(bricks, table, sigma, active, block_shape, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``table`` rows are ``(r, g, b, a)`` with ``a`` the opacity of one full ``step``
@@ -251,7 +251,7 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
     x_max = nx - 1.0
     y_max = ny - 1.0
     z_max = nz - 1.0
-    bz, by, bx = active.shape
+    by, bx = block_shape[1], block_shape[2]
     shift = p.block_shift
     size = 1 << shift
     mask = size - 1
@@ -262,6 +262,9 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
     step = p.step
     # the ray in voxel coordinates, t in world units: position(t) = v + t * u
     vx, vy, vz, ux, uy, uz = ox, oy, oz, dx, dy, dz
+    rx = 1.0 / ux if ux != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
+    ry = 1.0 / uy if uy != 0.0 else 0.0
+    rz = 1.0 / uz if uz != 0.0 else 0.0
     n_seg = int(math.ceil((t1 - t0) / step))
     if n_seg < 1:
         n_seg = 1
@@ -292,17 +295,18 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
         ib = xi >> shift
         jb = yi >> shift
         kb = zi >> shift
-        if active[kb, jb, ib] == 0:
+        block = (kb * by + jb) * bx + ib
+        if active[block] == 0:
             if p.skip_empty:
                 # jump to the first lattice segment whose midpoint lies past this block
-                te = min(_axis_exit(vx, ux, ib, size), _axis_exit(vy, uy, jb, size), _axis_exit(vz, uz, kb, size))
+                te = min(_axis_exit(vx, rx, ib, size), _axis_exit(vy, ry, jb, size), _axis_exit(vz, rz, kb, size))
                 kn = int(math.ceil((te - t0) / step - 0.5))
                 k = kn if kn > k else k + 1
             else:
                 k += 1
             continue
         k += 1
-        base = ((kb * by + jb) * bx + ib) * brick_len
+        base = block * brick_len
         v = _trilinear(bricks, base, pitch, xi & mask, yi & mask, zi & mask, fx, fy, fz)
         if v != v:  # NaN in the stencil: empty
             continue
@@ -358,7 +362,7 @@ def _march(bricks, table, sigma, active, dims, ox, oy, oz, dx, dy, dz, lo, hi, p
 
 
 @parallel_kernel
-def render_tiles(bricks, table, sigma, active, dims, origins, directions, width, height, tile, tile_rows, lanes,
+def render_tiles(bricks, table, sigma, active, block_shape, dims, origins, directions, width, height, tile, tile_rows, lanes,
                  lo, hi, p, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
@@ -377,7 +381,7 @@ def render_tiles(bricks, table, sigma, active, dims, origins, directions, width,
             for row in range(row0, min(row0 + tile, height)):
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
-                    r, g, b, a, dep, ns = _march(bricks, table, sigma, active, dims,
+                    r, g, b, a, dep, ns = _march(bricks, table, sigma, active, block_shape, dims,
                                                  origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                  directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                  lo, hi, p)

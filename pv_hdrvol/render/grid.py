@@ -228,7 +228,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         if mask.dtype != np.bool_:
             raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
         active = active & mask.astype(np.uint8)
-    active = np.ascontiguousarray(active, dtype=np.uint8)
+    active = np.ascontiguousarray(active, dtype=np.uint8).reshape(-1)  # flat, (z, y, x) order
+    block_shape = np.array(blocks.shape, dtype=np.int64)
 
     out_dtype = np.float64 if prec == "float64" else np.float32
     rgba = np.zeros((height * width, 4), dtype=out_dtype)
@@ -248,7 +249,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
             # each chunk is every n_chunks-th row of tiles: a uniform sample of the image
             tile_rows = np.ascontiguousarray(all_tile_rows[c::n_chunks])
             if not flat:
-                K.render_tiles(blocks.bricks, table, sigma, active, dims, origins, directions, width, height,
+                K.render_tiles(blocks.bricks, table, sigma, active, block_shape, dims, origins, directions, width, height,
                                _TILE, tile_rows, lanes, lo, hi, params, rgba, depth, samples)
             if bar is not None:
                 bar.update(int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum()))

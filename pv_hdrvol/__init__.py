@@ -3,6 +3,7 @@
 Public names only; the pipeline is ``data`` -> ``rays`` -> ``render`` -> ``image`` ->
 ``integrations``.
 """
+from . import datasets
 from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
 from .data.transfer import TransferFunction
 from .image.hdr import HDRImage, load
@@ -28,6 +29,6 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 
 __all__ = [
-    "BlockGrid", "Camera", "GridVolume", "HDRImage", "PRECISIONS", "Rays", "RenderOptions", "ScalarsError",
+    "datasets", "BlockGrid", "Camera", "GridVolume", "HDRImage", "PRECISIONS", "Rays", "RenderOptions", "ScalarsError",
     "TransferFunction", "load", "render", "render_volume", "volume_from_array", "volume_from_dataset",
 ]

@@ -159,12 +159,22 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     Notes
     -----
     Emission-absorption along each ray, sampled at segment midpoints
-    ``t_k = t_0 + (k + 1/2) * step`` (the last segment ends at the exit point):
+    ``t_k = t_0 + (k + 1/2) * step`` (the last segment ends at the exit point) and
+    composited front to back with premultiplied colour:
 
-    .. math:: C = \\sum_k e^{-\\tau_k} (1 - e^{-\\sigma_k \\Delta_k}) c_k, \\qquad
-              \\tau_k = \\sum_{j<k} \\sigma_j \\Delta_j, \\qquad A = 1 - e^{-\\tau}
+    .. math:: w_k = (1 - A_{k-1})\, a_k, \qquad A_k = A_{k-1} + w_k, \qquad
+              C_k = C_{k-1} + w_k\, c_k, \qquad a_k = 1 - e^{-\sigma(v_k) \Delta_k}
 
-    Skipped blocks hold only zero extinction, so skipping changes no pixel.
+    Skipped blocks hold only zero opacity, so skipping changes no pixel.
+
+    Examples
+    --------
+    >>> import numpy as np, pv_hdrvol as hv
+    >>> tf = hv.TransferFunction([0.0, 1.0], [[1, 1, 1], [1, 1, 1]], [0.1, 0.1])
+    >>> cam = hv.Camera((1, 1, 10), (1, 1, 0), (0, 1, 0), parallel_projection=True, parallel_scale=0.5)
+    >>> img = hv.render(np.full((5, 3, 3), 0.5), tf, cam, (2, 2), precision="float64")
+    >>> round(float(img.rgba[0, 0, 3]), 12)  # 4 voxels of opacity 0.1: 1 - 0.9**4
+    0.3439
     """
     volume = as_volume(volume)
     opts = RenderOptions.from_kwargs(options, **option_kwargs)

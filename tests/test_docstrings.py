@@ -1,0 +1,20 @@
+"""The Examples in docstrings state checkable facts: run them."""
+import doctest
+import importlib
+
+import pytest
+
+MODULES = [
+    "pv_hdrvol.data.transfer",
+    "pv_hdrvol.rays.camera",
+    "pv_hdrvol.render.grid",
+    "pv_hdrvol.image.hdr",
+    "pv_hdrvol.datasets",
+]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples(name):
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 0, f"{name} has no examples"
+    assert result.failed == 0

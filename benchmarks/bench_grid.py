@@ -555,7 +555,7 @@ def _source_state():
     """Git commit and a hash of the kernel source, to tell which kernel was measured."""
     import hashlib
 
-    state = {"kernel_sha1": hashlib.sha1((REPO / "pv_hdrvol/render/_kernels.py").read_bytes()).hexdigest()[:12]}
+    state = {"kernel_sha1": hashlib.sha1((REPO / "pv_hdrvol/raycast/_kernels.py").read_bytes()).hexdigest()[:12]}
     try:
         state["commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True,
                                          text=True, check=True).stdout.strip()

@@ -6,7 +6,7 @@ A volume whose values span many decades -- here the SCF total electron density o
 molecule, 16 decades from 2e-17 to 0.49 (``m4_total_density``, a real Gaussian cube
 file) -- is rendered twice with the same camera and transfer function:
 
-* in ``float32``, where :func:`pv_hdrvol.render` accumulates *optical depth* and
+* in ``float32``, where :func:`pv_hdrvol.raycast` accumulates *optical depth* and
   colour with compensated sums, so a sample whose opacity is 1e-17 still adds its
   exact share of light;
 * in the ``uint8`` emulation of a conventional pipeline: data and lookup table

@@ -9,7 +9,7 @@ from .data.transfer import TransferFunction
 from .image.hdr import HDRImage, load
 from .params import PRECISIONS, RenderOptions
 from .rays.camera import Camera, Rays
-from .render.grid import BlockGrid, render_volume
+from .raycast.grid import BlockGrid, render_volume
 
 __version__ = "0.1.0"
 
@@ -21,7 +21,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
     a :class:`GridVolume`; ``scalars``/``preference`` pick the array of a dataset.
     """
-    from .render.grid import as_volume
+    from .raycast.grid import as_volume
 
     volume = as_volume(data, scalars=scalars, preference=preference)
     return render_volume(volume, tf, camera, size, options, block_mask=block_mask, progress_bar=progress_bar,

@@ -16,7 +16,7 @@ from ._validate import as_choice, as_int, as_real
 #: conventional ``over`` operator in half-float and 8-bit buffers, for comparison.
 PRECISIONS = ("float64", "float32", "float16", "uint8")
 
-# Integer codes the kernels switch on (see render/_kernels.py).
+# Integer codes the kernels switch on (see raycast/_kernels.py).
 PRECISION_CODES = {"float64": 0, "float32": 1, "float16": 2, "uint8": 3}
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pv_hdrvol as hv
-from pv_hdrvol.render import _kernels as K
+from pv_hdrvol.raycast import _kernels as K
 
 pytestmark = pytest.mark.core
 

@@ -197,7 +197,7 @@ def _existing_file(name):
 def _transfer_function(args, volume):
     """A ramp when any transfer-function option is given, else ``None`` (the core's default)."""
     from ..data.transfer import TransferFunction
-    from ..render.grid import default_transfer_function
+    from ..raycast.grid import default_transfer_function
 
     given = (args.vmin, args.vmax, args.scale, args.cmap, args.opacity)
     if all(v is None for v in given):

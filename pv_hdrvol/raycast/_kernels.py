@@ -1,6 +1,6 @@
 """numba kernels for image volumes: arrays in, arrays out.
 
-Nothing here validates or allocates; ``render/grid.py`` does that. Modes are small
+Nothing here validates or allocates; ``raycast/grid.py`` does that. Modes are small
 integer constants inside the ``GridParams`` tuple (kept in numba's on-disk cache,
 unlike jitted callables passed as arguments).
 
@@ -44,7 +44,7 @@ def parallel_kernel(fn):
 
 
 class GridParams(NamedTuple):
-    """Everything scalar a grid render needs, converted once by ``render/grid.py``.
+    """Everything scalar a grid render needs, converted once by ``raycast/grid.py``.
 
     At most 15 fields: numba 0.56 on Python 3.11 rebuilds a NamedTuple used inside
     ``prange`` with a keyword call, which it cannot compile past 15 arguments.
@@ -229,7 +229,7 @@ def _march(bricks, table, sigma, active, block_shape, dims, ox, oy, oz, dx, dy, 
     (extinction per world unit, same rows) serves the shorter last segment.
 
     Needs at least 2 points on every axis (a flat volume has no thickness and is not
-    rendered: ``render/grid.py`` returns an empty image before calling).
+    rendered: ``raycast/grid.py`` returns an empty image before calling).
 
     The ray ``o + t d`` is in voxel coordinates (point ``(i, j, k)`` at ``(i, j, k)``)
     with ``t`` in world units: ``d`` is the world direction divided by the spacing.

@@ -145,21 +145,21 @@ def test_block_mask_restricts_the_render():
     tf = constant_tf(0.05)
     grid = hv.BlockGrid.of(vol, 8)
     assert grid.shape == (2, 2, 2)
-    full = hv.render(vol, tf, None, (24, 24))
-    same = hv.render(vol, tf, None, (24, 24), block_mask=np.ones(grid.shape, bool))
+    full = hv.render(vol, tf, None, (24, 24), block_size=8)
+    same = hv.render(vol, tf, None, (24, 24), block_size=8, block_mask=np.ones(grid.shape, bool))
     np.testing.assert_array_equal(full.rgba, same.rgba)
-    none = hv.render(vol, tf, None, (24, 24), block_mask=np.zeros(grid.shape, bool))
+    none = hv.render(vol, tf, None, (24, 24), block_size=8, block_mask=np.zeros(grid.shape, bool))
     assert not none.rgba.any()
     half = np.zeros(grid.shape, bool)
     half[:, :, 0] = True  # x < 8 only
     cam = hv.Camera((8, 8, 40), (8, 8, 0), (0, 1, 0), parallel_projection=True, parallel_scale=8)
-    img = hv.render(vol, tf, cam, (32, 32), block_mask=half)
+    img = hv.render(vol, tf, cam, (32, 32), block_size=8, block_mask=half)
     cols = -0.0 + (np.arange(32) + 0.5) * 0.5  # x of each pixel column
     assert (img.rgba[:, cols < 7.9, 3] > 0).all() and not img.rgba[:, cols > 8.1, 3].any()
     with pytest.raises(ValueError, match=r"block_mask must have shape \(2, 2, 2\)"):
-        hv.render(vol, tf, None, (8, 8), block_mask=np.ones((2, 2), bool))
+        hv.render(vol, tf, None, (8, 8), block_size=8, block_mask=np.ones((2, 2), bool))
     with pytest.raises(TypeError, match="block_mask must be a bool array"):
-        hv.render(vol, tf, None, (8, 8), block_mask=np.ones(grid.shape))
+        hv.render(vol, tf, None, (8, 8), block_size=8, block_mask=np.ones(grid.shape))
 
 
 def test_opacity_correction_keeps_the_picture_across_steps():

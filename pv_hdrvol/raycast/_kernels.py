@@ -26,6 +26,8 @@ import numpy as np
 F64, F32, F16, U8 = 0, 1, 2, 3
 # transfer-function axis codes (data/transfer.SCALE_CODES)
 LINEAR, LOG, SYMLOG = 0, 1, 2
+# bricks of 2**BRICK_SHIFT cells a side (memory layout; independent of skip blocks)
+BRICK_SHIFT = 3
 
 
 def kernel(fn):
@@ -58,8 +60,7 @@ class GridParams(NamedTuple):
     linthresh: float
     alpha_stop: float  # stop once accumulated opacity reaches this (1 - termination)
     depth_alpha: float  # accumulated opacity that records depth
-    block_shift: int  # log2(block size in cells)
-    skip_empty: bool
+    block_shift: int  # log2(edge of an empty-space block, in cells)
 
 
 # -- rounding that emulates a buffer's precision ---------------------------------------
@@ -211,18 +212,24 @@ def _table_index(v, n, p):
 
 # -- the ray -----------------------------------------------------------------------------
 @inline_kernel
-def _axis_exit(o, inv_d, b, size):
-    """Ray parameter at which ``o + t d`` leaves block ``b`` along one axis (``inv_d = 1/d``)."""
+def _axis_exit(o, inv_d, b, radius, size):
+    """Ray parameter at which ``o + t d`` leaves blocks ``b - radius + 1 .. b + radius - 1``
+    along one axis (``inv_d = 1 / d``, 0 for a ray parallel to the axis)."""
     if inv_d > 0.0:
-        return ((b + 1) * size - o) * inv_d
+        return ((b + radius) * size - o) * inv_d
     if inv_d < 0.0:
-        return (b * size - o) * inv_d
+        return ((b - radius + 1) * size - o) * inv_d
     return math.inf
 
 
 @kernel
-def _march(bricks, table, sigma, active, block_shape, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
+def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
+
+    ``grids`` holds the shapes (z, y, x) of the empty-space block grid, then of the
+    brick grid. ``leap`` (flat over the block grid) is 0 for a block to sample, else the
+    Chebyshev distance ``r`` (in blocks) to the nearest such block: the ray may leave
+    the whole cube of blocks within ``r - 1`` at once (empty-space leaping).
 
     ``table`` rows are ``(r, g, b, a)`` with ``a`` the opacity of one full ``step``
     (opacity-corrected on the host), so full segments need no exponential; ``sigma``
@@ -251,11 +258,12 @@ def _march(bricks, table, sigma, active, block_shape, dims, ox, oy, oz, dx, dy, 
     x_max = nx - 1.0
     y_max = ny - 1.0
     z_max = nz - 1.0
-    by, bx = block_shape[1], block_shape[2]
+    by, bx = grids[1], grids[2]  # empty-space blocks
+    qy, qx = grids[4], grids[5]  # bricks
     shift = p.block_shift
     size = 1 << shift
-    mask = size - 1
-    pitch = size + 1
+    brick_mask = (1 << BRICK_SHIFT) - 1
+    pitch = (1 << BRICK_SHIFT) + 1
     brick_len = pitch * pitch * pitch
     n_table = table.shape[0]
     prec = p.precision
@@ -296,18 +304,19 @@ def _march(bricks, table, sigma, active, block_shape, dims, ox, oy, oz, dx, dy, 
         jb = yi >> shift
         kb = zi >> shift
         block = (kb * by + jb) * bx + ib
-        if active[block] == 0:
-            if p.skip_empty:
-                # jump to the first lattice segment whose midpoint lies past this block
-                te = min(_axis_exit(vx, rx, ib, size), _axis_exit(vy, ry, jb, size), _axis_exit(vz, rz, kb, size))
-                kn = int(math.ceil((te - t0) / step - 0.5))
-                k = kn if kn > k else k + 1
-            else:
-                k += 1
+        radius = leap[block]
+        if radius != 0:
+            # empty: leave the cube of blocks within radius - 1 of this one, landing on the
+            # first lattice segment whose midpoint lies past it
+            te = min(_axis_exit(vx, rx, ib, radius, size), _axis_exit(vy, ry, jb, radius, size),
+                     _axis_exit(vz, rz, kb, radius, size))
+            kn = int(math.ceil((te - t0) / step - 0.5))
+            k = kn if kn > k else k + 1
             continue
         k += 1
-        base = block * brick_len
-        v = _trilinear(bricks, base, pitch, xi & mask, yi & mask, zi & mask, fx, fy, fz)
+        brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
+        v = _trilinear(bricks, brick * brick_len, pitch, xi & brick_mask, yi & brick_mask, zi & brick_mask,
+                       fx, fy, fz)
         if v != v:  # NaN in the stencil: empty
             continue
         samples += 1
@@ -362,7 +371,7 @@ def _march(bricks, table, sigma, active, block_shape, dims, ox, oy, oz, dx, dy, 
 
 
 @parallel_kernel
-def render_tiles(bricks, table, sigma, active, block_shape, dims, origins, directions, width, height, tile, tile_rows, lanes,
+def render_tiles(bricks, table, sigma, leap, grids, dims, origins, directions, width, height, tile, tile_rows, lanes,
                  lo, hi, p, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
@@ -381,7 +390,7 @@ def render_tiles(bricks, table, sigma, active, block_shape, dims, origins, direc
             for row in range(row0, min(row0 + tile, height)):
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
-                    r, g, b, a, dep, ns = _march(bricks, table, sigma, active, block_shape, dims,
+                    r, g, b, a, dep, ns = _march(bricks, table, sigma, leap, grids, dims,
                                                  origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                  directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                  lo, hi, p)
@@ -423,21 +432,28 @@ def make_bricks(values, shift, out):
 
 
 @kernel
-def block_ranges(bricks, shift, out_min, out_max):
-    """Min and max (NaN ignored) of each brick's points, i.e. of every value its cells
-    can interpolate. A brick of NaN only gets ``min = +inf, max = -inf``."""
-    pitch = (1 << shift) + 1
-    brick_len = pitch * pitch * pitch
-    flat_min = out_min.reshape(-1)
-    flat_max = out_max.reshape(-1)
-    for b in range(flat_min.shape[0]):
-        lo = math.inf
-        hi = -math.inf
-        for q in range(b * brick_len, (b + 1) * brick_len):
-            v = np.float64(bricks[q])
-            if v < lo:
-                lo = v
-            if v > hi:
-                hi = v
-        flat_min[b] = lo
-        flat_max[b] = hi
+def block_ranges(values, shift, out_min, out_max):
+    """Min and max (NaN ignored) of the points each block's cells touch.
+
+    Block ``b`` covers cells ``[b * size, (b + 1) * size)``, hence points
+    ``[b * size, (b + 1) * size]``: neighbouring blocks share a plane of points. A
+    block of NaN only gets ``min = +inf, max = -inf``.
+    """
+    nz, ny, nx = values.shape
+    bz, by, bx = out_min.shape
+    size = 1 << shift
+    for kb in range(bz):
+        for jb in range(by):
+            for ib in range(bx):
+                lo = math.inf
+                hi = -math.inf
+                for k in range(kb * size, min((kb + 1) * size + 1, nz)):
+                    for j in range(jb * size, min((jb + 1) * size + 1, ny)):
+                        for i in range(ib * size, min((ib + 1) * size + 1, nx)):
+                            v = np.float64(values[k, j, i])
+                            if v < lo:
+                                lo = v
+                            if v > hi:
+                                hi = v
+                out_min[kb, jb, ib] = lo
+                out_max[kb, jb, ib] = hi

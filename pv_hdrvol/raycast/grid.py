@@ -43,36 +43,55 @@ def default_transfer_function(volume):
     return TransferFunction.ramp(lo, hi, cmap="magma")
 
 
+def _grid_shape(dims, size):
+    """Blocks of ``size`` cells along (z, y, x) covering a volume of ``dims`` (x, y, z) points."""
+    return tuple(max(1, -(-max(n - 1, 1) // size)) for n in dims[::-1])
+
+
+class Bricks:
+    """The volume copied into bricks of ``(8 + 1)**3`` points, cached on the volume.
+
+    A sample's eight neighbours then sit in one small contiguous block whatever the
+    view direction (see ``_kernels.make_bricks``).
+    """
+
+    def __init__(self, volume):
+        size = 1 << K.BRICK_SHIFT
+        self.shape = _grid_shape(volume.dims, size)
+        self.values = np.empty(int(np.prod(self.shape)) * (size + 1) ** 3, dtype=volume.values.dtype)
+        K.make_bricks(volume.values, K.BRICK_SHIFT, self.values)
+
+    @classmethod
+    def of(cls, volume):
+        if "bricks" not in volume.cache:
+            volume.cache["bricks"] = cls(volume)
+        return volume.cache["bricks"]
+
+
 class BlockGrid:
-    """The volume in bricks, with the min/max of each: empty-space skipping and culling.
+    """Min/max of the volume per block: empty-space leaping and culling.
 
     Built once per :class:`GridVolume` and block size, then cached on the volume.
 
     Attributes
     ----------
-    bricks : ndarray, flat
-        ``(size + 1)**3`` points per brick (see ``_kernels.make_bricks``).
     minimum, maximum : ndarray, shape (bz, by, bx), float64
-        Range of each brick's points (NaN ignored; ``+inf/-inf`` for an all-NaN brick).
+        Range of the points each block's cells touch (NaN ignored; ``+inf/-inf`` for
+        an all-NaN block).
     block_size : int
         Cells per block edge.
     """
 
-    def __init__(self, volume, block_size=8):
-        shift = int(round(math.log2(block_size)))
-        nx, ny, nz = volume.dims
-        shape = tuple(max(1, -(-(max(n - 1, 1)) // block_size)) for n in (nz, ny, nx))
+    def __init__(self, volume, block_size=4):
         self.block_size = block_size
-        self.shift = shift
-        pitch = block_size + 1
-        self.bricks = np.empty(int(np.prod(shape)) * pitch**3, dtype=volume.values.dtype)
-        K.make_bricks(volume.values, shift, self.bricks)
+        self.shift = int(round(math.log2(block_size)))
+        shape = _grid_shape(volume.dims, block_size)
         self.minimum = np.empty(shape)
         self.maximum = np.empty(shape)
-        K.block_ranges(self.bricks, shift, self.minimum, self.maximum)
+        K.block_ranges(volume.values, self.shift, self.minimum, self.maximum)
 
     @classmethod
-    def of(cls, volume, block_size=8):
+    def of(cls, volume, block_size=4):
         """The cached block grid of ``volume`` (built on first use)."""
         key = ("blocks", block_size)
         if key not in volume.cache:
@@ -108,6 +127,46 @@ class BlockGrid:
             i1 = np.ceil(uhi * (n - 1)).astype(np.int64)
         vis = (nonzero[i1 + 1] - nonzero[i0]) > 0
         return (vis & ~all_nan).astype(np.uint8)
+
+
+def leap_radius(active, cap=255):
+    """Empty-space leaping distances over the block grid.
+
+    Parameters
+    ----------
+    active : ndarray of bool or uint8, shape (bz, by, bx)
+        Blocks to sample.
+
+    Returns
+    -------
+    ndarray, uint8, same shape
+        0 for an active block; else the Chebyshev distance ``r`` (in blocks, at most
+        ``cap``) to the nearest active block, so every block within ``r - 1`` of it is
+        empty. Blocks outside the grid count as empty (a ray leaves the volume there).
+
+    Examples
+    --------
+    >>> a = np.zeros((1, 1, 6), bool); a[0, 0, 0] = True
+    >>> leap_radius(a).tolist()
+    [[[0, 1, 2, 3, 4, 5]]]
+    """
+    reached = np.asarray(active).astype(bool)
+    radius = np.where(reached, 0, cap).astype(np.uint8)
+    r = 1
+    while r < cap and not reached.all() and reached.any():
+        grown = reached.copy()
+        for axis in range(3):  # a Chebyshev dilation is three 1-D dilations
+            step = grown.copy()
+            lo = [slice(None)] * 3
+            hi = [slice(None)] * 3
+            lo[axis], hi[axis] = slice(1, None), slice(None, -1)
+            step[tuple(lo)] |= grown[tuple(hi)]
+            step[tuple(hi)] |= grown[tuple(lo)]
+            grown = step
+        radius[grown & ~reached] = r
+        reached = grown
+        r += 1
+    return np.ascontiguousarray(radius)
 
 
 def _axis_position(values, params):
@@ -225,7 +284,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         float(step_world), PRECISION_CODES[prec], SCALE_CODES[tf.scale],
         float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
         1.0 - opts.termination if opts.termination > 0 else math.inf,
-        float(opts.depth_threshold), int(blocks.shift), bool(opts.skip_empty or block_mask is not None),
+        float(opts.depth_threshold), int(blocks.shift),
     )
     if prec == "uint8":
         params = params._replace(scale=SCALE_CODES["linear"], axis_lo=0.0, axis_inv_range=1.0 / 255.0)
@@ -238,8 +297,9 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         if mask.dtype != np.bool_:
             raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
         active = active & mask.astype(np.uint8)
-    active = np.ascontiguousarray(active, dtype=np.uint8).reshape(-1)  # flat, (z, y, x) order
-    block_shape = np.array(blocks.shape, dtype=np.int64)
+    leap = leap_radius(active).reshape(-1)  # flat, (z, y, x) order
+    bricks = Bricks.of(volume)
+    grids = np.array(blocks.shape + bricks.shape, dtype=np.int64)
 
     out_dtype = np.float64 if prec == "float64" else np.float32
     rgba = np.zeros((height * width, 4), dtype=out_dtype)
@@ -259,7 +319,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
             # each chunk is every n_chunks-th row of tiles: a uniform sample of the image
             tile_rows = np.ascontiguousarray(all_tile_rows[c::n_chunks])
             if not flat:
-                K.render_tiles(blocks.bricks, table, sigma, active, block_shape, dims, origins, directions, width, height,
+                K.render_tiles(bricks.values, table, sigma, leap, grids, dims, origins, directions, width, height,
                                _TILE, tile_rows, lanes, lo, hi, params, rgba, depth, samples)
             if bar is not None:
                 bar.update(int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum()))

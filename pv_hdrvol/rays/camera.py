@@ -125,15 +125,15 @@ class Camera:
         half_w = half_h * w / h
         x = ((np.arange(w) + 0.5) * (2.0 / w) - 1.0) * half_w
         y = (1.0 - (np.arange(h) + 0.5) * (2.0 / h)) * half_h
-        xx, yy = np.meshgrid(x, y)
-        xx, yy = xx.reshape(-1, 1), yy.reshape(-1, 1)
         pos = np.asarray(self.position)
+        grid = x[None, :, None] * right + y[:, None, None] * up  # (h, w, 3)
         if self.parallel_projection:
-            origins = pos + xx * right + yy * up
+            origins = (pos + grid).reshape(-1, 3)
             directions = np.broadcast_to(fwd, origins.shape).copy()
         else:
-            directions = fwd + xx * right + yy * up
-            directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+            # the basis is orthonormal: |fwd + x right + y up|^2 = 1 + x^2 + y^2
+            inv_len = 1.0 / np.sqrt(1.0 + x[None, :] ** 2 + y[:, None] ** 2)
+            directions = ((grid + fwd) * inv_len[:, :, None]).reshape(-1, 3)
             origins = np.broadcast_to(pos, directions.shape).copy()
         return Rays(np.ascontiguousarray(origins), np.ascontiguousarray(directions), w, h)
 

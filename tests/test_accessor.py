@@ -147,3 +147,19 @@ def test_repr_and_cache(grid):
     assert repr(accessor) == ("<hdrvol accessor of ImageData (12, 10, 9); arrays: point 'density', point 'other', "
                               "cell 'other'; active scalars: 'density'; call .render(scalars=, tf=, camera=, size=, "
                               "**options)>")
+
+
+def test_second_render_reuses_the_prepared_volume_until_the_dataset_changes():
+    grid = pv.ImageData(dimensions=(9, 9, 9))
+    grid["v"] = np.linspace(0.0, 1.0, grid.n_points)
+    tf = hv.TransferFunction.ramp(0.0, 1.0, cmap="gray", opacity=(0.0, 0.3))
+    first = grid.hdrvol.render(tf=tf, size=(8, 8), precision="float64")
+    volume = grid.hdrvol._volumes.get(grid, None, "point")
+    again = grid.hdrvol.render(tf=tf, size=(8, 8), precision="float64")
+    assert grid.hdrvol._volumes.get(grid, None, "point") is volume  # bricks built once
+    np.testing.assert_array_equal(first.rgba, again.rgba)
+    grid["v"][:] = 0.0  # in-place edit, then tell VTK, as its pipelines require
+    grid.Modified()
+    changed = grid.hdrvol.render(tf=tf, size=(8, 8), precision="float64")
+    assert grid.hdrvol._volumes.get(grid, None, "point") is not volume
+    assert not changed.rgba.any()

@@ -38,4 +38,27 @@ def resolve_camera(camera, bounds):
             f"pyvista.Plotter, a pyvista.Camera or a vtkCamera; got {type(camera).__name__}") from None
 
 
-__all__ = ["resolve_camera"]
+class VolumeCache:
+    """The :class:`~pv_hdrvol.GridVolume` of a dataset, kept while the dataset is unchanged.
+
+    A GridVolume carries what the first render builds (bricks, block ranges), so a
+    second render of the same data (another transfer function, camera or size) skips
+    that work. The key is the array choice and the dataset's VTK modification time,
+    which covers its arrays: after changing values in place through numpy, call
+    ``dataset.Modified()``, as VTK pipelines require too.
+    """
+
+    def __init__(self):
+        self._key = None
+        self._volume = None
+
+    def get(self, dataset, scalars, preference):
+        from ..data.grid import volume_from_dataset
+
+        key = (scalars, preference, dataset.GetMTime())
+        if key != self._key:
+            self._volume, self._key = volume_from_dataset(dataset, scalars=scalars, preference=preference), key
+        return self._volume
+
+
+__all__ = ["VolumeCache", "resolve_camera"]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pyvista as pv
 
-from . import resolve_camera
+from . import VolumeCache, resolve_camera
 
 _IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
 
@@ -31,6 +31,7 @@ class HDRVolAccessor:
 
     def __init__(self, dataset):
         self._dataset = dataset
+        self._volumes = VolumeCache()
 
     def _check_renderable(self):
         ds = self._dataset
@@ -88,12 +89,12 @@ class HDRVolAccessor:
         ScalarsError
             (a ``ValueError``) when ``scalars`` is missing or ambiguous.
         """
-        from .. import render
+        from ..raycast.grid import render_volume
 
         self._check_renderable()
         cam = resolve_camera(camera, self._dataset.bounds)
-        return render(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
-                      progress_bar=progress_bar, progress=progress, **options)
+        volume = self._volumes.get(self._dataset, scalars, preference)
+        return render_volume(volume, tf, cam, size, progress_bar=progress_bar, progress=progress, **options)
 
     def __repr__(self):
         ds = self._dataset

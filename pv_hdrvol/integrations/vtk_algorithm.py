@@ -18,7 +18,7 @@ from .._validate import as_choice, as_size
 from ..data.transfer import TransferFunction
 from ..params import RenderOptions
 from ..rays.camera import Camera, Rays
-from . import resolve_camera
+from . import VolumeCache, resolve_camera
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -91,6 +91,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         self._tf = None
         self._camera = None
         self._last_error = None
+        self._volumes = VolumeCache()  # bricks survive re-executions for a new camera or TF
 
     # -- render options: one RenderOptions, replaced by every setter ------------------
     def _set_options(self, **changes):
@@ -268,7 +269,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             f"HDRVolumeRenderer ({address}): {self._last_error}\n\n")
 
     def _execute(self, inInfo, outInfo):
-        from .. import render
+        from ..raycast.grid import render_volume
 
         inp = vtkImageData.GetData(inInfo[0])
         out = vtkImageData.GetData(outInfo)
@@ -282,8 +283,8 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             return not self._should_abort()
 
         try:
-            image = render(inp, self._tf, camera, self._size, scalars=scalars, preference=preference,
-                           options=self._options, progress=progress)
+            volume = self._volumes.get(inp, scalars, preference)
+            image = render_volume(volume, self._tf, camera, self._size, options=self._options, progress=progress)
         except RuntimeError:
             if self._should_abort():
                 out.Initialize()  # an aborted render leaves no output

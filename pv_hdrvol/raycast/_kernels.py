@@ -4,7 +4,7 @@ Nothing here validates or allocates; ``raycast/grid.py`` does that. Modes are sm
 integer constants inside the ``GridParams`` tuple (kept in numba's on-disk cache,
 unlike jitted callables passed as arguments).
 
-The volume is stored in bricks of ``(size + 1)**3`` points (one shared plane per
+The volume is stored in bricks of ``(8 + 1)**3`` points (one shared plane per
 side), so a sample's eight neighbours sit in one small contiguous block of memory
 whatever the view direction; a plain (z, y, x) array strides whole planes apart,
 which on power-of-two volumes maps every plane to the same cache set.
@@ -97,8 +97,7 @@ def round_u8(x):
 
 @inline_kernel
 def _round(x, precision):
-    if precision == F32:
-        return np.float64(np.float32(x))
+    """Round to what an emulated ``float16`` or ``uint8`` buffer stores (else unchanged)."""
     if precision == F16:
         return round_half(x)
     if precision == U8:

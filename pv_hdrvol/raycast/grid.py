@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from ..data.grid import GridVolume, volume_from_array, volume_from_dataset
-from ..data.transfer import SCALE_CODES, TransferFunction, scale_forward
+from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, scale_forward
 from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays
@@ -171,15 +171,8 @@ def leap_radius(active, cap=255):
 
 def _axis_position(values, params):
     """``_kernels.table_position`` in numpy, unclipped (float64)."""
-    v = np.asarray(values, dtype=np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if params.scale == SCALE_CODES["log"]:
-            a = np.where(v > 0, np.log10(np.where(v > 0, v, 1.0)), -np.inf)
-        elif params.scale == SCALE_CODES["symlog"]:
-            a = np.copysign(np.log10(1.0 + np.abs(v) / params.linthresh), v)
-        else:
-            a = v
-        return (a - params.axis_lo) * params.axis_inv_range
+    axis = scale_forward(values, SCALES[params.scale], params.linthresh)
+    return (axis - params.axis_lo) * params.axis_inv_range
 
 
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,

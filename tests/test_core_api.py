@@ -258,3 +258,18 @@ def test_hdrimage_rejects_bad_arrays():
         hv.HDRImage(np.zeros((2, 2, 4), np.uint8))
     with pytest.raises(ValueError, match=r"depth must have shape \(2, 2\); got \(3,\)"):
         hv.HDRImage(np.zeros((2, 2, 4)), np.zeros(3))
+
+
+def test_vtk_round_trip_flips_rows_and_keeps_everything():
+    pytest.importorskip("vtkmodules")  # VTK is optional on ParaView's bare Python
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    img = hdr_test_image()
+    vimg = img.to_vtk()
+    assert vimg.GetDimensions() == (5, 6, 1)
+    flat = vtk_to_numpy(vimg.GetPointData().GetArray("rgba"))
+    np.testing.assert_array_equal(flat[:5], img.rgba[-1])  # VTK's first row is our bottom row
+    back = hv.HDRImage.from_pyvista(vimg)
+    np.testing.assert_array_equal(back.rgba, img.rgba)
+    np.testing.assert_array_equal(back.depth, img.depth)
+    assert back.metadata == img.metadata

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import io as _io
+import json
 import os
 import pathlib
 
@@ -9,6 +10,9 @@ import numpy as np
 
 from . import display as _display
 from . import io as _fileio
+
+#: Field-data array of :meth:`HDRImage.to_vtk` that holds the metadata as JSON.
+_METADATA_ARRAY = "hdrvol_metadata"
 
 
 class HDRImage:
@@ -159,7 +163,8 @@ class HDRImage:
     def to_vtk(self):
         """A 2-D ``vtkImageData`` with point arrays ``rgba`` (4 comp.) and ``depth``.
 
-        VTK's row 0 is the bottom: rows are flipped here.
+        VTK's row 0 is the bottom: rows are flipped here. The metadata travels as JSON
+        in the field-data string array ``"hdrvol_metadata"``.
         """
         from vtkmodules.util.numpy_support import numpy_to_vtk
         from vtkmodules.vtkCommonDataModel import vtkImageData
@@ -175,6 +180,13 @@ class HDRImage:
         dep = numpy_to_vtk(np.ascontiguousarray(self.depth[::-1].reshape(-1)), deep=True)
         dep.SetName("depth")
         img.GetPointData().AddArray(dep)
+        if self.metadata:
+            from vtkmodules.vtkCommonCore import vtkStringArray
+
+            meta = vtkStringArray()
+            meta.SetName(_METADATA_ARRAY)
+            meta.InsertNextValue(json.dumps(self.metadata, default=str))
+            img.GetFieldData().AddArray(meta)
         return img
 
     def to_pyvista(self):
@@ -199,7 +211,9 @@ class HDRImage:
         data = vtk_to_numpy(arr).reshape(rows, cols, 4)[::-1]
         d = pd.GetArray(depth)
         dep = vtk_to_numpy(d).reshape(rows, cols)[::-1] if d is not None else None
-        return cls(np.array(data), None if dep is None else np.array(dep))
+        meta = image.GetFieldData().GetAbstractArray(_METADATA_ARRAY)
+        metadata = json.loads(meta.GetValue(0)) if meta is not None and meta.GetNumberOfValues() else None
+        return cls(np.array(data), None if dep is None else np.array(dep), metadata)
 
 
 def load(path):

@@ -15,7 +15,7 @@ __version__ = "0.1.0"
 
 
 def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, preference="point", options=None,
-           block_mask=None, progress_bar=False, progress=None, **option_kwargs):
+           block_mask=None, progress_bar=None, progress=None, **option_kwargs):
     """Render a volume to an :class:`HDRImage` (see :func:`render_volume` for all options).
 
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or

@@ -273,3 +273,14 @@ def test_vtk_round_trip_flips_rows_and_keeps_everything():
     np.testing.assert_array_equal(back.rgba, img.rgba)
     np.testing.assert_array_equal(back.depth, img.depth)
     assert back.metadata == img.metadata
+
+
+def test_progress_bar_appears_only_when_asked_or_after_a_second(capsys):
+    vol = np.ones((8, 8, 8))
+    hv.render(vol, None, None, (16, 16))  # default None: fast renders print nothing
+    assert capsys.readouterr().err == ""
+    pytest.importorskip("tqdm")
+    hv.render(vol, None, None, (16, 16), progress_bar=True)
+    assert "Rendering" in capsys.readouterr().err
+    with pytest.raises(TypeError, match="progress_bar must be True, False or None"):
+        hv.render(vol, None, None, (16, 16), progress_bar="yes")

@@ -46,7 +46,7 @@ class HDRVolAccessor:
                         "(resample it onto an ImageData first, e.g. with dataset.sample())")
 
     def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point",
-               progress_bar=False, progress=None, **options):
+               progress_bar=None, progress=None, **options):
         """Ray cast the dataset into a linear float :class:`~pv_hdrvol.HDRImage`.
 
         The dataset is not modified.
@@ -67,8 +67,9 @@ class HDRVolAccessor:
             Pixels.
         preference : {"point", "cell"}
             Association used when ``scalars`` names both a point and a cell array.
-        progress_bar : bool
-            Show a tqdm progress bar.
+        progress_bar : bool or None
+            ``None`` (default): a tqdm bar once the render has taken 1 s; ``True``:
+            always; ``False``: never.
         progress : callable, optional
             ``progress(fraction)``; returning ``False`` aborts with ``RuntimeError``.
         **options

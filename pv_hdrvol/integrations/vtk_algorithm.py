@@ -284,7 +284,9 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
 
         try:
             volume = self._volumes.get(inp, scalars, preference)
-            image = render_volume(volume, self._tf, camera, self._size, options=self._options, progress=progress)
+            # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm
+            image = render_volume(volume, self._tf, camera, self._size, options=self._options, progress=progress,
+                                  progress_bar=False)
         except RuntimeError:
             if self._should_abort():
                 out.Initialize()  # an aborted render leaves no output

@@ -176,7 +176,7 @@ def _axis_position(values, params):
 
 
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,
-                  progress=None, progress_bar=False, **option_kwargs):
+                  progress=None, progress_bar=None, **option_kwargs):
     """Ray cast an image volume into an :class:`~pv_hdrvol.HDRImage`.
 
     Parameters
@@ -199,8 +199,10 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     progress : callable, optional
         Called with the fraction done (0..1) after each chunk of rows; if it returns
         ``False`` the render stops and raises ``RuntimeError("render aborted")``.
-    progress_bar : bool
-        Show a tqdm progress bar.
+    progress_bar : bool or None
+        ``None`` (default): a tqdm progress bar appears once a render has taken 1 s
+        (renders that finish sooner print nothing); ``True``: always; ``False``:
+        never.
 
     Returns
     -------
@@ -302,10 +304,10 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     # a volume with one point along an axis has no thickness: nothing to integrate
     flat = min(volume.dims) < 2
     tile_count_y = -(-height // _TILE)
-    n_chunks = max(1, min(tile_count_y // 4, 64)) if (progress or progress_bar) else 1
+    bar = _progress_bar(progress_bar, height)
+    n_chunks = max(1, min(tile_count_y // 4, 64)) if (progress is not None or bar is not None) else 1
     all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
     lanes = _lanes()
-    bar = _progress_bar(progress_bar, height)
     t_start = time.perf_counter()
     try:
         for c in range(n_chunks):
@@ -364,10 +366,15 @@ def _lanes():
 
 
 def _progress_bar(enabled, total):
-    if not enabled:
+    """A tqdm bar over ``total`` rows: always (True), never (False), or after 1 s (None)."""
+    if enabled is False:
         return None
+    if enabled not in (True, None):
+        raise TypeError(f"progress_bar must be True, False or None (after 1 s); got {enabled!r}")
     try:
         from tqdm.auto import tqdm
-    except ImportError:  # pragma: no cover
+    except ImportError:
+        if enabled is None:
+            return None  # the automatic bar is a convenience: no tqdm, no bar
         raise ImportError("progress_bar=True needs tqdm (pip install tqdm)") from None
-    return tqdm(total=total, desc="Rendering", unit="rows")
+    return tqdm(total=total, desc="Rendering", unit="rows", delay=0.0 if enabled else 1.0)

@@ -241,10 +241,10 @@ def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, 
     with ``t`` in world units: ``d`` is the world direction divided by the spacing.
 
     Front to back, each sample adds ``w = (1 - A) a_i`` to the accumulated opacity
-    ``A`` and ``w c_i`` to the colour. ``1 - a_i`` is never formed: in float32, 1 - 1e-7 rounds to
-    1 - 1.19e-7, and multiplying transmittance by it loses 19% over 4,096 samples;
-    ``A`` itself is small there and sums exactly. float32 works in float32 arithmetic
-    with compensated (Kahan) sums. ``float16``/``uint8`` apply the
+    ``A`` and ``w c_i`` to the colour. ``1 - a_i`` is never formed: in float32,
+    1 - 1e-7 rounds to 1 - 1.19e-7, and multiplying transmittance by it loses 19% over
+    4,096 samples; ``A`` itself is small there and sums exactly. float32 works in
+    float32 arithmetic with compensated (Kahan) sums. ``float16``/``uint8`` apply the
     conventional ``over`` operator in that buffer precision, for comparison.
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
@@ -267,11 +267,9 @@ def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, 
     n_table = table.shape[0]
     prec = p.precision
     step = p.step
-    # the ray in voxel coordinates, t in world units: position(t) = v + t * u
-    vx, vy, vz, ux, uy, uz = ox, oy, oz, dx, dy, dz
-    rx = 1.0 / ux if ux != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
-    ry = 1.0 / uy if uy != 0.0 else 0.0
-    rz = 1.0 / uz if uz != 0.0 else 0.0
+    rx = 1.0 / dx if dx != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
+    ry = 1.0 / dy if dy != 0.0 else 0.0
+    rz = 1.0 / dz if dz != 0.0 else 0.0
     n_seg = int(math.ceil((t1 - t0) / step))
     if n_seg < 1:
         n_seg = 1
@@ -296,9 +294,9 @@ def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, 
         ta = t0 + k * step
         last = k == n_seg - 1
         tm = 0.5 * (ta + t1) if last else ta + 0.5 * step
-        xi, fx = _cell(vx + tm * ux, x_max, nx)
-        yi, fy = _cell(vy + tm * uy, y_max, ny)
-        zi, fz = _cell(vz + tm * uz, z_max, nz)
+        xi, fx = _cell(ox + tm * dx, x_max, nx)
+        yi, fy = _cell(oy + tm * dy, y_max, ny)
+        zi, fz = _cell(oz + tm * dz, z_max, nz)
         ib = xi >> shift
         jb = yi >> shift
         kb = zi >> shift
@@ -307,8 +305,8 @@ def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, 
         if radius != 0:
             # empty: leave the cube of blocks within radius - 1 of this one, landing on the
             # first lattice segment whose midpoint lies past it
-            te = min(_axis_exit(vx, rx, ib, radius, size), _axis_exit(vy, ry, jb, radius, size),
-                     _axis_exit(vz, rz, kb, radius, size))
+            te = min(_axis_exit(ox, rx, ib, radius, size), _axis_exit(oy, ry, jb, radius, size),
+                     _axis_exit(oz, rz, kb, radius, size))
             kn = int(math.ceil((te - t0) / step - 0.5))
             k = kn if kn > k else k + 1
             continue

@@ -11,9 +11,9 @@ from typing import Optional
 
 from ._validate import as_choice, as_int, as_real
 
-#: Compositing precisions. ``float64`` and ``float32`` composite in that arithmetic
-#: through accumulated optical depth; ``float16`` and ``uint8`` *emulate* the
-#: conventional ``over`` operator in half-float and 8-bit buffers, for comparison.
+#: Compositing precisions. ``float64`` and ``float32`` composite in that arithmetic by
+#: accumulated opacity, never forming ``1 - alpha``; ``float16`` and ``uint8`` *emulate*
+#: the conventional ``over`` operator in half-float and 8-bit buffers, for comparison.
 PRECISIONS = ("float64", "float32", "float16", "uint8")
 
 # Integer codes the kernels switch on (see raycast/_kernels.py).
@@ -37,7 +37,7 @@ class RenderOptions:
         buffers lose.
     global_alpha : float
         Multiplier in ``(0, 1]`` applied to every opacity of the transfer function.
-        It stays meaningful at 1e-6: compositing works with optical depth, not with
+        It stays meaningful at 1e-6: compositing accumulates opacity and never forms
         ``1 - alpha``.
     opacity_unit_distance : float or None
         World length over which a transfer-function opacity ``a`` is reached

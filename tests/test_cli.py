@@ -152,3 +152,16 @@ def test_console_script_demo(tmp_path):
     assert "dynamic range:" in result.stdout and "decades" in result.stdout
     assert _png_size(tmp_path / "demo.png") == (16, 16)
     assert hv.load(tmp_path / "demo.exr").shape == (16, 16)
+
+
+def test_transfer_function_options_on_a_constant_volume(tmp_path):
+    # the data range is empty: the ramp takes the default's range [v, v + 1] instead of failing
+    path = tmp_path / "const.vti"
+    grid = pv.ImageData(dimensions=(6, 6, 6))
+    grid["v"] = np.full(grid.n_points, 2.0)
+    grid.save(path)
+    out = tmp_path / "c.exr"
+    args = ["render", str(path), "--cmap", "gray", "--opacity", "0.5", "0.5", "-o", str(out), "--size", "8",
+            "--no-progress"]
+    assert main(args) == 0
+    assert hv.load(out).rgba[..., 3].max() > 0

@@ -205,17 +205,18 @@ def _transfer_function(args, volume):
     default = default_transfer_function(volume)
     scale = args.scale or default.scale
     lo, hi = volume.value_range
-    if args.vmin is not None:
-        vmin = args.vmin
+    if scale == default.scale:
+        vmin, vmax = default.vmin, default.vmax  # the data range, as the default maps it
     elif scale == "log":
         values = volume.values
         positive = values[values > 0]
         if positive.size == 0:
             raise UserError(f"--scale log needs positive data; {volume.name!r} has none (range [{lo:g}, {hi:g}])")
-        vmin = float(positive.min())
+        vmin, vmax = float(positive.min()), hi
     else:
-        vmin = lo
-    vmax = args.vmax if args.vmax is not None else hi
+        vmin, vmax = lo, hi
+    vmin = args.vmin if args.vmin is not None else vmin
+    vmax = args.vmax if args.vmax is not None else vmax
     try:
         return TransferFunction.ramp(vmin, vmax, scale=scale, cmap=args.cmap or "magma",
                                      opacity=tuple(args.opacity) if args.opacity else (0.0, 1.0))

@@ -36,7 +36,6 @@ The data directory is ``../shared/data`` relative to the repository root, or
 from __future__ import annotations
 
 import argparse
-import copy
 import datetime
 import json
 import math
@@ -237,10 +236,7 @@ def run_case(name, image, volume, tf_name, tf, size, repeat, images_dir=None):
     case = {"dataset": name, "size": list(size), "tf": tf_name, "step_voxels": STEP, "load_before": load()}
     print(f"\n{name} {size[0]}x{size[1]} {tf_name}  (load {case['load_before']})", flush=True)
 
-    # one copy of the transfer function per precision: its table cache holds one entry,
-    # so alternating precisions on one object would rebuild the table every frame
-    tf_copy = {p: copy.deepcopy(tf) for p in ("float32", "float64")}
-    ours = {p: (lambda p=p: hv.render(volume, tf_copy[p], camera, size, step=STEP, precision=p)) for p in tf_copy}
+    ours = {p: (lambda p=p: hv.render(volume, tf, camera, size, step=STEP, precision=p)) for p in ("float32", "float64")}
     scenes = {k: VTKScene(k, image, tf, camera, size, STEP, unit) for k in ("fixed", "gpu")}
     case["vtk_sample_distance"] = scenes["fixed"].sample_distance
     case["opacity_unit_distance"] = unit

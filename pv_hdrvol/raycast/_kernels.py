@@ -400,8 +400,8 @@ def render_tiles(bricks, table, sigma, leap, grids, dims, origins, directions, w
 
 
 @kernel
-def make_bricks(values, shift, out):
-    """Copy ``values`` (z, y, x) into bricks of ``(size + 1)**3`` points.
+def make_bricks(values, shift, bz, by, bx, out):
+    """Copy ``values`` (z, y, x) into a (bz, by, bx) grid of bricks of ``(size + 1)**3`` points.
 
     Brick ``(kb, jb, ib)`` holds points ``[b * size, b * size + size]`` on each axis (the
     last plane duplicates the next brick's first: trilinear interpolation never leaves
@@ -411,9 +411,6 @@ def make_bricks(values, shift, out):
     nz, ny, nx = values.shape
     size = 1 << shift
     pitch = size + 1
-    bx = max(1, (max(nx - 1, 1) + size - 1) // size)
-    by = max(1, (max(ny - 1, 1) + size - 1) // size)
-    bz = max(1, (max(nz - 1, 1) + size - 1) // size)
     q = 0
     for kb in range(bz):
         for jb in range(by):

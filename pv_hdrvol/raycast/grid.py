@@ -59,7 +59,7 @@ class Bricks:
         size = 1 << K.BRICK_SHIFT
         self.shape = _grid_shape(volume.dims, size)
         self.values = np.empty(int(np.prod(self.shape)) * (size + 1) ** 3, dtype=volume.values.dtype)
-        K.make_bricks(volume.values, K.BRICK_SHIFT, self.values)
+        K.make_bricks(volume.values, K.BRICK_SHIFT, *self.shape, self.values)
 
     @classmethod
     def of(cls, volume):

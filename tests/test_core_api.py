@@ -275,11 +275,19 @@ def test_vtk_round_trip_flips_rows_and_keeps_everything():
     assert back.metadata == img.metadata
 
 
-def test_progress_bar_appears_only_when_asked_or_after_a_second(capsys):
-    vol = np.ones((8, 8, 8))
-    hv.render(vol, None, None, (16, 16))  # default None: fast renders print nothing
+def test_progress_bar_appears_only_when_asked_or_for_slow_renders(capsys, monkeypatch):
+    import pv_hdrvol.raycast.grid as grid
+
+    vol = np.linspace(0, 1, 16**3).reshape(16, 16, 16)
+    plain = hv.render(vol, None, None, (64, 64), progress_bar=False)
+    fast = hv.render(vol, None, None, (64, 64))  # default None: a quick render prints nothing
     assert capsys.readouterr().err == ""
+    np.testing.assert_array_equal(fast.rgba, plain.rgba)
     pytest.importorskip("tqdm")
+    monkeypatch.setattr(grid, "_AUTO_BAR_SECONDS", 0.0)  # every render now counts as slow
+    slow = hv.render(vol, None, None, (64, 64))
+    assert "Rendering" in capsys.readouterr().err
+    np.testing.assert_array_equal(slow.rgba, plain.rgba)  # chunking changes no pixel
     hv.render(vol, None, None, (16, 16), progress_bar=True)
     assert "Rendering" in capsys.readouterr().err
     with pytest.raises(TypeError, match="progress_bar must be True, False or None"):

@@ -16,6 +16,8 @@ from . import _kernels as K
 
 # Rays are cast in square tiles of this many pixels a side (cache locality).
 _TILE = 8
+# progress_bar=None shows a bar for renders expected to take longer than this (seconds).
+_AUTO_BAR_SECONDS = 1.0
 
 
 def as_volume(data, scalars=None, preference="point"):
@@ -197,12 +199,12 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         Render only these blocks (visibility culling, parallel rendering). Blocks
         outside the mask are treated as empty.
     progress : callable, optional
-        Called with the fraction done (0..1) after each chunk of rows; if it returns
+        Called with the fraction of rows done (0..1) after each chunk; if it returns
         ``False`` the render stops and raises ``RuntimeError("render aborted")``.
     progress_bar : bool or None
-        ``None`` (default): a tqdm progress bar appears once a render has taken 1 s
-        (renders that finish sooner print nothing); ``True``: always; ``False``:
-        never.
+        ``None`` (default): a tqdm progress bar for renders that will take over 1 s,
+        judged from the time of the first chunk (every n-th row of tiles); quicker
+        renders print nothing and run unchunked. ``True``: always; ``False``: never.
 
     Returns
     -------
@@ -304,21 +306,45 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     # a volume with one point along an axis has no thickness: nothing to integrate
     flat = min(volume.dims) < 2
     tile_count_y = -(-height // _TILE)
-    bar = _progress_bar(progress_bar, height)
-    n_chunks = max(1, min(tile_count_y // 4, 64)) if (progress is not None or bar is not None) else 1
     all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
     lanes = _lanes()
+
+    def cast(tile_rows):
+        if not flat:
+            K.render_tiles(bricks.values, table, sigma, leap, grids, dims, origins, directions, width, height,
+                           _TILE, np.ascontiguousarray(tile_rows), lanes, lo, hi, params, rgba, depth, samples)
+        return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
+
+    _check_progress_bar(progress_bar)
     t_start = time.perf_counter()
+    bar = None
+    done = 0
+    # Chunks are every n-th row of tiles, each a uniform sample of the image. Each chunk
+    # ends in a thread barrier, so a render is split only when someone watches it.
+    n = max(1, min(tile_count_y // 4, 64))
+    if progress is None and progress_bar is None:
+        # automatic bar: time the first chunk; go on in chunks with a bar only when the
+        # whole render would take over a second, else finish in one call
+        done = cast(all_tile_rows[::n])
+        if (time.perf_counter() - t_start) * n > _AUTO_BAR_SECONDS and n > 1:
+            bar = _progress_bar(True, height, quiet_without_tqdm=True)
+            chunks = [all_tile_rows[c::n] for c in range(1, n)]
+        else:
+            chunks = [all_tile_rows[all_tile_rows % n != 0]]
+    elif progress is None and not progress_bar:
+        chunks = [all_tile_rows]
+    else:
+        bar = _progress_bar(progress_bar, height)
+        chunks = [all_tile_rows[c::n] for c in range(n)]
     try:
-        for c in range(n_chunks):
-            # each chunk is every n_chunks-th row of tiles: a uniform sample of the image
-            tile_rows = np.ascontiguousarray(all_tile_rows[c::n_chunks])
-            if not flat:
-                K.render_tiles(bricks.values, table, sigma, leap, grids, dims, origins, directions, width, height,
-                               _TILE, tile_rows, lanes, lo, hi, params, rgba, depth, samples)
+        if bar is not None and done:
+            bar.update(done)
+        for tile_rows in chunks:
+            rows = cast(tile_rows) if tile_rows.size else 0
+            done += rows
             if bar is not None:
-                bar.update(int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum()))
-            if progress is not None and progress((c + 1) / n_chunks) is False:
+                bar.update(rows)
+            if progress is not None and progress(done / height) is False:
                 raise RuntimeError("render aborted")
     finally:
         if bar is not None:
@@ -365,16 +391,19 @@ def _lanes():
     return 8 * numba.get_num_threads()
 
 
-def _progress_bar(enabled, total):
-    """A tqdm bar over ``total`` rows: always (True), never (False), or after 1 s (None)."""
-    if enabled is False:
+def _check_progress_bar(value):
+    if value not in (True, False, None):
+        raise TypeError(f"progress_bar must be True, False or None (after 1 s); got {value!r}")
+
+
+def _progress_bar(enabled, total, quiet_without_tqdm=False):
+    """A tqdm bar over ``total`` rows when ``enabled`` (None without tqdm if ``quiet_without_tqdm``)."""
+    if not enabled:
         return None
-    if enabled not in (True, None):
-        raise TypeError(f"progress_bar must be True, False or None (after 1 s); got {enabled!r}")
     try:
         from tqdm.auto import tqdm
     except ImportError:
-        if enabled is None:
+        if quiet_without_tqdm:
             return None  # the automatic bar is a convenience: no tqdm, no bar
         raise ImportError("progress_bar=True needs tqdm (pip install tqdm)") from None
-    return tqdm(total=total, desc="Rendering", unit="rows", delay=0.0 if enabled else 1.0)
+    return tqdm(total=total, desc="Rendering", unit="rows")

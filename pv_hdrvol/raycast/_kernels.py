@@ -11,8 +11,11 @@ which on power-of-two volumes maps every plane to the same cache set.
 
 Per ray: clip to the box, march a lattice of segments of length ``step`` (the last
 one shortened to end exactly at the exit), sample each at its midpoint, classify
-through one interleaved (N, 4) table (r, g, b, opacity per step), and composite (start /
-accumulate / finish inside ``_march``).
+through one interleaved table (r, g, b, opacity per step; flat, 4 values per entry),
+and composite front to back.
+
+Indices known to be non-negative are cast to uint64 (``_u``) so numba emits no
+negative-index wraparound, which cost a compare and a conditional move per load.
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+from numba.extending import overload
 
 # precision codes (params.PRECISION_CODES)
 F64, F32, F16, U8 = 0, 1, 2, 3
@@ -30,9 +34,12 @@ LINEAR, LOG, SYMLOG = 0, 1, 2
 BRICK_SHIFT = 3
 
 
+_JIT = {"nogil": True, "cache": True, "error_model": "numpy"}
+
+
 def kernel(fn):
     """The one decorator every serial kernel uses: nogil, on-disk cache."""
-    return numba.njit(nogil=True, cache=True, error_model="numpy")(fn)
+    return numba.njit(**_JIT)(fn)
 
 
 def inline_kernel(fn):
@@ -141,37 +148,9 @@ def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi):
 
 
 @inline_kernel
-def _cell(x, x_max, n):
-    """Cell index and fraction of voxel coordinate ``x`` on ``n >= 2`` points.
-
-    Branch-free: ``x`` is clamped to ``[0, x_max = n - 1]`` and the index to ``n - 2``
-    (so ``x = n - 1`` gives the last cell with fraction 1).
-    """
-    x = min(max(x, 0.0), x_max)
-    i = min(int(x), n - 2)
-    return i, x - i
-
-
-@inline_kernel
-def _trilinear(bricks, base, pitch, li, lj, lk, fx, fy, fz):
-    """Trilinear interpolation inside one brick of ``pitch**3`` points, at ``base``."""
-    q = base + (lk * pitch + lj) * pitch + li
-    p2 = pitch * pitch
-    v000 = np.float64(bricks[q])
-    v100 = np.float64(bricks[q + 1])
-    v010 = np.float64(bricks[q + pitch])
-    v110 = np.float64(bricks[q + pitch + 1])
-    v001 = np.float64(bricks[q + p2])
-    v101 = np.float64(bricks[q + p2 + 1])
-    v011 = np.float64(bricks[q + p2 + pitch])
-    v111 = np.float64(bricks[q + p2 + pitch + 1])
-    c00 = v000 + fx * (v100 - v000)
-    c10 = v010 + fx * (v110 - v010)
-    c01 = v001 + fx * (v101 - v001)
-    c11 = v011 + fx * (v111 - v011)
-    c0 = c00 + fy * (c10 - c00)
-    c1 = c01 + fy * (c11 - c01)
-    return c0 + fz * (c1 - c0)
+def _u(i):
+    """An index known to be >= 0, as uint64: numba then skips its negative-index wraparound."""
+    return np.uint64(i)
 
 
 # -- classification ---------------------------------------------------------------------
@@ -221,6 +200,233 @@ def _axis_exit(o, inv_d, b, radius, size):
     return math.inf
 
 
+@inline_kernel
+def _probe(bricks, leap, g, x, y, z):
+    """The block radius at voxel position ``(x, y, z)`` and, in a block to sample, the value there.
+
+    ``g`` is the geometry tuple built in ``_march``. Returns ``(radius, ib, jb, kb, v)``:
+    ``radius`` from ``leap`` (0: sample) and the block indices; ``v`` is NaN when
+    ``radius != 0`` (not sampled).
+
+    Written out without calling other jitted helpers: numba 0.56 deep-copies the
+    dispatchers an inlined function refers to, which made compiling this loop take
+    minutes. Each coordinate is clamped to ``[0, n - 1]`` and its cell index to
+    ``n - 2`` (so ``x = n - 1`` is the last cell with fraction 1).
+    """
+    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    x = min(max(x, 0.0), x_max)
+    y = min(max(y, 0.0), y_max)
+    z = min(max(z, 0.0), z_max)
+    xi = min(int(x), nx - 2)
+    yi = min(int(y), ny - 2)
+    zi = min(int(z), nz - 2)
+    ib = xi >> shift
+    jb = yi >> shift
+    kb = zi >> shift
+    radius = leap[np.uint64((kb * by + jb) * bx + ib)]
+    if radius != 0:
+        return radius, ib, jb, kb, math.nan
+    fx = x - xi
+    fy = y - yi
+    fz = z - zi
+    # trilinear interpolation inside one brick
+    m = (1 << BRICK_SHIFT) - 1
+    pitch = (1 << BRICK_SHIFT) + 1
+    brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
+    q = np.uint64(brick * (pitch * pitch * pitch) + ((zi & m) * pitch + (yi & m)) * pitch + (xi & m))
+    p1 = np.uint64(pitch)
+    p2 = np.uint64(pitch * pitch)
+    one = np.uint64(1)
+    v000 = np.float64(bricks[q])
+    v100 = np.float64(bricks[q + one])
+    v010 = np.float64(bricks[q + p1])
+    v110 = np.float64(bricks[q + p1 + one])
+    v001 = np.float64(bricks[q + p2])
+    v101 = np.float64(bricks[q + p2 + one])
+    v011 = np.float64(bricks[q + p2 + p1])
+    v111 = np.float64(bricks[q + p2 + p1 + one])
+    c00 = v000 + fx * (v100 - v000)
+    c10 = v010 + fx * (v110 - v010)
+    c01 = v001 + fx * (v101 - v001)
+    c11 = v011 + fx * (v111 - v011)
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    return 0, ib, jb, kb, c0 + fz * (c1 - c0)
+
+
+@kernel
+def _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
+    """The next segment after leaving the empty cube of blocks around ``(ib, jb, kb)``:
+    the first lattice segment whose midpoint lies past it (at least ``k + 1``)."""
+    te = min(_axis_exit(ox, rx, ib, radius, size), _axis_exit(oy, ry, jb, radius, size),
+             _axis_exit(oz, rz, kb, radius, size))
+    kn = int(math.ceil((te - t0) / step - 0.5))
+    return kn if kn > k else k + 1
+
+
+@kernel
+def _lookup(table, v, n, p):
+    """Interpolated table row ``(r, g, b, a)`` of data value ``v``, and its entry and fraction."""
+    i, f = _table_index(v, n, p)
+    q = _u(4 * i)
+    ft = table.dtype.type(f)  # lerp in the table's precision (float32 tables: no conversions)
+    r = table[q] + ft * (table[q + _u(4)] - table[q])
+    g = table[q + _u(1)] + ft * (table[q + _u(5)] - table[q + _u(1)])
+    b = table[q + _u(2)] + ft * (table[q + _u(6)] - table[q + _u(2)])
+    a = table[q + _u(3)] + ft * (table[q + _u(7)] - table[q + _u(3)])
+    return r, g, b, a, i, f
+
+
+# -- compositing: start / accumulate / finish, one implementation per precision -----------
+# Chosen at compile time by the type of a marker argument (float64, float32, or an int for
+# the emulations), so each precision's loop carries only its own accumulators: a single
+# loop with a runtime branch kept all twelve live and spilled them to the stack on every
+# sample. (numba's IR inlining would also specialise, but numba 0.56 takes minutes to
+# deep-copy the IR of a loop this size.)
+def _start(marker):
+    """Empty compositing state for the precision ``marker`` stands for (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+def _accumulate(marker, prec, state, a_i, r, g, b):
+    """Add one sample (opacity ``a_i``, colour ``r, g, b``) behind ``state`` (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+def _opacity(marker, state):
+    """Accumulated opacity of ``state``, float64 (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+def _finish(marker, state):
+    """``(r, g, b, alpha)`` of ``state`` as float64 (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+def _is_f32(marker):
+    return isinstance(marker, numba.types.Float) and marker.bitwidth == 32
+
+
+@overload(_start, jit_options=_JIT)
+def _start_impl(marker):
+    if _is_f32(marker):
+        def start32(marker):
+            z = np.float32(0.0)
+            return z, z, z, z, z, z, z, z  # r, g, b, alpha, then their Kahan compensations
+        return start32
+
+    def start64(marker):
+        return 0.0, 0.0, 0.0, 0.0
+    return start64
+
+
+@overload(_accumulate, jit_options=_JIT)
+def _accumulate_impl(marker, prec, state, a_i, r, g, b):
+    if _is_f32(marker):
+        def accumulate32(marker, prec, state, a_i, r, g, b):
+            # float32 arithmetic throughout, with compensated sums
+            r32, g32, b32, a32, er, eg, eb, ea = state
+            w = (np.float32(1.0) - a32) * np.float32(a_i)
+            r32, er = _kahan_add32(r32, er, w * np.float32(r))
+            g32, eg = _kahan_add32(g32, eg, w * np.float32(g))
+            b32, eb = _kahan_add32(b32, eb, w * np.float32(b))
+            a32, ea = _kahan_add32(a32, ea, w)
+            return r32, g32, b32, a32, er, eg, eb, ea
+        return accumulate32
+    if isinstance(marker, numba.types.Float):
+        def accumulate64(marker, prec, state, a_i, r, g, b):
+            # plain float64 sums are accurate to ~n eps
+            cr, cg, cb, alpha = state
+            w = (1.0 - alpha) * a_i
+            return cr + w * r, cg + w * g, cb + w * b, alpha + w
+        return accumulate64
+
+    def accumulate_emulated(marker, prec, state, a_i, r, g, b):
+        # the conventional `over` operator in a half-float or 8-bit buffer
+        cr, cg, cb, alpha = state
+        a = _round(np.float64(a_i), prec)
+        rest = _round(1.0 - alpha, prec)
+        cr = _round(cr + _round(rest * _round(a * r, prec), prec), prec)
+        cg = _round(cg + _round(rest * _round(a * g, prec), prec), prec)
+        cb = _round(cb + _round(rest * _round(a * b, prec), prec), prec)
+        return cr, cg, cb, _round(alpha + _round(rest * a, prec), prec)
+    return accumulate_emulated
+
+
+@overload(_opacity, jit_options=_JIT)
+def _opacity_impl(marker, state):
+    def opacity(marker, state):
+        return np.float64(state[3])
+    return opacity
+
+
+@overload(_finish, jit_options=_JIT)
+def _finish_impl(marker, state):
+    def finish(marker, state):
+        return np.float64(state[0]), np.float64(state[1]), np.float64(state[2]), np.float64(state[3])
+    return finish
+
+
+@kernel
+def _march_in(marker, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p):
+    """The sampling and compositing loop of ``_march``, compiled once per ``marker`` type.
+
+    Full segments take their opacity from the table; the last, shorter one from the
+    extinction ``sigma``.
+    """
+    step = p.step
+    size = 1 << p.block_shift
+    n_table = table.shape[0] // 4
+    rx = 1.0 / dx if dx != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
+    ry = 1.0 / dy if dy != 0.0 else 0.0
+    rz = 1.0 / dz if dz != 0.0 else 0.0
+    n_seg = int(math.ceil((t1 - t0) / step))
+    if n_seg < 1:
+        n_seg = 1
+    state = _start(marker)
+    depth = math.inf
+    samples = 0
+    stopped = False
+    k = 0
+    n_full = n_seg - 1
+    while k < n_full:
+        tm = t0 + (k + 0.5) * step
+        radius, ib, jb, kb, v = _probe(bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        if radius != 0:
+            k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+            continue
+        k += 1
+        if v != v:  # NaN in the stencil: empty
+            continue
+        samples += 1
+        r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
+        if a_i <= 0.0:
+            continue
+        state = _accumulate(marker, prec, state, a_i, r, gg, b)
+        alpha = _opacity(marker, state)
+        if depth == math.inf and alpha >= p.depth_alpha:
+            depth = tm
+        if alpha >= p.alpha_stop:
+            stopped = True
+            break
+    if not stopped:
+        # the last segment ends exactly at the exit and is shorter than a step: its
+        # opacity comes from the extinction column (the per-step one may have rounded to 1)
+        ta = t0 + n_full * step
+        tm = 0.5 * (ta + t1)
+        radius, ib, jb, kb, v = _probe(bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        if radius == 0 and v == v:
+            samples += 1
+            r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
+            if a_i > 0.0:
+                sg = sigma[_u(i)] + f * (sigma[_u(i + 1)] - np.float64(sigma[_u(i)]))
+                state = _accumulate(marker, prec, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
+                if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+                    depth = tm
+    cr, cg, cb, alpha = _finish(marker, state)
+    return cr, cg, cb, alpha, depth, samples
+
+
 @kernel
 def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
@@ -230,7 +436,7 @@ def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, 
     Chebyshev distance ``r`` (in blocks) to the nearest such block: the ray may leave
     the whole cube of blocks within ``r - 1`` at once (empty-space leaping).
 
-    ``table`` rows are ``(r, g, b, a)`` with ``a`` the opacity of one full ``step``
+    ``table`` is flat, 4 values per entry: ``(r, g, b, a)`` with ``a`` the opacity of one full ``step``
     (opacity-corrected on the host), so full segments need no exponential; ``sigma``
     (extinction per world unit, same rows) serves the shorter last segment.
 
@@ -246,125 +452,21 @@ def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, 
     4,096 samples; ``A`` itself is small there and sums exactly. float32 works in
     float32 arithmetic with compensated (Kahan) sums. ``float16``/``uint8`` apply the
     conventional ``over`` operator in that buffer precision, for comparison.
+
+    Each precision has its own compiled loop (``_march_in`` per marker type).
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
-    depth = math.inf
     if not t1 > t0:
-        return 0.0, 0.0, 0.0, 0.0, depth, 0
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     nx = dims[0]
     ny = dims[1]
     nz = dims[2]
-    x_max = nx - 1.0
-    y_max = ny - 1.0
-    z_max = nz - 1.0
-    by, bx = grids[1], grids[2]  # empty-space blocks
-    qy, qx = grids[4], grids[5]  # bricks
-    shift = p.block_shift
-    size = 1 << shift
-    brick_mask = (1 << BRICK_SHIFT) - 1
-    pitch = (1 << BRICK_SHIFT) + 1
-    brick_len = pitch * pitch * pitch
-    n_table = table.shape[0]
-    prec = p.precision
-    step = p.step
-    rx = 1.0 / dx if dx != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
-    ry = 1.0 / dy if dy != 0.0 else 0.0
-    rz = 1.0 / dz if dz != 0.0 else 0.0
-    n_seg = int(math.ceil((t1 - t0) / step))
-    if n_seg < 1:
-        n_seg = 1
-    # start: premultiplied colour and opacity (float64, and the emulations) ...
-    cr = 0.0
-    cg = 0.0
-    cb = 0.0
-    alpha = 0.0
-    # ... and in float32, with Kahan compensations
-    one32 = np.float32(1.0)
-    r32 = np.float32(0.0)
-    g32 = np.float32(0.0)
-    b32 = np.float32(0.0)
-    a32 = np.float32(0.0)
-    er32 = np.float32(0.0)
-    eg32 = np.float32(0.0)
-    eb32 = np.float32(0.0)
-    ea32 = np.float32(0.0)
-    samples = 0
-    k = 0
-    while k < n_seg:
-        ta = t0 + k * step
-        last = k == n_seg - 1
-        tm = 0.5 * (ta + t1) if last else ta + 0.5 * step
-        xi, fx = _cell(ox + tm * dx, x_max, nx)
-        yi, fy = _cell(oy + tm * dy, y_max, ny)
-        zi, fz = _cell(oz + tm * dz, z_max, nz)
-        ib = xi >> shift
-        jb = yi >> shift
-        kb = zi >> shift
-        block = (kb * by + jb) * bx + ib
-        radius = leap[block]
-        if radius != 0:
-            # empty: leave the cube of blocks within radius - 1 of this one, landing on the
-            # first lattice segment whose midpoint lies past it
-            te = min(_axis_exit(ox, rx, ib, radius, size), _axis_exit(oy, ry, jb, radius, size),
-                     _axis_exit(oz, rz, kb, radius, size))
-            kn = int(math.ceil((te - t0) / step - 0.5))
-            k = kn if kn > k else k + 1
-            continue
-        k += 1
-        brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
-        v = _trilinear(bricks, brick * brick_len, pitch, xi & brick_mask, yi & brick_mask, zi & brick_mask,
-                       fx, fy, fz)
-        if v != v:  # NaN in the stencil: empty
-            continue
-        samples += 1
-        i, f = _table_index(v, n_table, p)
-        a_i = table[i, 3] + f * (table[i + 1, 3] - np.float64(table[i, 3])) if f > 0.0 else np.float64(table[i, 3])
-        if a_i <= 0.0:
-            continue
-        if f > 0.0:
-            r = table[i, 0] + f * (table[i + 1, 0] - np.float64(table[i, 0]))
-            g = table[i, 1] + f * (table[i + 1, 1] - np.float64(table[i, 1]))
-            b = table[i, 2] + f * (table[i + 1, 2] - np.float64(table[i, 2]))
-        else:
-            r = np.float64(table[i, 0])
-            g = np.float64(table[i, 1])
-            b = np.float64(table[i, 2])
-        if last:
-            # the table holds the opacity of one full step; the last segment is shorter,
-            # so take its opacity from the extinction (a_i may have rounded to 1)
-            s = sigma[i] + f * (sigma[i + 1] - np.float64(sigma[i])) if f > 0.0 else np.float64(sigma[i])
-            a_i = -math.expm1(-s * (t1 - ta))
-        if prec == F64:
-            # accumulate: plain float64 sums are accurate to ~n eps
-            w = (1.0 - alpha) * a_i
-            cr += w * r
-            cg += w * g
-            cb += w * b
-            alpha += w
-        elif prec == F32:
-            # float32 arithmetic throughout, with compensated sums
-            w32 = (one32 - a32) * np.float32(a_i)
-            r32, er32 = _kahan_add32(r32, er32, w32 * np.float32(r))
-            g32, eg32 = _kahan_add32(g32, eg32, w32 * np.float32(g))
-            b32, eb32 = _kahan_add32(b32, eb32, w32 * np.float32(b))
-            a32, ea32 = _kahan_add32(a32, ea32, w32)
-            alpha = np.float64(a32)
-        else:
-            # the conventional `over` operator in a half-float or 8-bit buffer
-            a_i = _round(a_i, prec)
-            rest = _round(1.0 - alpha, prec)
-            cr = _round(cr + _round(rest * _round(a_i * r, prec), prec), prec)
-            cg = _round(cg + _round(rest * _round(a_i * g, prec), prec), prec)
-            cb = _round(cb + _round(rest * _round(a_i * b, prec), prec), prec)
-            alpha = _round(alpha + _round(rest * a_i, prec), prec)
-        if depth == math.inf and alpha >= p.depth_alpha:
-            depth = tm
-        if alpha >= p.alpha_stop:
-            break
-    # finish
-    if prec == F32:
-        return np.float64(r32), np.float64(g32), np.float64(b32), np.float64(a32), depth, samples
-    return cr, cg, cb, alpha, depth, samples
+    g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
+    if p.precision == F64:
+        return _march_in(0.0, F64, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
+    if p.precision == F32:
+        return _march_in(np.float32(0.0), F32, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
+    return _march_in(0, p.precision, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
 
 
 @parallel_kernel

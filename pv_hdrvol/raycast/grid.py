@@ -179,7 +179,7 @@ def _axis_position(values, params):
 
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,
                   progress=None, progress_bar=None, **option_kwargs):
-    """Ray cast an image volume into an :class:`~pv_hdrvol.HDRImage`.
+    r"""Ray cast an image volume into an :class:`~pv_hdrvol.HDRImage`.
 
     Parameters
     ----------
@@ -311,7 +311,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     def cast(tile_rows):
         if not flat:
-            K.render_tiles(bricks.values, table, sigma, leap, grids, dims, origins, directions, width, height,
+            K.render_tiles(bricks.values, table.reshape(-1), sigma, leap, grids, dims, origins, directions, width, height,
                            _TILE, np.ascontiguousarray(tile_rows), lanes, lo, hi, params, rgba, depth, samples)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
 

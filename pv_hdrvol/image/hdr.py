@@ -10,6 +10,7 @@ import numpy as np
 
 from . import display as _display
 from . import io as _fileio
+from . import rgbe as _rgbe
 
 #: Field-data array of :meth:`HDRImage.to_vtk` that holds the metadata as JSON.
 _METADATA_ARRAY = "hdrvol_metadata"
@@ -129,35 +130,56 @@ class HDRImage:
 
     # -- files -------------------------------------------------------------------
     def save(self, path, pixel_type="float32"):
-        """Save as OpenEXR (``.exr``: RGBA + Z, metadata in the header) or ``.npy``.
+        """Save to a file whose suffix picks the format.
 
-        ``pixel_type="float16"`` writes half RGBA (about 4.8e-4 relative error,
-        saturating at 65504); depth is always float32. float32 round-trips bit-exact.
+        - ``.exr``: OpenEXR, RGBA + Z, metadata in the header. ``pixel_type="float16"``
+          writes half RGBA (about 4.8e-4 relative error, saturating at 65504); depth is
+          always float32. float32 round-trips bit-exact.
+        - ``.hdr``: Radiance RGBE (run-length encoded), metadata in a ``PV_HDRVOL``
+          header line. Only the premultiplied RGB is stored, i.e. the image composited
+          over black, with 8-bit mantissas (within ``2**-8`` of each pixel's largest
+          component); alpha and depth are not representable and are dropped.
+          ``pixel_type`` is ignored. See :func:`pv_hdrvol.image.rgbe.write_hdr`.
+        - ``.npy``: RGBA and depth, bit-exact, no metadata.
+        - ``.png``: the default 8-bit display mapping (:meth:`save_png`).
         """
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()
         if ext == ".exr":
             _fileio.write_exr(path, self.rgba, self.depth, self.metadata, pixel_type)
+        elif ext == ".hdr":
+            # as for EXR, values JSON cannot hold (numpy scalars...) are saved as strings
+            metadata = json.loads(json.dumps(self.metadata, default=str))
+            _rgbe.write_hdr(path, self.rgba[..., :3], metadata)
         elif ext == ".npy":
             _fileio.write_npy(path, self.rgba, self.depth)
         elif ext == ".png":
             self.save_png(path)
         else:
-            raise ValueError(f"unknown image extension {ext!r}; use .exr, .npy or .png")
+            raise ValueError(f"unknown image extension {ext!r}; use .exr, .hdr, .npy or .png")
         return path
 
     @classmethod
     def load(cls, path):
-        """Read an image written by :meth:`save` (or any RGB(A) OpenEXR file)."""
+        """Read an image written by :meth:`save`, an RGB(A) OpenEXR or a Radiance RGBE file.
+
+        ``.exr`` and ``.npy`` give back what was saved. ``.hdr`` gives an opaque
+        picture: RGB as stored (``EXPOSURE`` not applied), alpha 1.0 everywhere, depth
+        ``inf``, metadata from the ``PV_HDRVOL`` header line.
+        """
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()
         if ext == ".exr":
             rgba, depth, meta = _fileio.read_exr(path)
             return cls(rgba, depth, meta)
+        if ext == ".hdr":
+            rgb, header = _rgbe.read_hdr(path)
+            rgba = np.concatenate([rgb, np.ones(rgb.shape[:2] + (1,), np.float32)], axis=2)
+            return cls(rgba, None, header["metadata"])
         if ext == ".npy":
             rgba, depth = _fileio.read_npy(path)
             return cls(rgba, depth)
-        raise ValueError(f"unknown image extension {ext!r}; use .exr or .npy")
+        raise ValueError(f"unknown image extension {ext!r}; use .exr, .hdr or .npy")
 
     # -- VTK / PyVista -----------------------------------------------------------
     def to_vtk(self):
@@ -217,7 +239,7 @@ class HDRImage:
 
 
 def load(path):
-    """Read an :class:`HDRImage` from ``.exr`` or ``.npy``."""
+    """Read an :class:`HDRImage` from ``.exr``, ``.hdr`` or ``.npy`` (see :meth:`HDRImage.load`)."""
     return HDRImage.load(path)
 
 

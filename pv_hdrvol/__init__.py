@@ -7,6 +7,7 @@ from . import datasets
 from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
 from .data.transfer import TransferFunction
 from .image.hdr import HDRImage, load
+from .image.tonemap import ToneMapped, tonemap
 from .params import PRECISIONS, RenderOptions
 from .rays.camera import Camera, Rays
 from .raycast.grid import BlockGrid, render_volume
@@ -30,5 +31,6 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 __all__ = [
     "datasets", "BlockGrid", "Camera", "GridVolume", "HDRImage", "PRECISIONS", "Rays", "RenderOptions", "ScalarsError",
-    "TransferFunction", "load", "render", "render_volume", "volume_from_array", "volume_from_dataset",
+    "ToneMapped", "TransferFunction", "load", "render", "render_volume", "tonemap", "volume_from_array",
+    "volume_from_dataset",
 ]

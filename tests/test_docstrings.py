@@ -9,6 +9,10 @@ MODULES = [
     "pv_hdrvol.rays.camera",
     "pv_hdrvol.raycast.grid",
     "pv_hdrvol.image.hdr",
+    "pv_hdrvol.image.tonemap",
+    "pv_hdrvol.image.detail",
+    "pv_hdrvol.image.views",
+    "pv_hdrvol.image.sequence",
     "pv_hdrvol.datasets",
 ]
 

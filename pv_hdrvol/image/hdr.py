@@ -119,6 +119,12 @@ class HDRImage:
         base = _display.auto_exposure(self.rgba)
         return [self.to_display(base + float(s)) for s in np.atleast_1d(stops)]
 
+    def tonemap(self, operator="reinhard", **kwargs):
+        """Tone map for display: :func:`pv_hdrvol.tonemap` on this image (returns a ``ToneMapped``)."""
+        from .tonemap import tonemap
+
+        return tonemap(self, operator, **kwargs)
+
     def save_png(self, path, exposure_stops=None):
         """Write the default display mapping as an 8-bit PNG."""
         _write_png(path, self.to_display(exposure_stops))

@@ -84,7 +84,7 @@ def _encode(x, enc, inv_gamma, lut):
 
 @parallel_kernel
 def map_pixels(rgb, display_lum, code, p, saturation, enc, inv_gamma, lut, out):
-    """Tone map ``rgb`` (n, 3) linear into ``out`` (n, 3) float32 display values in [0, 1].
+    """Tone map ``rgb`` (n, >= 3; extra columns such as alpha are ignored) linear into ``out`` (n, 3) float32 display values in [0, 1].
 
     Display luminance ``Ld`` comes from ``curve(code, p)`` or, for ``PRECOMPUTED``, from
     ``display_lum`` (n,). Colour: ``out_c = (c / L)**saturation * Ld`` (plain
@@ -133,3 +133,10 @@ def map_luminance(y, code, p, out):
             out[i] = 0.0
         else:
             out[i] = curve(v, code, p)
+
+
+@parallel_kernel
+def luminance(rgb, out):
+    """Rec. 709 luminance of the first three columns of ``rgb`` (n, >= 3) into ``out`` (n,) float64."""
+    for i in numba.prange(rgb.shape[0]):
+        out[i] = WR * np.float64(rgb[i, 0]) + WG * np.float64(rgb[i, 1]) + WB * np.float64(rgb[i, 2])

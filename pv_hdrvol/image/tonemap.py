@@ -648,35 +648,38 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
     >>> out.rgb[0, 0].tolist()
     [0.5, 0.5, 0.5]
     """
-    rgb = _as_rgb(image)
+    pixels = _as_pixels(image)  # (rows, cols, 3 or 4): the kernels read the first three
+    shape = pixels.shape[:2]
     op = make_operator(operator, **params)
-    weights = _roi_weights(roi, rgb.shape[:2])
+    weights = _roi_weights(roi, shape)
     if isinstance(op, Gamma) and encoding == "srgb":
         encoding = float(op.gamma)
     enc_code, inv_gamma = _encoding(encoding)
-    flat = np.ascontiguousarray(rgb.reshape(-1, 3))
-    y = None
-    if fitted is None:
-        y = (rgb.astype(np.float64, copy=False) @ LUMINANCE_WEIGHTS)
-        fitted = op.fit(y, weights)
-    elif not isinstance(fitted, Fitted):
+    if fitted is not None and not isinstance(fitted, Fitted):
         raise TypeError(f"fitted must be a Fitted (ToneMapped.fitted); got {type(fitted).__name__}")
-    out = np.empty(flat.shape, dtype=np.float32)
+    flat = np.ascontiguousarray(pixels).reshape(-1, pixels.shape[2])
+    y = None
+    if fitted is None or not fitted.is_global:
+        y = np.empty(flat.shape[0])
+        K.luminance(flat, y)
+        y = y.reshape(shape)
+    if fitted is None:
+        fitted = op.fit(y, weights)
+    out = np.empty((flat.shape[0], 3), dtype=np.float32)
     curve = fitted.curve() if fitted.is_global else None
     if curve is not None:
         code, p = curve
         ld = np.empty(0)
     else:
-        if y is None:
-            y = rgb.astype(np.float64, copy=False) @ LUMINANCE_WEIGHTS
         code, p = K.PRECOMPUTED, np.zeros(1)
         ld = np.ascontiguousarray(fitted.display_luminance(y), dtype=np.float64).reshape(-1)
     K.map_pixels(flat, ld, code, p, float(fitted.operator.saturation), enc_code, inv_gamma, _srgb_lut(), out)
-    return ToneMapped(out.reshape(rgb.shape[:2] + (3,)), fitted, encoding)
+    return ToneMapped(out.reshape(shape + (3,)), fitted, encoding)
 
 
 # -- helpers ------------------------------------------------------------------------------
-def _as_rgb(image):
+def _as_pixels(image):
+    """The image's (rows, cols, 3 or 4) float array (RGB first), validated, not copied."""
     from .hdr import HDRImage
 
     if isinstance(image, HDRImage):
@@ -687,7 +690,9 @@ def _as_rgb(image):
         raise ValueError(f"image must be an HDRImage or an array of shape (rows, cols, 3 or 4); got {arr.shape}")
     if not np.issubdtype(arr.dtype, np.floating):
         raise TypeError(f"image must hold linear floats; got dtype {arr.dtype}")
-    return arr[..., :3]
+    if arr.dtype == np.float16:
+        arr = arr.astype(np.float32)
+    return arr
 
 
 def _roi_weights(roi, shape):

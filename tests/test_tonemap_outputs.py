@@ -132,3 +132,17 @@ def test_write_sequence_and_movies(tmp_path):
     assert len(got) == 3 and got[0].shape[:2] == (16, 20)
     with pytest.raises(ValueError, match="movie path must end in .gif or .mp4; got 'x.avi'"):
         write_movie(paths, tmp_path / "x.avi")
+
+
+@pytest.mark.data
+def test_every_operator_keeps_more_detail_than_the_8_bit_pipeline_on_real_hdr_data(shared_data):
+    pv = pytest.importorskip("pyvista")
+    grid = pv.read(shared_data / "hdr" / "m4_total_density_25x22x31_float32.vti")
+    tf = hv.TransferFunction.ramp(1e-12, 0.5, scale="log", cmap="magma", opacity=(0.0, 0.5))
+    kw = dict(size=(192, 192), global_alpha=0.05, progress_bar=False)
+    ref = hv.render(grid, tf, precision="float64", **kw)
+    base = detail_preserved(ref, hv.tonemap(hv.render(grid, tf, precision="uint8", **kw), "linear", exposure_stops=0))
+    kept = {name: detail_preserved(ref, hv.tonemap(ref, name)) for name in ["linear", "reinhard", "drago", "durand", "fattal"]}
+    assert base < 0.7
+    for name, value in kept.items():
+        assert value > base + 0.1, (name, value, base)

@@ -125,7 +125,7 @@ def test_info(volume_file, tmp_path, capsys):
                                    "renders image data (ImageData) only (tetrahedral meshes are not supported yet)"),
     (["demo", "--orbital", "2", "2", "0"], "pv-hdrvol demo: error: l must satisfy 0 <= l < n = 2; got l=2"),
     (["info", "{tmp}/missing.exr"], "pv-hdrvol info: error: file not found: '{tmp}/missing.exr'"),
-    (["info", "{tmp}/notes.txt"], "pv-hdrvol info: error: unknown image extension '.txt'; use .exr or .npy"),
+    (["info", "{tmp}/notes.txt"], "pv-hdrvol info: error: unknown image extension '.txt'; use .exr, .hdr or .npy"),
     (["info", "{tmp}/fake.exr"], "pv-hdrvol info: error: cannot read '{tmp}/fake.exr': "),
     (["paint"], "pv-hdrvol: error: argument COMMAND: invalid choice: 'paint'"),
 ])

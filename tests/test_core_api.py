@@ -222,7 +222,7 @@ def test_exr_round_trip_float32_is_bit_exact_and_half_within_its_precision(tmp_p
 
 
 def test_save_rejects_unknown_extensions(tmp_path):
-    with pytest.raises(ValueError, match="unknown image extension '.jpg'; use .exr, .npy or .png"):
+    with pytest.raises(ValueError, match="unknown image extension '.jpg'; use .exr, .hdr, .npy or .png"):
         hdr_test_image().save(tmp_path / "x.jpg")
 
 

@@ -115,6 +115,27 @@ def test_drago_matches_opencv_with_its_conventions():
     np.testing.assert_allclose(ld[below_peak], cv_out[..., 0][below_peak], atol=2e-6)
 
 
+def test_durand_leaves_a_constant_image_constant():
+    out = hv.tonemap(grey(np.full((40, 50), 3.7)), "durand", encoding="linear")
+    # base = log L everywhere, no detail: the brightest base maps to 1
+    np.testing.assert_allclose(out.rgb, 1.0, rtol=1e-6)
+
+
+def test_fattal_keeps_a_ramps_gradient_order():
+    v = np.tile(10.0 ** np.linspace(-4, 4, 80), (30, 1))
+    out = hv.tonemap(grey(v), "fattal", encoding="linear")
+    lum = out.fitted.display_luminance(v)
+    assert np.all(np.diff(lum, axis=1) > 0)  # strictly increasing along the ramp, every row
+    assert np.all(np.diff(out.rgb8[..., 0].astype(int), axis=1) >= 0)
+
+
+def test_reinhard_local_equals_global_on_a_constant_image():
+    # no local contrast: every scale is accepted, V1 = Lm, so Ld = Lm / (1 + Lm)
+    v = np.full((32, 32), 5.0)
+    ld = T.Reinhard(local=True).fit(v).display_luminance(v)
+    np.testing.assert_allclose(ld, 0.18 / 1.18, rtol=1e-9)
+
+
 # -- properties, every operator ------------------------------------------------------------
 @pytest.mark.parametrize("name", GLOBAL)
 def test_global_operators_are_monotone_and_map_zero_to_zero(name):

@@ -230,14 +230,12 @@ class Reinhard(Operator):
             raise ValueError(f"scales must be an integer in 1..16; got {self.scales!r}")
         object.__setattr__(self, "is_global", not self.local)
 
-    def _fit(self, y, use):
-        log_avg = _log_average(y, use)
+    def fit(self, luminance, weights=None):
+        y = np.asarray(luminance, dtype=np.float64)
+        log_avg, peak = _log_average_and_max(y, weights)
         a = self.key / log_avg
-        if self.white is None:
-            white = a * float(y[use].max()) if use.any() else 1.0
-        else:
-            white = float(self.white)
-        return {"log_average": log_avg, "scale": a, "white": white}
+        white = a * peak if self.white is None else float(self.white)
+        return Fitted(self, {"log_average": log_avg, "scale": a, "white": white}, weights)
 
     def _curve(self, stats):
         w = stats["white"]
@@ -314,11 +312,11 @@ class Drago(Operator):
         _check_positive("display_max", self.display_max)
         _check_finite("exposure_stops", self.exposure_stops)
 
-    def _fit(self, y, use):
-        lwa = _log_average(y, use)
+    def fit(self, luminance, weights=None):
+        y = np.asarray(luminance, dtype=np.float64)
+        lwa, peak = _log_average_and_max(y, weights)
         scale = 2.0 ** self.exposure_stops / lwa
-        lmax = scale * float(y[use].max()) if use.any() else 1.0
-        return {"log_average": lwa, "scale": scale, "max": lmax}
+        return Fitted(self, {"log_average": lwa, "scale": scale, "max": scale * peak}, weights)
 
     def _curve(self, stats):
         lmax = stats["max"]
@@ -327,12 +325,12 @@ class Drago(Operator):
         # the formula peaks below lmax (by decades when the range is wide) and then falls:
         # find the peak (scaled luminance); the kernel holds the curve there
         def value(t):  # the formula at lw = lmax * 10**t
-            return math.log1p(lmax * 10.0 ** t) / math.log(2.0 + 8.0 * 10.0 ** (k * t))
+            return np.log1p(lmax * 10.0 ** t) / np.log(2.0 + 8.0 * 10.0 ** (k * t))
 
         grid = np.linspace(-40.0, 3.0, 4301)  # the peak falls decades below lmax for wide ranges
-        i = int(np.argmax([value(t) for t in grid]))
+        i = int(np.argmax(value(grid)))
         lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-        for _ in range(100):  # golden-section refinement of the peak
+        for _ in range(60):  # golden-section refinement of the peak (to ~1e-14 of a decade)
             a, b = hi - 0.618034 * (hi - lo), lo + 0.618034 * (hi - lo)
             if value(a) < value(b):
                 lo = a
@@ -368,7 +366,10 @@ class Durand(Operator):
     and a detail layer; only the base is compressed, to ``target_contrast`` over its range
     in the region of interest, whose brightest base maps to 1:
 
-    .. math:: \log_{10} L_d = (B - B_{max}) \frac{\log_{10} c}{B_{max} - B_{min}} + (\log_{10} L - B)
+    .. math:: \log_{10} L_d = (B - B_{max}) \min\left(1, \frac{\log_{10} c}{B_{max} - B_{min}}\right)
+              + (\log_{10} L - B)
+
+    (the factor is capped at 1: a base within the target contrast is not expanded).
 
     ``sigma_spatial=None`` is 2% of the larger image side, as in the paper.
 
@@ -414,7 +415,9 @@ class Durand(Operator):
         stats = fitted.stats
         log_y, base, valid = fitted.layers_of(y) or self._layers(y)
         span = stats["base_max"] - stats["base_min"]
-        factor = math.log10(self.target_contrast) / span if span > 0 else 1.0
+        # compress only: a base already within the target contrast keeps its contrast
+        # (a flat base, up to the filter's rounding, is not blown up to the target)
+        factor = min(1.0, math.log10(self.target_contrast) / span) if span > 0 else 1.0
         out = (base - stats["base_max"]) * factor + (log_y - base)
         return np.where(valid, 10.0 ** out, np.where(y == np.inf, np.inf, 0.0))
 
@@ -738,9 +741,21 @@ def _decode(d, encoding):
     return np.power(np.clip(d, 0.0, 1.0), float(encoding))
 
 
-def _log_average(y, use):
-    """``exp(mean(ln L))`` over the selected pixels (1.0 when none)."""
-    return float(np.exp(np.mean(np.log(y[use])))) if use.any() else 1.0
+def _log_average_and_max(y, weights):
+    """``exp(mean(ln L))`` and ``max(L)`` over finite ``L > 0`` (in the region of interest
+    when it holds any such pixel); ``(1.0, 1.0)`` for an image without one."""
+    flat = np.ascontiguousarray(y).reshape(-1)
+    parts = np.empty((64, 3))
+    if weights is not None:
+        K.log_stats(flat, np.ascontiguousarray(weights, dtype=np.float64).reshape(-1), parts)
+        total = parts.sum(axis=0)
+        if total[1] > 0:
+            return float(np.exp(total[0] / total[1])), float(parts[:, 2].max())
+    K.log_stats(flat, np.empty(0), parts)
+    total = parts.sum(axis=0)
+    if total[1] == 0:
+        return 1.0, 1.0
+    return float(np.exp(total[0] / total[1])), float(parts[:, 2].max())
 
 
 def _filled_log10(y):

@@ -566,6 +566,8 @@ def _source_state():
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="engine at 256^2 only, to check the script works")
+    parser.add_argument("--data", nargs="+", choices=sorted(DATASETS), help="datasets to run (default: all)")
+    parser.add_argument("--sizes", nargs="+", type=int, help="image sizes in pixels (default: 512 1024)")
     parser.add_argument("--repeat", type=int, default=3, help="timed frames per renderer after a warm-up (>= 3)")
     parser.add_argument("--out", type=Path, help="write the results as JSON here")
     parser.add_argument("--images", type=Path, help="save 8-bit PNGs of every case's pictures here")
@@ -589,8 +591,8 @@ def main(argv=None):
     import pv_hdrvol as hv
 
     ddir = data_dir()
-    names = ["engine"] if args.quick else ["engine", "bonsai"]
-    sizes = [(256, 256)] if args.quick else [(512, 512), (1024, 1024)]
+    names = ["engine"] if args.quick else (args.data or ["engine", "bonsai"])
+    sizes = [(256, 256)] if args.quick else [(n, n) for n in (args.sizes or [512, 1024])]
     for n in names:
         if not (ddir / DATASETS[n]).exists():
             parser.error(f"missing {ddir / DATASETS[n]} (set PV_HDRVOL_DATA to the data directory)")

@@ -55,6 +55,21 @@ def test_srgb_encoding_matches_the_standard_within_1e6():
     assert np.abs(out.rgb[..., 0] - srgb_encode(x)).max() < 1e-6
 
 
+def test_gamma_encoding_table_is_within_its_stated_error():
+    x = np.concatenate([np.logspace(-12, 0, 4001), np.linspace(0, 1, 4001)])
+    out = hv.tonemap(grey(x.reshape(1, -1)), "linear", exposure_stops=0.0, encoding=2.2).rgb[0, :, 0]
+    err = np.abs(out.astype(np.float64) - x ** (1 / 2.2))
+    assert err.max() < 2e-5 and err[x > 1e-4].max() < 2e-7
+
+
+def test_drago_display_values_follow_the_exact_curve():
+    y = np.exp(np.random.default_rng(0).normal(0, 6, (64, 64)))  # ~15 decades
+    out = hv.tonemap(grey(y), "drago", encoding="linear")
+    exact = np.clip(out.fitted.display_luminance(y), 0, 1)
+    ok = exact > 1e-6  # float32 output: relative resolution 6e-8
+    np.testing.assert_allclose(out.rgb[..., 0][ok], exact[ok], rtol=3e-6)
+
+
 def test_gamma_operator_uses_a_power_law():
     out = hv.tonemap(grey([[0.25]]), "gamma", exposure_stops=0.0, gamma=2.0)
     assert out.rgb[0, 0, 0] == pytest.approx(0.5, abs=1e-7)

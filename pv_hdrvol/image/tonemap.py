@@ -42,15 +42,16 @@ import numpy as np
 from . import _tonemap_kernels as K
 from .display import LUMINANCE_WEIGHTS, srgb_decode
 
-_ENCODINGS = {"linear": K.ENC_LINEAR, "srgb": K.ENC_SRGB}
-_LUT = None
+_LUTS = {}
 
 
-def _srgb_lut():
-    global _LUT
-    if _LUT is None:
-        _LUT = K.srgb_lut()
-    return _LUT
+def _encoding_lut(gamma):
+    """The cached encoding table: sRGB for ``gamma=None``, else ``x**(1/gamma)``."""
+    if gamma not in _LUTS:
+        if len(_LUTS) > 16:
+            _LUTS.clear()
+        _LUTS[gamma] = K.encoding_lut(gamma)
+    return _LUTS[gamma]
 
 
 # -- operators ----------------------------------------------------------------------------
@@ -657,7 +658,7 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
     weights = _roi_weights(roi, shape)
     if isinstance(op, Gamma) and encoding == "srgb":
         encoding = float(op.gamma)
-    enc_code, inv_gamma = _encoding(encoding)
+    enc_code, gamma = _encoding(encoding)
     if fitted is not None and not isinstance(fitted, Fitted):
         raise TypeError(f"fitted must be a Fitted (ToneMapped.fitted); got {type(fitted).__name__}")
     flat = np.ascontiguousarray(pixels).reshape(-1, pixels.shape[2])
@@ -670,13 +671,16 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
         fitted = op.fit(y, weights)
     out = np.empty((flat.shape[0], 3), dtype=np.float32)
     curve = fitted.curve() if fitted.is_global else None
+    table = np.empty(0)
     if curve is not None:
         code, p = curve
         ld = np.empty(0)
+        if code == K.DRAGO:
+            p, table = _drago_table(p)
     else:
         code, p = K.PRECOMPUTED, np.zeros(1)
         ld = np.ascontiguousarray(fitted.display_luminance(y), dtype=np.float64).reshape(-1)
-    K.map_pixels(flat, ld, code, p, float(fitted.operator.saturation), enc_code, inv_gamma, _srgb_lut(), out)
+    K.map_pixels(flat, ld, code, p, table, float(fitted.operator.saturation), enc_code, _encoding_lut(gamma), out)
     return ToneMapped(out.reshape(shape + (3,)), fitted, encoding)
 
 
@@ -723,14 +727,28 @@ def _roi_weights(roi, shape):
 
 
 def _encoding(encoding):
+    """``(kernel code, gamma)``: gamma None for sRGB (both read a table)."""
     if isinstance(encoding, str):
-        if encoding not in _ENCODINGS:
-            raise ValueError(f"encoding must be 'srgb', 'linear' or a gamma > 0; got {encoding!r}")
-        return _ENCODINGS[encoding], 1.0
+        if encoding == "srgb":
+            return K.ENC_TABLE, None
+        if encoding == "linear":
+            return K.ENC_LINEAR, None
+        raise ValueError(f"encoding must be 'srgb', 'linear' or a gamma > 0; got {encoding!r}")
     g = float(encoding)
     if not g > 0 or math.isinf(g):
         raise ValueError(f"encoding gamma must be finite and > 0; got {encoding!r}")
-    return K.ENC_GAMMA, 1.0 / g
+    return K.ENC_TABLE, g
+
+
+def _drago_table(p):
+    """Drago's display curve over ``t = ln L_w`` (see ``_tonemap_kernels._display_curve``)."""
+    t_hi = math.log(p[4])
+    t_lo = t_hi - K.DRAGO_TABLE_DECADES * math.log(10.0)
+    t = np.linspace(t_lo, t_hi, K.DRAGO_TABLE_SIZE)
+    values = np.empty(t.size)
+    K.map_luminance(np.exp(t) / p[0], K.DRAGO, p, values)
+    inv_step = (K.DRAGO_TABLE_SIZE - 1) / (t_hi - t_lo)
+    return np.concatenate([p, [t_lo, inv_step]]), values
 
 
 def _decode(d, encoding):

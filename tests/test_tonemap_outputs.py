@@ -114,6 +114,7 @@ def test_write_sequence_and_movies(tmp_path):
         f.rgba[:, : 5 * (i + 1), :3] *= 10.0  # frames differ (a GIF merges repeated frames)
     paths = write_sequence(frames, tmp_path / "seq", metadata={"sweep": "orbit"})
     assert [p.name for p in paths] == ["frame_0000.exr", "frame_0001.exr", "frame_0002.exr"]
+    assert "frame" not in frames[1].metadata  # the caller's frames are not modified
     back = hv.load(paths[1])
     assert back.metadata["frame"] == 1 and back.metadata["sequence_length"] == 3
     assert back.metadata["sweep"] == "orbit"

@@ -103,8 +103,9 @@ def write_sequence(frames, directory, *, pattern="frame_{:04d}.exr", metadata=No
             extra["frame"] = i
             if total is not None:
                 extra["sequence_length"] = total
-            frame.metadata.update(extra)
-            frame.save(path, pixel_type=pixel_type) if path.suffix == ".exr" else frame.save(path)
+            # a new HDRImage over the same arrays: the caller's frame keeps its metadata
+            out = type(frame)(frame.rgba, frame.depth, {**frame.metadata, **extra})
+            out.save(path, pixel_type=pixel_type) if path.suffix == ".exr" else out.save(path)
             paths.append(path)
             if bar is not None:
                 bar.update(1)

@@ -77,7 +77,9 @@ def pseudocolor(image, cmap="viridis", *, vmin=None, vmax=None):
     cmap : str
         A matplotlib colour map name (needs matplotlib).
     vmin, vmax : float, optional
-        Range of log10 luminance shown (default: smallest non-zero to peak).
+        Range of log10 luminance shown (default: the 1st percentile of non-zero
+        luminance to the peak; a few faint edge pixels would otherwise squeeze the
+        body of the image into one colour).
 
     Returns
     -------
@@ -91,7 +93,7 @@ def pseudocolor(image, cmap="viridis", *, vmin=None, vmax=None):
     y = luminance(_rgb(image))
     ok = np.isfinite(y) & (y > 0)
     logs = np.where(ok, np.log10(np.where(ok, y, 1.0)), np.nan)
-    lo = float(np.nanmin(logs)) if vmin is None and ok.any() else (0.0 if vmin is None else float(vmin))
+    lo = float(np.percentile(logs[ok], 1.0)) if vmin is None and ok.any() else (0.0 if vmin is None else float(vmin))
     hi = float(np.nanmax(logs)) if vmax is None and ok.any() else (lo + 1.0 if vmax is None else float(vmax))
     if not hi > lo:
         hi = lo + 1.0

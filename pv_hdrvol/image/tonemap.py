@@ -59,9 +59,10 @@ def _encoding_lut(gamma):
 class Operator:
     """Base class: parameters of one tone-mapping operator (frozen, validated).
 
-    Subclasses implement ``_fit(L, use)`` (statistics from the pixels ``use`` selects) and
-    either ``_curve(stats) -> (code, params)`` (global operators, evaluated in the fused
-    kernel) or ``_map(L, stats, weights) -> Ld`` (local operators).
+    Subclasses implement ``_fit(L, use)`` (statistics from the pixels ``use`` selects) or
+    override ``fit``, and either ``_curve(stats) -> (code, params)`` with ``_inverse``
+    (global operators, evaluated in the fused kernel) or ``_map(L, fitted) -> Ld``
+    (local operators).
     """
 
     saturation: float = 1.0

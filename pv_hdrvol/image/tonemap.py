@@ -286,7 +286,9 @@ class Drago(Operator):
     adaptation) luminance and :math:`L_{w,max}` the largest :math:`L_w`, both from the
     region of interest. ``bias`` :math:`b` (0.7..0.9 in the paper) steers contrast in
     the dark; ``display_max`` :math:`L_{d,max}` is the display's peak in cd/m² (100:
-    :math:`L_{w,max}` maps to 1).
+    :math:`L_{w,max}` maps to 1). For wide ranges the formula peaks below
+    :math:`L_{w,max}` (decades below, on 16-decade data) and then falls; the curve is
+    held at its peak so it stays monotone and invertible.
 
     References
     ----------
@@ -298,7 +300,7 @@ class Drago(Operator):
     >>> import numpy as np
     >>> y = np.array([[0.5, 2.0]])
     >>> fit = Drago().fit(y)
-    >>> round(float(fit.display_luminance(y).max()), 12)  # L_w,max maps to display_max / 100
+    >>> round(float(fit.display_luminance(y).max()), 12)  # L_w,max maps to display_max / 100 here
     1.0
     """
 

@@ -13,23 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-_JIT = {"nogil": True, "cache": True, "error_model": "numpy"}
-
-
-def kernel(fn):
-    """The decorator of every serial kernel: nogil, on-disk cache, numpy errors."""
-    return numba.njit(**_JIT)(fn)
-
-
-def parallel_kernel(fn):
-    """As :func:`kernel`, with ``prange`` over rows (or bands of rows)."""
-    return numba.njit(parallel=True, **_JIT)(fn)
-
-
-@numba.njit(inline="always", **_JIT)
-def _u(i):
-    """An index known to be >= 0, as uint64 (no negative-index wraparound code)."""
-    return np.uint64(i)
+from .._jit import kernel, parallel_kernel, uindex as _u
 
 
 #: Tiles of :func:`convolve_columns`: 256 float64 (2 KiB) per row segment keeps the

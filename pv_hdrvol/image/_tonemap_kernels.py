@@ -12,6 +12,9 @@ import math
 import numba
 import numpy as np
 
+from .._jit import inline_kernel, parallel_kernel
+from .display import srgb_encode
+
 # curve codes (tonemap._CURVES)
 PRECOMPUTED, LINEAR, REINHARD, DRAGO = 0, 1, 2, 3
 # display encodings (tonemap._ENCODINGS)
@@ -36,22 +39,10 @@ def encoding_lut(gamma=None):
     u = np.linspace(0.0, 1.0, ENCODING_LUT_SIZE)
     x = u * u
     if gamma is None:
-        enc = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+        enc = srgb_encode(x)
     else:
         enc = np.power(x, 1.0 / gamma)
     return np.append(enc, enc[-1])  # guard entry: index n - 1 + 1 is safe
-
-
-def kernel(fn):
-    return numba.njit(nogil=True, cache=True, error_model="numpy")(fn)
-
-
-def inline_kernel(fn):
-    return numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")(fn)
-
-
-def parallel_kernel(fn):
-    return numba.njit(nogil=True, cache=True, error_model="numpy", parallel=True)(fn)
 
 
 @inline_kernel

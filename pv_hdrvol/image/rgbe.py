@@ -36,8 +36,9 @@ import math
 import os
 import re
 
-import numba
 import numpy as np
+
+from .._jit import kernel as _kernel
 
 __all__ = ["read_hdr", "write_hdr"]
 
@@ -52,14 +53,6 @@ _METADATA_KEY = "PV_HDRVOL="
 
 # kernel status codes (returned, since kernels raise nothing)
 _OK, _TRUNCATED, _BAD_RUN, _BAD_WIDTH, _NO_PREVIOUS = 0, 1, 2, 3, 4
-
-_JIT = {"nogil": True, "cache": True, "error_model": "numpy"}
-
-
-def _kernel(fn):
-    """The one decorator of this module's kernels: nogil, on-disk cache."""
-    return numba.njit(**_JIT)(fn)
-
 
 # -- kernels ---------------------------------------------------------------------------
 @_kernel

@@ -75,12 +75,7 @@ class Operator:
     def fit(self, luminance, weights=None):
         """Fitted state for world luminance ``luminance`` (rows, cols), optionally weighted."""
         y = np.asarray(luminance, dtype=np.float64)
-        use = np.isfinite(y) & (y > 0)
-        if weights is not None:
-            roi_use = use & (weights > 0)
-            if roi_use.any():
-                use = roi_use
-        return Fitted(self, self._fit(y, use), weights)
+        return Fitted(self, self._fit(y, _in_roi(np.isfinite(y) & (y > 0), weights)), weights)
 
     def _fit(self, y, use):
         return {}
@@ -408,7 +403,7 @@ class Durand(Operator):
     def fit(self, luminance, weights=None):
         y = np.asarray(luminance, dtype=np.float64)
         log_y, base, valid = self._layers(y)
-        use = valid if weights is None or not (valid & (weights > 0)).any() else valid & (weights > 0)
+        use = _in_roi(valid, weights)
         if use.any():
             bmin, bmax = float(base[use].min()), float(base[use].max())
         else:
@@ -470,7 +465,7 @@ class Fattal(Operator):
     def fit(self, luminance, weights=None):
         y = np.asarray(luminance, dtype=np.float64)
         h, valid = self._compressed(y, weights)
-        use = valid if weights is None or not (valid & (weights > 0)).any() else valid & (weights > 0)
+        use = _in_roi(valid, weights)
         ref = float(np.percentile(h[use], self.percentile)) if use.any() else 0.0
         return Fitted(self, {"reference": ref}, weights, (y, (h, valid)))
 
@@ -760,6 +755,15 @@ def _decode(d, encoding):
     if encoding == "linear":
         return np.clip(d, 0.0, 1.0)
     return np.power(np.clip(d, 0.0, 1.0), float(encoding))
+
+
+def _in_roi(valid, weights):
+    """The valid pixels inside the region of interest, or all valid pixels when the
+    region holds none (or there is no region)."""
+    if weights is None:
+        return valid
+    inside = valid & (weights > 0)
+    return inside if inside.any() else valid
 
 
 def _log_average_and_max(y, weights):

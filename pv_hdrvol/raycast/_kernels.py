@@ -26,30 +26,14 @@ import numba
 import numpy as np
 from numba.extending import overload
 
+from .._jit import JIT_OPTIONS as _JIT, inline_kernel, kernel, parallel_kernel, uindex as _u
+
 # precision codes (params.PRECISION_CODES)
 F64, F32, F16, U8 = 0, 1, 2, 3
 # transfer-function axis codes (data/transfer.SCALE_CODES)
 LINEAR, LOG, SYMLOG = 0, 1, 2
 # bricks of 2**BRICK_SHIFT cells a side (memory layout; independent of skip blocks)
 BRICK_SHIFT = 3
-
-
-_JIT = {"nogil": True, "cache": True, "error_model": "numpy"}
-
-
-def kernel(fn):
-    """The one decorator every serial kernel uses: nogil, on-disk cache."""
-    return numba.njit(**_JIT)(fn)
-
-
-def inline_kernel(fn):
-    """For small per-sample helpers: inlined at numba IR level into their caller."""
-    return numba.njit(nogil=True, cache=True, error_model="numpy", inline="always")(fn)
-
-
-def parallel_kernel(fn):
-    """As :func:`kernel`, with ``prange`` over pixels."""
-    return numba.njit(nogil=True, cache=True, parallel=True, error_model="numpy")(fn)
 
 
 class GridParams(NamedTuple):
@@ -145,12 +129,6 @@ def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi):
     t0, t1 = _slab(ox, dx, lo[0], hi[0], 0.0, math.inf)
     t0, t1 = _slab(oy, dy, lo[1], hi[1], t0, t1)
     return _slab(oz, dz, lo[2], hi[2], t0, t1)
-
-
-@inline_kernel
-def _u(i):
-    """An index known to be >= 0, as uint64: numba then skips its negative-index wraparound."""
-    return np.uint64(i)
 
 
 # -- classification ---------------------------------------------------------------------

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -18,12 +18,18 @@ class Rays(NamedTuple):
     origins : ndarray, shape (height * width, 3), float64
     directions : ndarray, shape (height * width, 3), float64, unit length
     width, height : int
+    lod : ndarray, shape (height * width,), float64, or None
+        Level of detail per ray, for rays sparser than the camera's (lenses): the
+        renderer samples a mip-map of the volume at that fractional level (0: the
+        volume itself, 1: half resolution, ...). ``None`` (the camera's own rays):
+        level 0 everywhere, and no mip-map is built.
     """
 
     origins: np.ndarray
     directions: np.ndarray
     width: int
     height: int
+    lod: Optional[np.ndarray] = None
 
 
 # Direction from the focal point to the camera, and view-up, for Camera.fit views

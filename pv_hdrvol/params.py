@@ -19,6 +19,12 @@ PRECISIONS = ("float64", "float32", "float16", "uint8")
 # Integer codes the kernels switch on (see raycast/_kernels.py).
 PRECISION_CODES = {"float64": 0, "float32": 1, "float16": 2, "uint8": 3}
 
+#: How samples along a ray combine, by PyVista's ``add_volume(blending=...)`` names:
+#: emission-absorption compositing, maximum/minimum intensity projection, the average
+#: value, and the additive line integral (an X-ray).
+BLENDINGS = ("composite", "maximum", "minimum", "average", "additive")
+BLENDING_CODES = {name: i for i, name in enumerate(BLENDINGS)}  # raycast/_kernels_ext.py
+
 
 @dataclass(frozen=True)
 class RenderOptions:
@@ -57,6 +63,17 @@ class RenderOptions:
     skip_empty : bool
         Skip blocks whose value range maps to zero opacity. Results are identical with
         and without; only the time changes.
+    blending : {"composite", "maximum", "minimum", "average", "additive"}
+        ``composite`` (default): emission-absorption. ``maximum``/``minimum``: the
+        extreme value along the ray (MIP/MinIP), ``average``: the mean, coloured by the
+        transfer function with its opacity over one unit distance; ``additive``: the
+        line integral of the value (an X-ray) and of the emission ``c sigma``. The
+        projections also return the value itself (:attr:`HDRImage.value`).
+    gradient_opacity : (float, float) or None
+        Emission-absorption only: scale extinction by a ramp of the gradient magnitude
+        ``|grad v|`` (data units per world unit), 0 at the first value and 1 from the
+        second on, so homogeneous regions fade and boundaries stand out (Levoy 1988).
+        ``None`` (default) computes no gradient.
     """
 
     step: float = 0.5
@@ -67,6 +84,8 @@ class RenderOptions:
     depth_threshold: float = 0.05
     block_size: int = 4
     skip_empty: bool = True
+    blending: str = "composite"
+    gradient_opacity: Optional[tuple] = None
 
     def __post_init__(self):
         object.__setattr__(self, "step", as_real("step", self.step, low=0, low_open=True))
@@ -96,6 +115,18 @@ class RenderOptions:
         object.__setattr__(self, "block_size", b)
         if not isinstance(self.skip_empty, bool):
             raise TypeError(f"skip_empty must be a bool; got {self.skip_empty!r}")
+        as_choice("blending", self.blending, BLENDINGS)
+        if self.gradient_opacity is not None:
+            g = self.gradient_opacity
+            if isinstance(g, (str, bytes)) or not hasattr(g, "__len__") or len(g) != 2:
+                raise TypeError(f"gradient_opacity must be None or (low, high); got {g!r}")
+            lo = as_real("gradient_opacity[0]", g[0], low=0)
+            hi = as_real("gradient_opacity[1]", g[1], low=0)
+            if not hi > lo:
+                raise ValueError(f"gradient_opacity must be (low, high) with high > low >= 0; got {g!r}")
+            if self.blending != "composite":
+                raise ValueError(f"gradient_opacity applies to blending='composite' only; got blending={self.blending!r}")
+            object.__setattr__(self, "gradient_opacity", (lo, hi))
 
     def replace(self, **changes):
         """Return a copy with ``changes`` applied (validated again)."""

@@ -28,6 +28,10 @@ class HDRImage:
         render's ``depth_threshold``; ``inf`` where it never did.
     metadata : dict, optional
         Render parameters; saved in EXR headers.
+    value : ndarray, shape (rows, cols), float64, optional
+        The scalar a projection computed per pixel (``blending="maximum"``,
+        ``"minimum"``, ``"average"``: a data value; ``"additive"``: the line integral);
+        NaN where the ray met no valid sample. ``None`` for emission-absorption.
 
     Examples
     --------
@@ -37,7 +41,7 @@ class HDRImage:
     ((2, 3), 0.25)
     """
 
-    def __init__(self, rgba, depth=None, metadata=None):
+    def __init__(self, rgba, depth=None, metadata=None, value=None):
         rgba = np.asarray(rgba)
         if rgba.ndim != 3 or rgba.shape[2] != 4:
             raise ValueError(f"rgba must have shape (rows, cols, 4); got {rgba.shape}")
@@ -51,9 +55,14 @@ class HDRImage:
         depth = np.asarray(depth, dtype=np.float64)
         if depth.shape != rgba.shape[:2]:
             raise ValueError(f"depth must have shape {rgba.shape[:2]}; got {depth.shape}")
+        if value is not None:
+            value = np.asarray(value, dtype=np.float64)
+            if value.shape != rgba.shape[:2]:
+                raise ValueError(f"value must have shape {rgba.shape[:2]}; got {value.shape}")
         self.rgba = rgba
         self.depth = depth
         self.metadata = dict(metadata or {})
+        self.value = value
 
     # -- basic facts -------------------------------------------------------------
     @property
@@ -138,7 +147,7 @@ class HDRImage:
     def save(self, path, pixel_type="float32"):
         """Save to a file whose suffix picks the format.
 
-        - ``.exr``: OpenEXR, RGBA + Z, metadata in the header. ``pixel_type="float16"``
+        - ``.exr``: OpenEXR, RGBA + Z (+ V: :attr:`value`, float32), metadata in the header. ``pixel_type="float16"``
           writes half RGBA (about 4.8e-4 relative error, saturating at 65504); depth is
           always float32. float32 round-trips bit-exact.
         - ``.hdr``: Radiance RGBE (run-length encoded), metadata in a ``PV_HDRVOL``
@@ -152,7 +161,7 @@ class HDRImage:
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()
         if ext == ".exr":
-            _fileio.write_exr(path, self.rgba, self.depth, self.metadata, pixel_type)
+            _fileio.write_exr(path, self.rgba, self.depth, self.metadata, pixel_type, self.value)
         elif ext == ".hdr":
             # as for EXR, values JSON cannot hold (numpy scalars...) are saved as strings
             metadata = json.loads(json.dumps(self.metadata, default=str))
@@ -176,8 +185,8 @@ class HDRImage:
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()
         if ext == ".exr":
-            rgba, depth, meta = _fileio.read_exr(path)
-            return cls(rgba, depth, meta)
+            rgba, depth, meta, value = _fileio.read_exr(path)
+            return cls(rgba, depth, meta, value)
         if ext == ".hdr":
             rgb, header = _rgbe.read_hdr(path)
             rgba = np.concatenate([rgb, np.ones(rgb.shape[:2] + (1,), np.float32)], axis=2)
@@ -189,7 +198,7 @@ class HDRImage:
 
     # -- VTK / PyVista -----------------------------------------------------------
     def to_vtk(self):
-        """A 2-D ``vtkImageData`` with point arrays ``rgba`` (4 comp.) and ``depth``.
+        """A 2-D ``vtkImageData`` with point arrays ``rgba`` (4 comp.), ``depth`` (and ``value``).
 
         VTK's row 0 is the bottom: rows are flipped here. The metadata travels as JSON
         in the field-data string array ``"hdrvol_metadata"``.
@@ -208,6 +217,10 @@ class HDRImage:
         dep = numpy_to_vtk(np.ascontiguousarray(self.depth[::-1].reshape(-1)), deep=True)
         dep.SetName("depth")
         img.GetPointData().AddArray(dep)
+        if self.value is not None:
+            val = numpy_to_vtk(np.ascontiguousarray(self.value[::-1].reshape(-1)), deep=True)
+            val.SetName("value")
+            img.GetPointData().AddArray(val)
         if self.metadata:
             from vtkmodules.vtkCommonCore import vtkStringArray
 
@@ -241,7 +254,9 @@ class HDRImage:
         dep = vtk_to_numpy(d).reshape(rows, cols)[::-1] if d is not None else None
         meta = image.GetFieldData().GetAbstractArray(_METADATA_ARRAY)
         metadata = json.loads(meta.GetValue(0)) if meta is not None and meta.GetNumberOfValues() else None
-        return cls(np.array(data), None if dep is None else np.array(dep), metadata)
+        v = pd.GetArray("value")
+        val = np.array(vtk_to_numpy(v).reshape(rows, cols)[::-1]) if v is not None else None
+        return cls(np.array(data), None if dep is None else np.array(dep), metadata, val)
 
 
 def load(path):

@@ -17,10 +17,11 @@ def _openexr():
     return OpenEXR
 
 
-def write_exr(path, rgba, depth, metadata, pixel_type="float32"):
+def write_exr(path, rgba, depth, metadata, pixel_type="float32", value=None):
     """Write RGBA (float32 or half) and a float32 ``Z`` channel; metadata as header strings.
 
-    Row 0 is the top row (OpenEXR's convention too).
+    ``value`` (a projection's scalar per pixel) goes to a float32 ``V`` channel. Row 0
+    is the top row (OpenEXR's convention too).
     """
     if pixel_type not in EXR_TYPES:
         raise ValueError(f"pixel_type must be one of {list(EXR_TYPES)}; got {pixel_type!r}")
@@ -31,12 +32,14 @@ def write_exr(path, rgba, depth, metadata, pixel_type="float32"):
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     header["pv_hdrvol"] = json.dumps(metadata, default=str)
     channels = {"RGBA": rgba_out, "Z": np.ascontiguousarray(depth, dtype=np.float32)}
+    if value is not None:
+        channels["V"] = np.ascontiguousarray(value, dtype=np.float32)
     with OpenEXR.File(header, channels) as f:
         f.write(os.fspath(path))
 
 
 def read_exr(path):
-    """Return ``(rgba float32 (rows, cols, 4), depth or None, metadata dict)``."""
+    """Return ``(rgba float32 (rows, cols, 4), depth or None, metadata dict, value or None)``."""
     OpenEXR = _openexr()
     with OpenEXR.File(os.fspath(path)) as f:
         ch = f.channels()
@@ -49,6 +52,7 @@ def read_exr(path):
         else:
             raise ValueError(f"{path}: no RGB(A) channels (found {sorted(ch)})")
         depth = np.asarray(ch["Z"].pixels, dtype=np.float32) if "Z" in ch else None
+        value = np.asarray(ch["V"].pixels, dtype=np.float32) if "V" in ch else None
     meta = {}
     raw = header.get("pv_hdrvol")
     if isinstance(raw, (bytes, str)):
@@ -56,7 +60,7 @@ def read_exr(path):
             meta = json.loads(raw)
         except ValueError:
             meta = {"pv_hdrvol": raw}
-    return rgba, depth, meta
+    return rgba, depth, meta, value
 
 
 def write_npy(path, rgba, depth):

@@ -188,19 +188,20 @@ def _probe(bricks, leap, g, x, y, z):
 
     Written out without calling other jitted helpers: numba 0.56 deep-copies the
     dispatchers an inlined function refers to, which made compiling this loop take
-    minutes. Each coordinate is clamped to ``[0, n - 1]`` and its cell index to
-    ``n - 2`` (so ``x = n - 1`` is the last cell with fraction 1).
+    minutes. Each coordinate is clamped to ``[0, n - 1]``; ``x = n - 1`` takes the
+    "cell" past the last one with fraction 0 (the bricks repeat the edge there), so
+    every grid value comes back exactly, and its block index is that of the last cell.
     """
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
     x = min(max(x, 0.0), x_max)
     y = min(max(y, 0.0), y_max)
     z = min(max(z, 0.0), z_max)
-    xi = min(int(x), nx - 2)
-    yi = min(int(y), ny - 2)
-    zi = min(int(z), nz - 2)
-    ib = xi >> shift
-    jb = yi >> shift
-    kb = zi >> shift
+    xi = int(x)
+    yi = int(y)
+    zi = int(z)
+    ib = min(xi, nx - 2) >> shift
+    jb = min(yi, ny - 2) >> shift
+    kb = min(zi, nz - 2) >> shift
     radius = leap[np.uint64((kb * by + jb) * bx + ib)]
     if radius != 0:
         return radius, ib, jb, kb, math.nan
@@ -485,7 +486,8 @@ def make_bricks(values, shift, bz, by, bx, out):
 
     Brick ``(kb, jb, ib)`` holds points ``[b * size, b * size + size]`` on each axis (the
     last plane duplicates the next brick's first: trilinear interpolation never leaves
-    a brick). Points past the volume's edge repeat the edge. ``out`` is flat, bricks in
+    a brick). Points past the volume's edge repeat the edge; there are ``n // size + 1``
+    bricks along an axis of ``n`` points, so the last point starts a cell of its own. ``out`` is flat, bricks in
     (kb, jb, ib) order, points z, y, x inside.
     """
     nz, ny, nx = values.shape

@@ -4,15 +4,17 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from ..data.grid import GridVolume, volume_from_array, volume_from_dataset
 from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, scale_forward
 from ..image.hdr import HDRImage
-from ..params import PRECISION_CODES, RenderOptions
+from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays
 from . import _kernels as K
+from . import _kernels_ext as KX
 
 # Rays are cast in square tiles of this many pixels a side (cache locality).
 _TILE = 8
@@ -50,6 +52,12 @@ def _grid_shape(dims, size):
     return tuple(max(1, -(-max(n - 1, 1) // size)) for n in dims[::-1])
 
 
+def _brick_shape(dims):
+    """Bricks along (z, y, x) for ``dims`` (x, y, z) points: ``n // 8 + 1`` per axis, so
+    that the last point starts a (repeated-edge) cell of its own (``_kernels.make_bricks``)."""
+    return tuple(n // (1 << K.BRICK_SHIFT) + 1 for n in dims[::-1])
+
+
 class Bricks:
     """The volume copied into bricks of ``(8 + 1)**3`` points, cached on the volume.
 
@@ -59,7 +67,7 @@ class Bricks:
 
     def __init__(self, volume):
         size = 1 << K.BRICK_SHIFT
-        self.shape = _grid_shape(volume.dims, size)
+        self.shape = _brick_shape(volume.dims)
         self.values = np.empty(int(np.prod(self.shape)) * (size + 1) ** 3, dtype=volume.values.dtype)
         K.make_bricks(volume.values, K.BRICK_SHIFT, *self.shape, self.values)
 
@@ -178,7 +186,7 @@ def _axis_position(values, params):
 
 
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,
-                  progress=None, progress_bar=None, **option_kwargs):
+                  labels=None, label_styles=None, progress=None, progress_bar=None, **option_kwargs):
     r"""Ray cast an image volume into an :class:`~pv_hdrvol.HDRImage`.
 
     Parameters
@@ -188,16 +196,28 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         ``scalars=``).
     tf : TransferFunction, optional
         Default: :func:`default_transfer_function`.
-    camera : Camera, optional
-        Default: ``Camera.fit(volume, "iso")``.
+    camera : Camera, Rays or lens ray generator, optional
+        Default: ``Camera.fit(volume, "iso")``. ``Rays`` (e.g. from a lens's
+        ``rays(camera, size)``) give one ray per pixel and fix the size; where they
+        carry a level of detail (``Rays.lod``), those rays sample a mip-map of the
+        volume, built once per volume.
     size : int or (width, height)
-        Output size in pixels.
+        Output size in pixels (ignored for ``Rays``).
     options : RenderOptions, optional
         Sampling and compositing options; keywords (``step=``, ``precision=``, ...)
         override single fields.
     block_mask : ndarray of bool, shape ``BlockGrid(volume, block_size).shape``, optional
         Render only these blocks (visibility culling, parallel rendering). Blocks
         outside the mask are treated as empty.
+    labels : ndarray of int, shape (z, y, x) as the volume, optional
+        A segmentation: two-level rendering (Hauser et al. 2001). Each sample takes the
+        label of its nearest grid point; ``label_styles`` gives a label its own
+        transfer function and blending. Consecutive samples of one label form a
+        segment, blended in the label's mode; segments composite front to back.
+    label_styles : dict, optional
+        ``{label: style}`` where a style is a :class:`TransferFunction`, a blending
+        name (``"composite"``, ``"maximum"`` or ``"minimum"``) or a ``(tf, blending)``
+        pair. Labels without a style use ``tf`` and ``"composite"``.
     progress : callable, optional
         Called with the fraction of rows done (0..1) after each chunk; if it returns
         ``False`` the render stops and raises ``RuntimeError("render aborted")``.
@@ -247,6 +267,10 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     else:
         raise TypeError(f"camera must be a Camera or Rays; got {type(camera).__name__}")
     width, height = rays.width, rays.height
+    lod = _check_lod(rays)
+    if opts.precision == "uint8" and labels is not None:
+        raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
+                         "transfer function")
 
     prec = opts.precision
     table_dtype = np.float64 if prec == "float64" else np.float32
@@ -286,7 +310,17 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     if prec == "uint8":
         params = params._replace(scale=SCALE_CODES["linear"], axis_lo=0.0, axis_inv_range=1.0 / 255.0)
     dims = np.array(volume.dims, dtype=np.int64)
-    active = blocks.visible(table[:, 3], params) if opts.skip_empty else np.ones(blocks.shape, np.uint8)
+    styles = _LabelStyles(volume, labels, label_styles, tf, table, sigma, params, opts, step_world, unit) \
+        if labels is not None else None
+    if opts.blending != "composite" or (styles is not None and styles.needs_all_blocks):
+        # a projection (or a maximum label) must see every value, opaque or not
+        active = np.isfinite(blocks.minimum).astype(np.uint8)
+    elif styles is not None and opts.skip_empty:
+        active = np.zeros(blocks.shape, np.uint8)
+        for t in styles.opacity_columns():
+            active |= blocks.visible(t, params)
+    else:
+        active = blocks.visible(table[:, 3], params) if opts.skip_empty else np.ones(blocks.shape, np.uint8)
     if block_mask is not None:
         mask = np.asarray(block_mask)
         if mask.shape != blocks.shape:
@@ -309,10 +343,32 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
     lanes = _lanes()
 
+    extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
+        or lod is not None
+    value = None
+    if extended and not flat:
+        kernel_args = _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles,
+                                          tf, prec)
+        if opts.blending != "composite":
+            value = np.full(height * width, np.nan)
+
     def cast(tile_rows):
-        if not flat:
+        rows = np.ascontiguousarray(tile_rows)
+        if flat:
+            pass
+        elif not extended:
             K.render_tiles(bricks.values, table.reshape(-1), sigma, leap, grids, dims, origins, directions, width, height,
-                           _TILE, np.ascontiguousarray(tile_rows), lanes, lo, hi, params, rgba, depth, samples)
+                           _TILE, rows, lanes, lo, hi, params, rgba, depth, samples)
+        elif value is not None:
+            a = kernel_args
+            KX.render_projection(bricks.values, leap, grids, dims, a.pyr, a.pgeo, a.lods, a.tables, a.sigmas, a.axes,
+                                 origins, directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, value,
+                                 rgba, depth, samples)
+        else:
+            a = kernel_args
+            KX.render_ext(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.gbricks, a.slots,
+                          a.modes, a.tables, a.sigmas, a.axes, sigma, origins, directions, width, height, _TILE, rows,
+                          lanes, lo, hi, params, a.e, rgba, depth, samples)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
 
     _check_progress_bar(progress_bar)
@@ -366,7 +422,232 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         "render_seconds": elapsed,
         "samples": int(samples.sum()),
     }
-    return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
+    if opts.blending != "composite":
+        meta["blending"] = opts.blending
+    if opts.gradient_opacity is not None:
+        meta["gradient_opacity"] = list(opts.gradient_opacity)
+    if styles is not None:
+        meta["label_styles"] = styles.describe()
+    if lod is not None:
+        meta["max_lod"] = float(lod.max())
+    if value is not None:
+        value = value.reshape(height, width)
+    return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+
+
+def _check_lod(rays):
+    """The rays' level of detail as a contiguous float64 array, or None when all are 0."""
+    if rays.lod is None:
+        return None
+    lod = np.ascontiguousarray(rays.lod, dtype=np.float64).reshape(-1)
+    if lod.size != rays.width * rays.height:
+        raise ValueError(f"Rays.lod must have one value per ray ({rays.width * rays.height}); got {lod.size}")
+    if not np.all(np.isfinite(lod)) or lod.min() < 0:
+        raise ValueError("Rays.lod must be finite and >= 0")
+    return lod if lod.max() > 0 else None
+
+
+class _Extended(NamedTuple):
+    """Arrays of ``_kernels_ext`` (placeholders of one element where unused)."""
+
+    pyr: np.ndarray
+    pgeo: np.ndarray
+    lods: np.ndarray
+    leap_lod: np.ndarray
+    gbricks: np.ndarray
+    slots: np.ndarray
+    modes: np.ndarray
+    tables: np.ndarray
+    sigmas: np.ndarray
+    axes: np.ndarray
+    e: KX.ExtParams
+
+
+def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles, tf, prec):
+    dtype = np.float64 if prec == "float64" else np.float32
+    one = np.zeros(1, dtype)
+    if lod is not None:
+        levels = int(math.ceil(lod.max())) + 1
+        pyr, pgeo = _mip_pyramid(volume, dtype, levels)
+        # a level-L value mixes level-0 values up to 2**(L+1) voxels away: widen the
+        # sampled blocks by that much for these rays
+        widen = -(-(2 ** int(pgeo.shape[0])) // int(opts.block_size))
+        leap_lod = np.ascontiguousarray(np.maximum(leap.astype(np.int64) - widen, 0).astype(np.uint8))
+        lods = lod
+    else:
+        pyr, pgeo, lods, leap_lod = one, np.zeros((1, 6), np.int64), np.zeros(1), leap
+    gbricks = _gradient_bricks(volume, dtype) if opts.gradient_opacity is not None else one
+    g_lo, g_hi = opts.gradient_opacity if opts.gradient_opacity is not None else (0.0, 1.0)
+    if styles is not None:
+        slots, modes, tables, sigmas, axes = styles.slots, styles.modes, styles.tables, styles.sigmas, styles.axes
+        lattice, midpoint = styles.lattice, styles.midpoint
+    else:
+        slots = np.zeros(1, np.uint8)
+        modes = np.array([BLENDING_CODES["composite"]], np.int64)
+        tables, sigmas = table.reshape(-1), sigma
+        axes = np.array([[params.scale, params.axis_lo, params.axis_inv_range, params.linthresh]], np.float64)
+        lattice, midpoint = 0, 1
+    lo, hi = volume.value_range
+    stop = math.inf
+    if opts.blending == "maximum" and block_is_whole(active, blocks):
+        stop = float(hi)
+    elif opts.blending == "minimum" and block_is_whole(active, blocks):
+        stop = -float(lo)
+    e = KX.ExtParams(BLENDING_CODES[opts.blending], float(unit), stop, int(opts.gradient_opacity is not None),
+                     float(g_lo), float(1.0 / (g_hi - g_lo)), int(pgeo.shape[0]) if lod is not None else 0,
+                     int(styles is not None), int(lattice), int(midpoint))
+    return _Extended(pyr, pgeo, lods, leap_lod, gbricks, slots, modes, tables, sigmas, axes, e)
+
+
+def block_is_whole(active, blocks):
+    """Whether every block with a finite value is sampled (no mask excludes any)."""
+    return bool(np.all(active.astype(bool) | ~np.isfinite(blocks.minimum)))
+
+
+def _mip_pyramid(volume, dtype, levels):
+    """Bricked mip-map levels ``0 .. levels - 1`` (fewer if the volume gets too small).
+
+    Cached on the volume; returns ``(flat values, geometry (levels, 6) int64)`` as
+    ``_kernels_ext`` reads them.
+    """
+    key = ("mip", np.dtype(dtype).str)
+    cached = volume.cache.get(key)
+    if cached is None or cached[1].shape[0] < levels:
+        grids = [np.ascontiguousarray(volume.values, dtype=dtype)]
+        while len(grids) < levels:
+            nz, ny, nx = grids[-1].shape
+            if min(nx, ny, nz) < 3:
+                break
+            out = np.empty((nz // 2 + 1, ny // 2 + 1, nx // 2 + 1), dtype)
+            KX.downsample(grids[-1], out)
+            grids.append(out)
+        size = 1 << K.BRICK_SHIFT
+        parts, geo, offset = [], [], 0
+        for g in grids:
+            dims = g.shape[::-1]
+            shape = _brick_shape(dims)
+            b = np.empty(int(np.prod(shape)) * (size + 1) ** 3, dtype)
+            K.make_bricks(g, K.BRICK_SHIFT, *shape, b)
+            geo.append((offset, dims[0], dims[1], dims[2], shape[1], shape[2]))
+            parts.append(b)
+            offset += b.size
+        cached = (np.concatenate(parts), np.array(geo, dtype=np.int64))
+        volume.cache[key] = cached
+    return cached[0], cached[1][:levels]
+
+
+def _gradient_bricks(volume, dtype):
+    """``|grad v|`` per grid point (world units), bricked like the data; cached."""
+    key = ("gradient", np.dtype(dtype).str)
+    if key not in volume.cache:
+        mag = np.empty(volume.values.shape, dtype)
+        KX.gradient_magnitude(volume.values, np.ascontiguousarray(1.0 / volume.spacing, dtype=np.float64), mag)
+        size = 1 << K.BRICK_SHIFT
+        shape = _brick_shape(volume.dims)
+        b = np.empty(int(np.prod(shape)) * (size + 1) ** 3, dtype)
+        K.make_bricks(mag, K.BRICK_SHIFT, *shape, b)
+        volume.cache[key] = b
+    return volume.cache[key]
+
+
+_LABEL_BLENDINGS = ("composite", "maximum", "minimum")
+
+
+class _LabelStyles:
+    """Per-label transfer functions and blendings as ``_kernels_ext`` reads them.
+
+    Slot 0 is the default style (``tf``, composite); each styled label gets a slot.
+    The label volume becomes a bricked uint8 array of slots.
+    """
+
+    def __init__(self, volume, labels, label_styles, tf, table, sigma, params, opts, step_world, unit):
+        lab = np.asarray(labels)
+        shape = volume.values.shape
+        if lab.shape != shape:
+            raise ValueError(f"labels must have the volume's shape {shape} (z, y, x); got {lab.shape}")
+        if not (np.issubdtype(lab.dtype, np.integer) or lab.dtype == np.bool_):
+            raise TypeError(f"labels must be an integer or bool array; got dtype {lab.dtype}")
+        label_styles = {} if label_styles is None else label_styles
+        if not isinstance(label_styles, dict):
+            raise TypeError(f"label_styles must be a dict {{label: style}}; got {type(label_styles).__name__}")
+        if len(label_styles) > 254:
+            raise ValueError(f"at most 254 styled labels; got {len(label_styles)}")
+        present = set(np.unique(lab).tolist())
+        tfs, blendings, names = [tf], ["composite"], ["default"]
+        slot_of = {}
+        for key, style in label_styles.items():
+            if isinstance(key, (bool, np.bool_)) or not isinstance(key, (int, np.integer)):
+                raise TypeError(f"label_styles keys must be integer labels; got {key!r}")
+            if int(key) not in present:
+                raise ValueError(f"label {key!r} of label_styles does not occur in labels (labels present: "
+                                 f"{sorted(present)[:20]})")
+            stf, blend = _parse_style(key, style, tf)
+            slot_of[int(key)] = len(tfs)
+            tfs.append(stf)
+            blendings.append(blend)
+            names.append(int(key))
+        n = max(t.table_size for t in tfs) if params.precision != PRECISION_CODES["uint8"] else 256
+        dtype = table.dtype
+        tables, sigmas, axes = [], [], []
+        for t in tfs:
+            if t is tf and len(table) == n:
+                rows, sig = table, sigma
+            else:
+                rgb, s = t.table(np.float64, opts.global_alpha, unit, n)
+                rows = np.column_stack([rgb, -np.expm1(-s * step_world)]).astype(dtype)
+                sig = s.astype(dtype)
+            a0, a1 = t.axis_range
+            tables.append(np.ascontiguousarray(rows).reshape(-1))
+            sigmas.append(sig)
+            axes.append((SCALE_CODES[t.scale], a0, 1.0 / (a1 - a0), t.linthresh))
+        self.tables = np.ascontiguousarray(np.concatenate(tables), dtype=dtype)
+        self.sigmas = np.ascontiguousarray(np.concatenate(sigmas), dtype=dtype)
+        self.axes = np.array(axes, dtype=np.float64)
+        self.modes = np.array([BLENDING_CODES[b] for b in blendings], np.int64)
+        self._opacity = [self.tables.reshape(len(tfs), n, 4)[i, :, 3] for i in range(len(tfs))]
+        self._blendings = blendings
+        self._names = names
+        # the slot of each grid point, bricked as the data
+        lut_keys = np.array(sorted(slot_of), dtype=np.int64)
+        lut_vals = np.array([slot_of[k] for k in sorted(slot_of)], dtype=np.uint8)
+        flat = lab.astype(np.int64).reshape(-1)
+        slot_volume = np.zeros(flat.size, np.uint8)
+        if lut_keys.size:
+            pos = np.clip(np.searchsorted(lut_keys, flat), 0, lut_keys.size - 1)
+            hit = lut_keys[pos] == flat
+            slot_volume[hit] = lut_vals[pos[hit]]
+        size = 1 << K.BRICK_SHIFT
+        bshape = _brick_shape(volume.dims)
+        self.slots = np.empty(int(np.prod(bshape)) * (size + 1) ** 3, np.uint8)
+        K.make_bricks(slot_volume.reshape(shape), K.BRICK_SHIFT, *bshape, self.slots)
+        used = set(blendings)
+        self.lattice = int(bool(used & {"maximum", "minimum"}))
+        self.midpoint = int("composite" in used)
+        self.needs_all_blocks = bool(self.lattice)
+
+    def opacity_columns(self):
+        """Per-step opacity of every composite style (for empty-space skipping)."""
+        return [a for a, b in zip(self._opacity, self._blendings) if b == "composite"]
+
+    def describe(self):
+        return {str(n): b for n, b in zip(self._names, self._blendings)}
+
+
+def _parse_style(label, style, default_tf):
+    """``(TransferFunction, blending)`` of one ``label_styles`` entry."""
+    stf, blend = default_tf, "composite"
+    if isinstance(style, TransferFunction):
+        stf = style
+    elif isinstance(style, str):
+        blend = style
+    elif isinstance(style, tuple) and len(style) == 2 and isinstance(style[0], TransferFunction):
+        stf, blend = style
+    else:
+        raise TypeError(f"the style of label {label!r} must be a TransferFunction, a blending name or a "
+                        f"(TransferFunction, blending) pair; got {style!r}")
+    if blend not in _LABEL_BLENDINGS:
+        raise ValueError(f"the blending of label {label!r} must be one of {list(_LABEL_BLENDINGS)}; got {blend!r}")
+    return stf, blend
 
 
 def _derived(volume, key, make):

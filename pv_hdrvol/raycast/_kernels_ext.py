@@ -1,0 +1,607 @@
+"""numba kernels for renders beyond plain emission-absorption: arrays in, arrays out.
+
+- **Projections** (``render_projection``): maximum, minimum, average and additive
+  (X-ray) blending. One scalar per ray, in float64, plus its colour.
+- **Extended compositing** (``render_ext``): emission-absorption with any of
+  gradient-magnitude opacity modulation, two-level rendering of labelled data (a
+  transfer function and a blending mode per label) and mip-mapped sampling for rays
+  sparser than the camera's (a lens's level of detail, ``Rays.lod``).
+
+Kept apart from ``_kernels.py`` so that a plain render compiles and runs none of this
+("model only what a scene requires"); a ray that needs none of it is handed to
+``_kernels._march`` unchanged, so its pixels are bit-identical to a plain render.
+
+The mip-map (``pyr``) is one flat array of bricked levels, level ``L`` at offset
+``pgeo[L, 0]`` with ``pgeo[L, 1:4]`` its points along x, y, z and ``pgeo[L, 4:6]`` its
+brick grid (y, x); level ``L`` point ``i`` lies at voxel coordinate ``i * 2**L``.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from .._jit import kernel, parallel_kernel, uindex as _u
+from ._kernels import (
+    BRICK_SHIFT, F32, F64, LINEAR, LOG, SYMLOG, _accumulate, _finish, _leap_to, _march, _opacity, _probe,
+    _ray_box, _start,
+)
+
+# blending codes (params.BLENDING_CODES)
+COMPOSITE, MAXIMUM, MINIMUM, AVERAGE, ADDITIVE = 0, 1, 2, 3, 4
+
+
+class ExtParams(NamedTuple):
+    """Scalars of the extended renders, beside ``_kernels.GridParams``.
+
+    ``unit``: the opacity unit distance (a projection's colour uses the transfer
+    function's opacity over it). ``value_stop``: a maximum (minimum) projection stops
+    once it reaches this value (the data's maximum, or minimum); ``inf`` never.
+    ``gradient``: 1 to scale extinction by a ramp of the gradient magnitude from
+    ``g_lo`` (0) to ``g_lo + 1 / g_inv`` (1). ``lattice``/``midpoint``: whether any
+    label uses a maximum/minimum (sampled at lattice points) or a compositing mode
+    (sampled at segment midpoints).
+    """
+
+    mode: int
+    unit: float
+    value_stop: float
+    gradient: int
+    g_lo: float
+    g_inv: float
+    n_levels: int
+    labelled: int
+    lattice: int
+    midpoint: int
+
+
+# -- sampling -----------------------------------------------------------------------------
+@kernel
+def _block(leap, g, x, y, z):
+    """Leap radius and block indices of voxel position ``(x, y, z)`` (as ``_probe``)."""
+    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    xi = min(int(min(max(x, 0.0), x_max)), nx - 2)
+    yi = min(int(min(max(y, 0.0), y_max)), ny - 2)
+    zi = min(int(min(max(z, 0.0), z_max)), nz - 2)
+    ib = xi >> shift
+    jb = yi >> shift
+    kb = zi >> shift
+    return leap[_u((kb * by + jb) * bx + ib)], ib, jb, kb
+
+
+@kernel
+def _trilinear(bricks, base, nx, ny, nz, qy, qx, x, y, z):
+    """Trilinear value at point coordinates ``(x, y, z)`` of a bricked grid at ``base``."""
+    x = min(max(x, 0.0), nx - 1.0)
+    y = min(max(y, 0.0), ny - 1.0)
+    z = min(max(z, 0.0), nz - 1.0)
+    xi = int(x)  # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
+    yi = int(y)
+    zi = int(z)
+    fx = x - xi
+    fy = y - yi
+    fz = z - zi
+    m = (1 << BRICK_SHIFT) - 1
+    pitch = (1 << BRICK_SHIFT) + 1
+    brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
+    q = _u(base + brick * (pitch * pitch * pitch) + ((zi & m) * pitch + (yi & m)) * pitch + (xi & m))
+    p1 = _u(pitch)
+    p2 = _u(pitch * pitch)
+    one = _u(1)
+    v000 = np.float64(bricks[q])
+    v100 = np.float64(bricks[q + one])
+    v010 = np.float64(bricks[q + p1])
+    v110 = np.float64(bricks[q + p1 + one])
+    v001 = np.float64(bricks[q + p2])
+    v101 = np.float64(bricks[q + p2 + one])
+    v011 = np.float64(bricks[q + p2 + p1])
+    v111 = np.float64(bricks[q + p2 + p1 + one])
+    c00 = v000 + fx * (v100 - v000)
+    c10 = v010 + fx * (v110 - v010)
+    c01 = v001 + fx * (v101 - v001)
+    c11 = v011 + fx * (v111 - v011)
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    return c0 + fz * (c1 - c0)
+
+
+@kernel
+def _level_value(pyr, pgeo, level, x, y, z):
+    """Trilinear value of mip level ``level`` at voxel coordinates ``(x, y, z)``."""
+    s = 1.0 / (1 << level)
+    return _trilinear(pyr, pgeo[level, 0], pgeo[level, 1], pgeo[level, 2], pgeo[level, 3], pgeo[level, 4],
+                      pgeo[level, 5], x * s, y * s, z * s)
+
+
+@kernel
+def _lod_value(pyr, pgeo, n_levels, lod, x, y, z):
+    """Value at fractional mip level ``lod``: linear between the two nearest levels."""
+    level = int(lod)
+    f = lod - level
+    if level >= n_levels - 1:
+        return _level_value(pyr, pgeo, n_levels - 1, x, y, z)
+    v0 = _level_value(pyr, pgeo, level, x, y, z)
+    if f == 0.0:
+        return v0
+    return v0 + f * (_level_value(pyr, pgeo, level + 1, x, y, z) - v0)
+
+
+@kernel
+def _sample(bricks, leap, g, pyr, pgeo, n_levels, lod, x, y, z):
+    """``(radius, ib, jb, kb, v)`` as ``_kernels._probe``; mip-mapped where ``lod > 0``."""
+    if lod == 0.0:
+        return _probe(bricks, leap, g, x, y, z)
+    radius, ib, jb, kb = _block(leap, g, x, y, z)
+    if radius != 0:
+        return radius, ib, jb, kb, math.nan
+    return 0, ib, jb, kb, _lod_value(pyr, pgeo, n_levels, lod, x, y, z)
+
+
+@kernel
+def _label_slot(slots, g, x, y, z):
+    """Style slot of the grid point nearest to ``(x, y, z)`` (a label is not interpolated)."""
+    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    i = int(min(max(x, 0.0), x_max) + 0.5)
+    j = int(min(max(y, 0.0), y_max) + 0.5)
+    k = int(min(max(z, 0.0), z_max) + 0.5)
+    m = (1 << BRICK_SHIFT) - 1
+    pitch = (1 << BRICK_SHIFT) + 1
+    q = ((k >> BRICK_SHIFT) * qy + (j >> BRICK_SHIFT)) * qx + (i >> BRICK_SHIFT)
+    return slots[_u(q * (pitch * pitch * pitch) + ((k & m) * pitch + (j & m)) * pitch + (i & m))]
+
+
+# -- classification with explicit axis parameters (one transfer function per label) -----
+@kernel
+def _position(v, scale, lo, inv_range, linthresh):
+    """``_kernels.table_position`` with the axis given explicitly."""
+    if scale == LOG:
+        if v > 0.0:
+            a = math.log10(v)
+        else:
+            return 0.0
+    elif scale == SYMLOG:
+        a = math.copysign(math.log10(1.0 + abs(v) / linthresh), v)
+    else:
+        a = v
+    u = (a - lo) * inv_range
+    if u < 0.0:
+        return 0.0
+    if u > 1.0:
+        return 1.0
+    return u
+
+
+@kernel
+def _row(tables, slot, n, axes, v, u8):
+    """Interpolated ``(r, g, b, a_step)`` of label slot ``slot``, and entry and fraction.
+
+    ``tables`` is flat, ``n`` rows of 4 per slot; ``axes[slot]`` holds the axis
+    ``(scale, lo, 1 / range, linthresh)``. ``u8``: nearest entry, as the 8-bit pipeline.
+    """
+    u = _position(v, int(axes[slot, 0]), axes[slot, 1], axes[slot, 2], axes[slot, 3])
+    if u8:
+        i = int(u * (n - 1) + 0.5)
+        f = 0.0
+    else:
+        x = u * (n - 1)
+        i = min(int(x), n - 2)
+        f = x - i
+    q = _u(4 * (slot * n + i))
+    ft = tables.dtype.type(f)
+    r = tables[q] + ft * (tables[q + _u(4)] - tables[q])
+    gg = tables[q + _u(1)] + ft * (tables[q + _u(5)] - tables[q + _u(1)])
+    b = tables[q + _u(2)] + ft * (tables[q + _u(6)] - tables[q + _u(2)])
+    a = tables[q + _u(3)] + ft * (tables[q + _u(7)] - tables[q + _u(3)])
+    return r, gg, b, a, i, f
+
+
+@kernel
+def _sigma(sigmas, slot, n, i, f):
+    """Interpolated extinction of slot ``slot`` at entry ``i``, fraction ``f`` (float64)."""
+    q = _u(slot * n + i)
+    s0 = np.float64(sigmas[q])
+    return s0 + f * (np.float64(sigmas[q + _u(1)]) - s0)
+
+
+@kernel
+def _gradient_factor(gbricks, g, x, y, z, e):
+    """Ramp in [0, 1] of the gradient magnitude at ``(x, y, z)`` (0 where it is NaN)."""
+    gm = _trilinear(gbricks, 0, g[0], g[1], g[2], g[9], g[10], x, y, z)
+    w = (gm - e.g_lo) * e.g_inv
+    if not w > 0.0:  # also NaN
+        return 0.0
+    return min(w, 1.0)
+
+
+# -- projections ------------------------------------------------------------------------------
+@kernel
+def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e):
+    """One ray of a projection. Returns ``(value, r, g, b, alpha, depth, samples)``.
+
+    Maximum and minimum take the extreme of the samples at the lattice points
+    ``t0 + k step`` and at the exit ``t1`` (so on a view along an axis through grid
+    points they see every grid value exactly); their colour and opacity are the
+    transfer function's at that value over the opacity unit distance, and depth is
+    where it was first met. Average and additive integrate by the midpoint rule of
+    compositing: additive gives ``int v dt`` (world units) and the emission
+    ``int c(v) sigma(v) dt`` with opacity ``1 - exp(-int sigma dt)``, no absorption of
+    the colour (an X-ray); average gives ``int v dt / L`` over the length ``L`` of valid
+    (non-NaN) samples, coloured as maximum.
+    """
+    nan_out = (math.nan, 0.0, 0.0, 0.0, 0.0, math.inf, 0)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
+    if not t1 > t0:
+        return nan_out
+    step = p.step
+    size = 1 << p.block_shift
+    n_table = tables.shape[0] // 4
+    rx = 1.0 / dx if dx != 0.0 else 0.0
+    ry = 1.0 / dy if dy != 0.0 else 0.0
+    rz = 1.0 / dz if dz != 0.0 else 0.0
+    n_seg = max(int(math.ceil((t1 - t0) / step)), 1)
+    n_levels = e.n_levels
+    mode = e.mode
+    samples = 0
+    if mode == MAXIMUM or mode == MINIMUM:
+        sign = 1.0 if mode == MAXIMUM else -1.0
+        best = -math.inf
+        depth = math.inf
+        k = 0
+        while k <= n_seg:
+            tk = t0 + k * step if k < n_seg else t1
+            radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod,
+                                            ox + tk * dx, oy + tk * dy, oz + tk * dz)
+            if radius != 0:
+                # the next lattice point may still lie in the empty cube: then it leaps again
+                k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+                continue
+            k += 1
+            if v != v:
+                continue
+            samples += 1
+            sv = sign * v
+            if sv > best:
+                best = sv
+                depth = tk
+                if sv >= e.value_stop:
+                    break
+        if samples == 0:
+            return nan_out
+        value = sign * best
+        r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, False)
+        alpha = -math.expm1(-_sigma(sigmas, 0, n_table, i, f) * e.unit)
+        return value, alpha * r, alpha * gg, alpha * b, alpha, depth, samples
+    # average and additive: midpoint rule over the segments
+    total = 0.0
+    length = 0.0
+    tau = 0.0
+    er = 0.0
+    eg = 0.0
+    eb = 0.0
+    depth = math.inf
+    k = 0
+    while k < n_seg:
+        ta = t0 + k * step
+        tb = min(ta + step, t1) if k < n_seg - 1 else t1
+        tm = 0.5 * (ta + tb)
+        radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod,
+                                        ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        if radius != 0:
+            k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+            continue
+        k += 1
+        if v != v:
+            continue
+        samples += 1
+        dt = tb - ta
+        if depth == math.inf:
+            depth = tm
+        total += v * dt
+        length += dt
+        if mode == ADDITIVE:
+            r, gg, b, a, i, f = _row(tables, 0, n_table, axes, v, False)
+            sd = _sigma(sigmas, 0, n_table, i, f) * dt
+            tau += sd
+            er += r * sd
+            eg += gg * sd
+            eb += b * sd
+    if samples == 0:
+        return nan_out
+    if mode == ADDITIVE:
+        return total, er, eg, eb, -math.expm1(-tau), depth, samples
+    value = total / length
+    r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, False)
+    alpha = -math.expm1(-_sigma(sigmas, 0, n_table, i, f) * e.unit)
+    return value, alpha * r, alpha * gg, alpha * b, alpha, depth, samples
+
+
+@parallel_kernel
+def render_projection(bricks, leap, grids, dims, pyr, pgeo, lods, tables, sigmas, axes, origins, directions,
+                      width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth, out_samples):
+    """Fill the pixels of the tiles in rows ``tile_rows`` with ``_project`` (as ``_kernels.render_tiles``)."""
+    g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
+         grids[1], grids[2], grids[4], grids[5])
+    has_lod = lods.shape[0] == width * height
+    tiles_x = (width + tile - 1) // tile
+    n_tiles = tile_rows.shape[0] * tiles_x
+    for lane in numba.prange(lanes):
+        for t in range(lane, n_tiles, lanes):
+            row0 = tile_rows[t // tiles_x] * tile
+            col0 = (t % tiles_x) * tile
+            for row in range(row0, min(row0 + tile, height)):
+                for col in range(col0, min(col0 + tile, width)):
+                    pix = row * width + col
+                    lod = lods[pix] if has_lod else 0.0
+                    v, r, gg, b, a, dep, ns = _project(
+                        bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes,
+                        origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                        directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e)
+                    out_value[pix] = v
+                    out_rgba[pix, 0] = r
+                    out_rgba[pix, 1] = gg
+                    out_rgba[pix, 2] = b
+                    out_rgba[pix, 3] = a
+                    out_depth[pix] = dep
+                    out_samples[pix] = ns
+
+
+# -- extended compositing -------------------------------------------------------------------
+@kernel
+def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes,
+                   ox, oy, oz, dx, dy, dz, t0, t1, p, e):
+    """Front-to-back compositing with gradient modulation, labels and mip sampling.
+
+    Composite labels (and unlabelled renders) sample segment midpoints exactly as
+    ``_kernels._march_in``. A label with maximum (minimum) blending collects the
+    extreme of its lattice points ``t0 + k step`` while the ray stays in it; when the
+    ray leaves it, the segment is classified by that label's transfer function (its
+    opacity over the unit distance) and composited as one sample: the two-level
+    rendering of Hauser et al. (2001) as used by the Magic Volume Lens (Fig. 15).
+    """
+    step = p.step
+    size = 1 << p.block_shift
+    n_table = tables.shape[0] // (4 * modes.shape[0])
+    u8 = p.precision == 3
+    rx = 1.0 / dx if dx != 0.0 else 0.0
+    ry = 1.0 / dy if dy != 0.0 else 0.0
+    rz = 1.0 / dz if dz != 0.0 else 0.0
+    n_seg = max(int(math.ceil((t1 - t0) / step)), 1)
+    n_levels = e.n_levels
+    state = _start(marker)
+    depth = math.inf
+    samples = 0
+    seg_slot = -1  # label slot of the open maximum/minimum segment (-1: none)
+    seg_best = -math.inf
+    seg_sign = 1.0
+    seg_t = 0.0
+    k = 0
+    stopped = False
+    while k < n_seg and not stopped:
+        ta = t0 + k * step
+        last = k == n_seg - 1
+        # the same arithmetic as _kernels._march_in, so a composite ray gives the same bits
+        tb = t1 if last else ta + step
+        tm = 0.5 * (ta + t1) if last else t0 + (k + 0.5) * step
+        # one leap test per segment, at its midpoint (as the plain loop)
+        radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod,
+                                        ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        if radius != 0:
+            kn = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+            if seg_slot >= 0:
+                # an empty stretch ends the open segment (values there are transparent anyway)
+                r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
+                a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
+                if a_seg > 0.0:
+                    state = _accumulate(marker, prec, state, a_seg, r, gg, b)
+                    if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+                        depth = seg_t
+                seg_slot = -1
+            k = kn
+            continue
+        if e.labelled and e.lattice:
+            # the lattice point at the segment's start, for maximum/minimum labels
+            xa = ox + ta * dx
+            ya = oy + ta * dy
+            za = oz + ta * dz
+            sl = np.int64(_label_slot(slots, g, xa, ya, za))
+            mode = modes[sl]
+            if seg_slot >= 0 and sl != seg_slot:
+                r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
+                a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
+                if a_seg > 0.0:
+                    state = _accumulate(marker, prec, state, a_seg, r, gg, b)
+                    if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+                        depth = seg_t
+                seg_slot = -1
+            if mode == MAXIMUM or mode == MINIMUM:
+                if lod == 0.0:
+                    va = _trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], xa, ya, za)
+                else:
+                    va = _lod_value(pyr, pgeo, n_levels, lod, xa, ya, za)
+                if va == va:
+                    if seg_slot < 0:
+                        seg_slot = sl
+                        seg_sign = 1.0 if mode == MAXIMUM else -1.0
+                        seg_best = -math.inf
+                    samples += 1
+                    if seg_sign * va > seg_best:
+                        seg_best = seg_sign * va
+                        seg_t = ta
+        k += 1
+        if v != v:
+            continue
+        slot = 0
+        if e.labelled:
+            slot = np.int64(_label_slot(slots, g, ox + tm * dx, oy + tm * dy, oz + tm * dz))
+            if modes[slot] != COMPOSITE:
+                continue
+            if seg_slot >= 0:
+                # a composite sample after an open segment: that segment is over
+                r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
+                a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
+                if a_seg > 0.0:
+                    state = _accumulate(marker, prec, state, a_seg, r, gg, b)
+                    if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+                        depth = seg_t
+                seg_slot = -1
+        samples += 1
+        r, gg, b, a_i, i, f = _row(tables, slot, n_table, axes, v, u8)
+        if last or e.gradient:
+            # a shortened last segment, or an extinction scaled by the gradient ramp
+            sg = _sigma(sigmas, slot, n_table, i, f)
+            if e.gradient:
+                sg *= _gradient_factor(gbricks, g, ox + tm * dx, oy + tm * dy, oz + tm * dz, e)
+            a_i = -math.expm1(-sg * (tb - ta))
+        if a_i <= 0.0:
+            continue
+        state = _accumulate(marker, prec, state, a_i, r, gg, b)
+        alpha = _opacity(marker, state)
+        if depth == math.inf and alpha >= p.depth_alpha:
+            depth = tm
+        if alpha >= p.alpha_stop:
+            stopped = True
+    if e.labelled and e.lattice and not stopped:
+        # the exit point ends the lattice, then the open segment
+        xa = ox + t1 * dx
+        ya = oy + t1 * dy
+        za = oz + t1 * dz
+        sl = np.int64(_label_slot(slots, g, xa, ya, za))
+        if sl == seg_slot:
+            if lod == 0.0:
+                va = _trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], xa, ya, za)
+            else:
+                va = _lod_value(pyr, pgeo, n_levels, lod, xa, ya, za)
+            if va == va and seg_sign * va > seg_best:
+                seg_best = seg_sign * va
+                seg_t = t1
+        elif seg_slot < 0 and (modes[sl] == MAXIMUM or modes[sl] == MINIMUM):
+            va = _trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], xa, ya, za) if lod == 0.0 else \
+                _lod_value(pyr, pgeo, n_levels, lod, xa, ya, za)
+            radius, ib, jb, kb = _block(leap, g, xa, ya, za)
+            if va == va and radius == 0:
+                seg_slot = sl
+                seg_sign = 1.0 if modes[sl] == MAXIMUM else -1.0
+                seg_best = seg_sign * va
+                seg_t = t1
+                samples += 1
+        if seg_slot >= 0:
+            r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
+            a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
+            if a_seg > 0.0:
+                state = _accumulate(marker, prec, state, a_seg, r, gg, b)
+                if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+                    depth = seg_t
+    cr, cg, cb, alpha = _finish(marker, state)
+    return cr, cg, cb, alpha, depth, samples
+
+
+@kernel
+def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes,
+               ox, oy, oz, dx, dy, dz, lo, hi, p, e):
+    """Clip the ray and run ``_composite_ext`` in the render's precision."""
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
+    if not t1 > t0:
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    if p.precision == F64:
+        return _composite_ext(0.0, F64, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas,
+                              axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+    if p.precision == F32:
+        return _composite_ext(np.float32(0.0), F32, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables,
+                              sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+    return _composite_ext(0, p.precision, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas,
+                          axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+
+
+@parallel_kernel
+def render_ext(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, slots, modes, tables, sigmas, axes,
+               sigma0, origins, directions, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth,
+               out_samples):
+    """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
+    level of detail 0) goes through ``_kernels._march`` with slot 0's table, so it is
+    bit-identical to a plain render; ``leap_lod`` (blocks dilated by the widest mip
+    filter) serves rays with ``lod > 0``."""
+    g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
+         grids[1], grids[2], grids[4], grids[5])
+    plain_ok = e.labelled == 0 and e.gradient == 0
+    n_table = tables.shape[0] // (4 * modes.shape[0])
+    table0 = tables[: 4 * n_table]
+    has_lod = lods.shape[0] == width * height
+    tiles_x = (width + tile - 1) // tile
+    n_tiles = tile_rows.shape[0] * tiles_x
+    for lane in numba.prange(lanes):
+        for t in range(lane, n_tiles, lanes):
+            row0 = tile_rows[t // tiles_x] * tile
+            col0 = (t % tiles_x) * tile
+            for row in range(row0, min(row0 + tile, height)):
+                for col in range(col0, min(col0 + tile, width)):
+                    pix = row * width + col
+                    lod = lods[pix] if has_lod else 0.0
+                    if plain_ok and lod == 0.0:
+                        r, gg, b, a, dep, ns = _march(bricks, table0, sigma0, leap, grids, dims,
+                                                      origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                                                      directions[pix, 0], directions[pix, 1], directions[pix, 2],
+                                                      lo, hi, p)
+                    else:
+                        r, gg, b, a, dep, ns = _march_ext(
+                            bricks, leap if lod == 0.0 else leap_lod, g, pyr, pgeo, lod, gbricks, slots, modes,
+                            tables, sigmas, axes, origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                            directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e)
+                    out_rgba[pix, 0] = r
+                    out_rgba[pix, 1] = gg
+                    out_rgba[pix, 2] = b
+                    out_rgba[pix, 3] = a
+                    out_depth[pix] = dep
+                    out_samples[pix] = ns
+
+
+# -- volumes derived once per dataset ---------------------------------------------------------
+@kernel
+def downsample(values, out):
+    """Level ``L + 1`` of a mip-map from level ``L`` (both (z, y, x) point grids).
+
+    Point ``i`` of ``out`` is level point ``2 i`` filtered by the tent ``[1, 2, 1] / 4``
+    along each axis (edges repeated); NaN points are left out and the weights
+    renormalised, so NaN survives only where every neighbour is NaN.
+    """
+    nz, ny, nx = values.shape
+    mz, my, mx = out.shape
+    w = (0.25, 0.5, 0.25)
+    for k in range(mz):
+        for j in range(my):
+            for i in range(mx):
+                total = 0.0
+                weight = 0.0
+                for a in range(3):
+                    kk = min(max(2 * k + a - 1, 0), nz - 1)
+                    for b in range(3):
+                        jj = min(max(2 * j + b - 1, 0), ny - 1)
+                        for c in range(3):
+                            ii = min(max(2 * i + c - 1, 0), nx - 1)
+                            v = np.float64(values[kk, jj, ii])
+                            if v == v:
+                                wt = w[a] * w[b] * w[c]
+                                total += wt * v
+                                weight += wt
+                out[k, j, i] = total / weight if weight > 0.0 else math.nan
+
+
+@kernel
+def gradient_magnitude(values, inv_spacing, out):
+    """``|grad v|`` per point (world units): central differences, one-sided at edges."""
+    nz, ny, nx = values.shape
+    sx, sy, sz = inv_spacing[0], inv_spacing[1], inv_spacing[2]
+    for k in range(nz):
+        k0 = max(k - 1, 0)
+        k1 = min(k + 1, nz - 1)
+        for j in range(ny):
+            j0 = max(j - 1, 0)
+            j1 = min(j + 1, ny - 1)
+            for i in range(nx):
+                i0 = max(i - 1, 0)
+                i1 = min(i + 1, nx - 1)
+                gx = (np.float64(values[k, j, i1]) - np.float64(values[k, j, i0])) * sx / max(i1 - i0, 1)
+                gy = (np.float64(values[k, j1, i]) - np.float64(values[k, j0, i])) * sy / max(j1 - j0, 1)
+                gz = (np.float64(values[k1, j, i]) - np.float64(values[k0, j, i])) * sz / max(k1 - k0, 1)
+                out[k, j, i] = math.sqrt(gx * gx + gy * gy + gz * gz)

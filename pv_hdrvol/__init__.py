@@ -16,23 +16,20 @@ __version__ = "0.1.0"
 
 
 def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, preference="point", options=None,
-           block_mask=None, labels=None, label_styles=None, progress_bar=None, progress=None, **option_kwargs):
+           block_mask=None, lens=None, labels=None, label_styles=None, progress_bar=None, progress=None,
+           **option_kwargs):
     """Render a volume to an :class:`HDRImage` (see :func:`render_volume` for all options).
 
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
     a :class:`GridVolume`; ``scalars``/``preference`` pick the array of a dataset, and
-    ``labels`` may name another of its arrays. ``camera`` is a :class:`Camera`,
-    :class:`Rays`, or a lens (anything with ``rays(camera, size)``) applied to the
-    default camera.
+    ``labels`` may name another of its arrays.
     """
     from .raycast.grid import as_volume
 
     volume = as_volume(data, scalars=scalars, preference=preference)
     if isinstance(labels, str):
         labels = as_volume(data, scalars=labels, preference=preference).values
-    if camera is not None and not isinstance(camera, (Camera, Rays)) and hasattr(camera, "rays"):
-        camera = camera.rays(Camera.fit(volume.bounds, "iso"), size)
-    return render_volume(volume, tf, camera, size, options, block_mask=block_mask, labels=labels,
+    return render_volume(volume, tf, camera, size, options, block_mask=block_mask, lens=lens, labels=labels,
                          label_styles=label_styles, progress_bar=progress_bar, progress=progress, **option_kwargs)
 
 

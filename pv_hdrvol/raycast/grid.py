@@ -186,7 +186,7 @@ def _axis_position(values, params):
 
 
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,
-                  labels=None, label_styles=None, progress=None, progress_bar=None, **option_kwargs):
+                  lens=None, labels=None, label_styles=None, progress=None, progress_bar=None, **option_kwargs):
     r"""Ray cast an image volume into an :class:`~pv_hdrvol.HDRImage`.
 
     Parameters
@@ -196,13 +196,17 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         ``scalars=``).
     tf : TransferFunction, optional
         Default: :func:`default_transfer_function`.
-    camera : Camera, Rays or lens ray generator, optional
-        Default: ``Camera.fit(volume, "iso")``. ``Rays`` (e.g. from a lens's
-        ``rays(camera, size)``) give one ray per pixel and fix the size; where they
-        carry a level of detail (``Rays.lod``), those rays sample a mip-map of the
-        volume, built once per volume.
+    camera : Camera or Rays, optional
+        Default: ``Camera.fit(volume, "iso")``. ``Rays`` give one ray per pixel and
+        fix the size; where they carry a level of detail (``Rays.lod``), those rays
+        sample a mip-map of the volume, built once per volume.
     size : int or (width, height)
         Output size in pixels (ignored for ``Rays``).
+    lens : Lens, optional
+        A ray generator of :mod:`pv_hdrvol.rays.lenses` (magnifier, feature,
+        sampling-rate, fisheye lens; or anything with ``rays(camera, size) -> Rays``)
+        applied to ``camera``. Lenses change which rays are cast, never how they are
+        composited.
     options : RenderOptions, optional
         Sampling and compositing options; keywords (``step=``, ``precision=``, ...)
         override single fields.
@@ -260,7 +264,15 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
     if camera is None:
         camera = Camera.fit(volume.bounds, "iso")
-    if isinstance(camera, Rays):
+    if lens is not None:
+        if not callable(getattr(lens, "rays", None)):
+            raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
+        if not isinstance(camera, Camera):
+            raise TypeError(f"a lens needs a Camera; got {type(camera).__name__}")
+        rays = lens.rays(camera, size)
+        if not isinstance(rays, Rays):
+            raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
+    elif isinstance(camera, Rays):
         rays = camera
     elif isinstance(camera, Camera):
         rays = camera.rays(size)
@@ -419,6 +431,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         "depth_threshold": opts.depth_threshold,
         "transfer_function": repr(tf),
         "camera": repr(camera) if isinstance(camera, Camera) else "rays",
+        "lens": repr(lens) if lens is not None else None,
         "render_seconds": elapsed,
         "samples": int(samples.sum()),
     }

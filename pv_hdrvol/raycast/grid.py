@@ -431,10 +431,11 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         "depth_threshold": opts.depth_threshold,
         "transfer_function": repr(tf),
         "camera": repr(camera) if isinstance(camera, Camera) else "rays",
-        "lens": repr(lens) if lens is not None else None,
         "render_seconds": elapsed,
         "samples": int(samples.sum()),
     }
+    if lens is not None:
+        meta["lens"] = repr(lens)
     if opts.blending != "composite":
         meta["blending"] = opts.blending
     if opts.gradient_opacity is not None:

@@ -3,6 +3,8 @@
 Public names only; the pipeline is ``data`` -> ``rays`` -> ``render`` -> ``image`` ->
 ``integrations``.
 """
+import numpy as np
+
 from . import datasets
 from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
 from .data.transfer import TransferFunction
@@ -28,7 +30,12 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
     volume = as_volume(data, scalars=scalars, preference=preference)
     if isinstance(labels, str):
-        labels = as_volume(data, scalars=labels, preference=preference).values
+        if isinstance(data, (GridVolume, np.ndarray)):
+            raise TypeError(f"labels may name an array of a dataset only; got the name {labels!r} with a "
+                            f"{type(data).__name__}")
+        from .data.grid import labels_from_dataset
+
+        labels = labels_from_dataset(data, labels, preference)
     return render_volume(volume, tf, camera, size, options, block_mask=block_mask, lens=lens, labels=labels,
                          label_styles=label_styles, progress_bar=progress_bar, progress=progress, **option_kwargs)
 

@@ -118,6 +118,22 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
         rendered as a point field at the cell centres (the domain shrinks by half a
         cell on every side).
     """
+    arr, spacing, origin, scalars = _image_array(dataset, scalars, preference)
+    # np.asarray of a VTK array is a view: volume_from_array copies before any change.
+    return volume_from_array(arr, spacing, origin, name=scalars)
+
+
+def labels_from_dataset(dataset, name, preference="point"):
+    """The array ``name`` of an image dataset as a (z, y, x) numpy copy, dtype kept.
+
+    For label (segmentation) arrays, which must stay integers: see
+    ``render_volume(labels=...)``.
+    """
+    return np.array(_image_array(dataset, name, preference)[0])
+
+
+def _image_array(dataset, scalars, preference):
+    """``(array (z, y, x) view, spacing, origin, name)`` of one array of an image dataset."""
     as_choice("preference", preference, ("point", "cell"))
     cls_name = dataset.GetClassName() if hasattr(dataset, "GetClassName") else type(dataset).__name__
     if cls_name not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
@@ -161,8 +177,7 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
         origin = origin + 0.5 * spacing * (np.array(dims) > 1)
     else:
         shape = dims[::-1]
-    # np.asarray of a VTK array is a view: volume_from_array copies before any change.
-    return volume_from_array(arr.reshape(shape), spacing, origin, name=scalars)
+    return arr.reshape(shape), spacing, origin, scalars
 
 
 def _arrays(field_data):

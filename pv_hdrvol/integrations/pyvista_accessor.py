@@ -45,8 +45,8 @@ class HDRVolAccessor:
         raise TypeError(f"hdrvol renders pyvista.ImageData only; got {kind} "
                         "(resample it onto an ImageData first, e.g. with dataset.sample())")
 
-    def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point",
-               progress_bar=None, progress=None, **options):
+    def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point", lens=None,
+               labels=None, label_styles=None, progress_bar=None, progress=None, **options):
         """Ray cast the dataset into a linear float :class:`~pv_hdrvol.HDRImage`.
 
         The dataset is not modified.
@@ -67,6 +67,16 @@ class HDRVolAccessor:
             Pixels.
         preference : {"point", "cell"}
             Association used when ``scalars`` names both a point and a cell array.
+        lens : Lens, optional
+            A ray generator (:class:`~pv_hdrvol.Magnifier`, :class:`~pv_hdrvol.FeatureLens`,
+            :class:`~pv_hdrvol.SamplingRateLens`, :class:`~pv_hdrvol.Fisheye`) applied
+            to the camera.
+        labels : str or ndarray, optional
+            A label array of the dataset (by name) or a (z, y, x) integer array:
+            two-level rendering, styled per label by ``label_styles`` (see
+            :func:`~pv_hdrvol.render_volume`).
+        label_styles : dict, optional
+            ``{label: TransferFunction | blending | (tf, blending)}``.
         progress_bar : bool or None
             ``None`` (default): a tqdm bar once the render has taken 1 s; ``True``:
             always; ``False``: never.
@@ -75,7 +85,9 @@ class HDRVolAccessor:
         **options
             :class:`~pv_hdrvol.RenderOptions` fields: ``step``, ``precision``,
             ``global_alpha``, ``opacity_unit_distance``, ``termination``,
-            ``depth_threshold``, ``block_size``, ``skip_empty``.
+            ``depth_threshold``, ``block_size``, ``skip_empty``, ``blending``
+            (PyVista's names: ``"composite"``, ``"maximum"``, ``"minimum"``,
+            ``"average"``, ``"additive"``), ``gradient_opacity``.
 
         Returns
         -------
@@ -95,7 +107,12 @@ class HDRVolAccessor:
         self._check_renderable()
         cam = resolve_camera(camera, self._dataset.bounds)
         volume = self._volumes.get(self._dataset, scalars, preference)
-        return render_volume(volume, tf, cam, size, progress_bar=progress_bar, progress=progress, **options)
+        if isinstance(labels, str):
+            from ..data.grid import labels_from_dataset
+
+            labels = labels_from_dataset(self._dataset, labels, preference)
+        return render_volume(volume, tf, cam, size, lens=lens, labels=labels, label_styles=label_styles,
+                             progress_bar=progress_bar, progress=progress, **options)
 
     def __repr__(self):
         ds = self._dataset

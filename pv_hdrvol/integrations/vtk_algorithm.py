@@ -90,6 +90,9 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         self._preference = "point"
         self._tf = None
         self._camera = None
+        self._lens = None
+        self._labels = None
+        self._label_styles = None
         self._last_error = None
         self._volumes = VolumeCache()  # bricks survive re-executions for a new camera or TF
 
@@ -125,6 +128,10 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         "depth_threshold", "accumulated opacity at which depth is recorded, in (0, 1].")
     SetBlockSize, GetBlockSize = _option_methods(
         "block_size", "edge in cells of the empty-space-skipping blocks (a power of two).")
+    SetBlending, GetBlending = _option_methods(
+        "blending", "'composite', 'maximum', 'minimum', 'average' or 'additive' (PyVista's names).")
+    SetGradientOpacity, GetGradientOpacity = _option_methods(
+        "gradient_opacity", "None, or (low, high): extinction times a ramp of the gradient magnitude.")
     _SetSkipEmpty, GetSkipEmpty = _option_methods(
         "skip_empty", "skip blocks that map to zero opacity (same result, less time).")
 
@@ -212,6 +219,34 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         """The :class:`~pv_hdrvol.Camera`, view name or ``None`` set last."""
         return self._camera
 
+    def SetLens(self, lens):
+        """A lens (:class:`~pv_hdrvol.Magnifier`, ...) applied to the camera, or ``None``."""
+        if lens is not None and not callable(getattr(lens, "rays", None)):
+            raise TypeError(f"the lens must have a rays(camera, size) method, or be None; got {type(lens).__name__}")
+        if lens is not self._lens:
+            self._lens = lens
+            self.Modified()
+
+    def GetLens(self):
+        """The lens set last, or ``None``."""
+        return self._lens
+
+    def SetLabels(self, name, styles=None):
+        """Two-level rendering: the input's array ``name`` (same association as the
+        scalars) labels the voxels and ``styles`` (``{label: tf | blending | (tf,
+        blending)}``) styles them; ``None`` switches it off."""
+        if name is not None and not isinstance(name, str):
+            raise TypeError(f"labels must be the name of an input array, or None; got {type(name).__name__}")
+        if styles is not None and not isinstance(styles, dict):
+            raise TypeError(f"label styles must be a dict {{label: style}}; got {type(styles).__name__}")
+        if (name, styles) != (self._labels, self._label_styles):
+            self._labels, self._label_styles = name, styles
+            self.Modified()
+
+    def GetLabels(self):
+        """``(array name, styles)`` set last."""
+        return self._labels, self._label_styles
+
     def GetOutput(self, port=0):
         """The output ``vtkImageData`` (``GetOutputDataObject(port)``, as image algorithms have)."""
         return self.GetOutputDataObject(port)
@@ -269,6 +304,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             f"HDRVolumeRenderer ({address}): {self._last_error}\n\n")
 
     def _execute(self, inInfo, outInfo):
+        from ..data.grid import labels_from_dataset
         from ..raycast.grid import render_volume
 
         inp = vtkImageData.GetData(inInfo[0])
@@ -284,8 +320,10 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
 
         try:
             volume = self._volumes.get(inp, scalars, preference)
+            labels = None if self._labels is None else labels_from_dataset(inp, self._labels, preference)
             # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm
-            image = render_volume(volume, self._tf, camera, self._size, options=self._options, progress=progress,
+            image = render_volume(volume, self._tf, camera, self._size, options=self._options, lens=self._lens,
+                                  labels=labels, label_styles=self._label_styles, progress=progress,
                                   progress_bar=False)
         except RuntimeError:
             if self._should_abort():

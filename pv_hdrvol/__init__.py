@@ -12,6 +12,7 @@ from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
 from .params import PRECISIONS, RenderOptions
 from .rays.camera import Camera, Rays
+from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
 from .raycast.grid import BlockGrid, render_volume
 
 __version__ = "0.1.0"
@@ -41,7 +42,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 
 __all__ = [
-    "datasets", "BlockGrid", "Camera", "GridVolume", "HDRImage", "PRECISIONS", "Rays", "RenderOptions", "ScalarsError",
-    "ToneMapped", "TransferFunction", "load", "render", "render_volume", "tonemap", "volume_from_array",
-    "volume_from_dataset",
+    "datasets", "BlockGrid", "Camera", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Magnifier",
+    "PRECISIONS", "Rays", "RenderOptions", "SamplingRateLens", "ScalarsError", "ToneMapped", "TransferFunction",
+    "load", "render", "render_volume", "tonemap", "volume_from_array", "volume_from_dataset",
 ]

@@ -7,6 +7,7 @@ import pytest
 MODULES = [
     "pv_hdrvol.data.transfer",
     "pv_hdrvol.rays.camera",
+    "pv_hdrvol.rays.lenses",
     "pv_hdrvol.raycast.grid",
     "pv_hdrvol.image.hdr",
     "pv_hdrvol.image.tonemap",

@@ -25,7 +25,7 @@ import numpy as np
 
 from .._jit import kernel, parallel_kernel, uindex as _u
 from ._kernels import (
-    BRICK_SHIFT, F32, F64, LINEAR, LOG, SYMLOG, _accumulate, _finish, _leap_to, _march, _opacity, _probe,
+    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _finish, _leap_to, _march, _opacity, _probe,
     _ray_box, _start,
 )
 

@@ -79,8 +79,13 @@ def test_rays_where_the_scale_is_one_are_the_camera_rays(cam, shape):
     assert 0 < outside.sum() < W * H
     rays, plain = lens.rays(cam, SIZE), cam.rays(SIZE)
     assert_same_rays(rays, plain, outside)
-    assert not np.any(np.all(rays.origins[~outside] == plain.origins[~outside], axis=1))
-    assert np.array_equal(rays.directions, plain.directions)  # planar lenses keep every direction
+    if cam.parallel_projection:  # a lateral zoom: origins move, directions stay
+        assert not np.any(np.all(rays.origins[~outside] == plain.origins[~outside], axis=1))
+        assert np.array_equal(rays.directions, plain.directions)
+    else:  # an angular zoom: every ray still leaves the camera position
+        assert not np.any(np.all(rays.directions[~outside] == plain.directions[~outside], axis=1))
+        assert np.array_equal(rays.origins, plain.origins)
+    np.testing.assert_allclose(np.linalg.norm(rays.directions, axis=1), 1.0, rtol=1e-15)
 
 
 @CAMERAS
@@ -94,8 +99,9 @@ def test_outside_the_radius_nothing_changes(cam):
              (SamplingRateLens(CENTER, 12), r >= 12),
              (SamplingRateLens((5.2, 7.9), 15.5, rate="linear"), off_centre >= 15.5)]
     for lens, outside in cases:
-        assert_same_rays(lens.rays(cam, SIZE), plain, outside)
-        assert not np.array_equal(lens.rays(cam, SIZE).origins, plain.origins)
+        rays = lens.rays(cam, SIZE)
+        assert_same_rays(rays, plain, outside)
+        assert not (np.array_equal(rays.origins, plain.origins) and np.array_equal(rays.directions, plain.directions))
 
 
 def test_the_lens_leaves_its_inputs_alone():
@@ -124,12 +130,14 @@ def test_perspective_magnification_region_is_magnified_exactly_on_the_focal_plan
     # P0: the focal-plane point under the lens centre; bilinear in pixels since the plane is flat
     p0 = _focal_point_at(PERSP, center)
     np.testing.assert_allclose(hit[region], p0 + (x[region] - p0) / m, rtol=0, atol=1e-9 * SCALE)
-    # every ray of the region passes through the virtual focal point
+    # they all leave the camera position (an angular zoom: nothing in front is cut away) and
+    # meet the focal plane where the rays of a camera at the virtual focal point V would
+    assert np.array_equal(rays.origins[region], plain.origins[region])
     v = lens.focal_point(PERSP, SIZE)
-    rel = v - rays.origins[region]
-    dist = np.linalg.norm(rel - (rel @ np.eye(3) * rays.directions[region]).sum(1)[:, None]
-                          * rays.directions[region], axis=1)
-    assert dist.max() < 1e-9 * SCALE
+    d = plain.directions[region]  # the camera's directions, cast from V instead of E
+    _, _, fwd = PERSP.basis()
+    t = ((p0 - v) @ fwd) / (d @ fwd)
+    np.testing.assert_allclose(v + t[:, None] * d, hit[region], rtol=0, atol=1e-9 * SCALE)
 
 
 def _focal_point_at(cam, position):
@@ -150,7 +158,7 @@ def test_centre_ray_passes_through_the_focal_point():
     v = lens.focal_point(PERSP, SIZE)
     o, d = rays.origins[CENTER_INDEX], rays.directions[CENTER_INDEX]
     assert np.linalg.norm(np.cross(v - o, d)) < 1e-9 * SCALE
-    assert np.array_equal(d, PERSP.rays(SIZE).directions[CENTER_INDEX])
+    np.testing.assert_allclose(d, PERSP.rays(SIZE).directions[CENTER_INDEX], rtol=0, atol=1e-15)
     # V lies on the camera ray through the centre, (1 - 1/M) of the way to P0
     e, p0 = np.asarray(PERSP.position), _focal_point_at(PERSP, CENTER)
     np.testing.assert_allclose(v, e + (p0 - e) * (1 - 1 / 3.0), atol=1e-12 * SCALE)

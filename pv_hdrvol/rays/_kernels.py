@@ -166,9 +166,14 @@ def _sampling_scale(r0, c0, cx, cy, radius, f, cum, start, s, sigma):
 
 
 @kernel
-def _apply_homothety(origins, width, r0, c0, s, anchor, eye, parallel):
-    """Move the origins of the window's pixels with s != 1 (see the module docstring);
-    return how many moved."""
+def _apply_homothety(origins, directions, width, r0, c0, s, anchor, fwd, parallel):
+    """Re-aim the rays of the window's pixels with s != 1 (see ``lenses``' module
+    docstring); return how many changed.
+
+    Parallel: origin ``O_c + s (O_p - O_c)`` (``anchor = O_c``). Perspective: the
+    direction through ``u_c + s (u_p - u_c)``, where ``u = d / (d . fwd)`` is a ray's
+    point at unit depth (``anchor = u_c``); the origin stays the camera position.
+    """
     nr, nc = s.shape
     moved = 0
     for j in range(nr):
@@ -178,11 +183,18 @@ def _apply_homothety(origins, width, r0, c0, s, anchor, eye, parallel):
                 continue
             moved += 1
             k = (r0 + j) * width + c0 + i
-            for a in range(3):
-                if parallel:
+            if parallel:
+                for a in range(3):
                     origins[k, a] = anchor[a] + sv * (origins[k, a] - anchor[a])
-                else:
-                    origins[k, a] = anchor[a] + sv * (eye[a] - anchor[a])
+            else:
+                depth = directions[k, 0] * fwd[0] + directions[k, 1] * fwd[1] + directions[k, 2] * fwd[2]
+                ux = anchor[0] + sv * (directions[k, 0] / depth - anchor[0])
+                uy = anchor[1] + sv * (directions[k, 1] / depth - anchor[1])
+                uz = anchor[2] + sv * (directions[k, 2] / depth - anchor[2])
+                inv = 1.0 / math.sqrt(ux * ux + uy * uy + uz * uz)
+                directions[k, 0] = ux * inv
+                directions[k, 1] = uy * inv
+                directions[k, 2] = uz * inv
     return moved
 
 

@@ -14,13 +14,15 @@ at ``(i + 0.5, j + 0.5)`` (as :meth:`Camera.project`). A planar lens defines a s
 for bit. ``E`` is the camera position, ``P0`` the point where the camera ray through
 ``c`` meets the *focal plane* (through ``camera.focal_point``, normal to the view).
 
-- Perspective camera: the ray of pixel ``p`` keeps the camera's direction ``d_p`` and
-  starts at the apex ``A(p) = P0 + s(p) (E - P0)``. All rays with ``s = 1/M`` pass through
-  the virtual focal point ``V = P0 + (E - P0) / M``, and on the focal plane the ray of
-  ``p`` meets the point the camera ray of ``q(p) = c + s(p) (p - c)`` meets: the content
-  around ``P0`` appears magnified ``1/s`` times, as a camera dolly toward ``P0`` would
-  show it. Like a magnifier held at ``V``, the lens does not see what lies between
-  ``E`` and ``A(p)``.
+- Perspective camera: the ray of pixel ``p`` starts at the camera position ``E`` and
+  passes through the focal-plane point ``P0 + s(p) (X(p) - P0)`` (``X(p)``: where the
+  camera ray of ``p`` meets the focal plane), i.e. it is the camera ray through the
+  pixel position ``q(p) = c + s(p) (p - c)``. The content around ``P0`` appears
+  magnified ``1/s`` times on the focal plane -- and, the rays all leaving ``E``, at
+  every depth: what a camera moved to the virtual focal point ``V = P0 + (E - P0) / M``
+  on the lens's centre ray would show on the focal plane, without its clipping of
+  everything between ``E`` and ``V`` or its perspective blow-up of what lies near
+  ``V``.
 - Parallel camera: direction unchanged, origin ``O_c + s(p) (O_p - O_c)`` (``O_p``, ``O_c``:
   the camera-plane origins of ``p`` and ``c``), a lateral zoom about the centre ray,
   the same at every depth (the virtual focal point is at infinity).
@@ -33,11 +35,14 @@ minifier).
 
 Choices where the paper leaves room
 -----------------------------------
-- Magnification is a *scale of the ray start points* about ``P0`` (the dolly above),
-  not a change of ray directions, so rays in the lens keep the camera's directions, a
-  parallel view stays parallel, and the magnification on the focal plane is exactly
-  ``M``. ``focal_distance`` (the paper's virtual focal point) and ``factor`` are the two
-  ways to set it: ``M = D / (D - focal_distance)``.
+- Magnification is a homothety of the rays' focal-plane points about ``P0``: exactly
+  ``M`` there; a parallel view stays parallel (a lateral zoom) and a perspective one
+  keeps its centre of projection (an angular zoom), so nothing in front of the lens is
+  cut away. ``focal_distance`` (the paper's virtual focal point ``V``, placed on the
+  centre ray so that a camera at ``V`` sees the focal plane as the lens shows it) and
+  ``factor`` are the two ways to set it: ``M = D / (D - focal_distance)``. (We first
+  cast the rays *from* ``V`` -- a camera dolly: on the engine CT at ``M = 3`` that put
+  ``V`` at the volume's edge, clipped the front and blew up the nearest structure.)
 - The transition band interpolates the *scale* ``s`` linearly in the distance from the
   magnification region (continuous, so no gap and no seam); for a minifier that could
   fold the band the factor is rejected.
@@ -256,8 +261,9 @@ class _PlanarLens(Lens):
         return float(self._window(_as_camera(camera), w, h, False).magnification)
 
     def focal_point(self, camera, size):
-        """The virtual focal point ``V = P0 + (E - P0) / M`` (world, shape (3,)): every ray
-        with ``s = 1/M`` passes through it. Perspective cameras only."""
+        """The virtual focal point ``V = P0 + (E - P0) / M`` (world, shape (3,)), on the
+        lens's centre ray: a camera moved there would show the focal plane as the
+        magnification region does. Perspective cameras only."""
         camera = _as_camera(camera)
         if camera.parallel_projection:
             raise ValueError("a parallel camera has no focal point for a lens: its lens rays stay parallel "
@@ -268,7 +274,7 @@ class _PlanarLens(Lens):
         return p0 + (np.asarray(camera.position) - p0) / win.magnification
 
     def rays(self, camera, size):
-        """The camera's rays, their starts moved by the homothety ``s(p)`` (see the module docstring).
+        """The camera's rays re-aimed by the homothety ``s(p)`` (see the module docstring).
 
         Parameters
         ----------
@@ -285,9 +291,15 @@ class _PlanarLens(Lens):
         w, h = as_size(size)
         win = self._window(camera, w, h, self.antialias)
         base = camera.rays((w, h))
-        anchor = _centre_point(camera, w, h, win.center)  # O_c (parallel) or P0 (perspective)
-        eye = np.asarray(camera.position, dtype=np.float64)
-        moved = _apply_homothety(base.origins, w, win.rows.start, win.cols.start, win.s, anchor, eye,
+        fwd = camera.basis()[2]
+        if camera.parallel_projection:
+            anchor = _centre_point(camera, w, h, win.center)  # O_c
+        else:
+            x, y = _plane_offsets(camera, w, h, float(win.center[0]), float(win.center[1]))
+            right, up, _ = camera.basis()
+            anchor = fwd + x * right + y * up  # u_c: the centre ray's point at unit depth
+        moved = _apply_homothety(base.origins, base.directions, w, win.rows.start, win.cols.start, win.s,
+                                 np.ascontiguousarray(anchor, dtype=np.float64), np.ascontiguousarray(fwd),
                                  camera.parallel_projection)
         lod = None
         if moved and self.antialias:

@@ -233,6 +233,114 @@ def _probe(bricks, leap, g, x, y, z):
     return 0, ib, jb, kb, c0 + fz * (c1 - c0)
 
 
+@inline_kernel
+def _block(leap, g, x, y, z):
+    """Leap radius and block indices of voxel position ``(x, y, z)`` (as ``_probe``)."""
+    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    xi = min(int(min(max(x, 0.0), x_max)), nx - 2)
+    yi = min(int(min(max(y, 0.0), y_max)), ny - 2)
+    zi = min(int(min(max(z, 0.0), z_max)), nz - 2)
+    ib = xi >> shift
+    jb = yi >> shift
+    kb = zi >> shift
+    return leap[_u((kb * by + jb) * bx + ib)], ib, jb, kb
+
+
+@inline_kernel
+def trilinear(bricks, base, nx, ny, nz, qy, qx, x, y, z):
+    """Trilinear value at point coordinates ``(x, y, z)`` of a bricked grid at offset ``base``."""
+    x = min(max(x, 0.0), nx - 1.0)
+    y = min(max(y, 0.0), ny - 1.0)
+    z = min(max(z, 0.0), nz - 1.0)
+    xi = int(x)  # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
+    yi = int(y)
+    zi = int(z)
+    fx = x - xi
+    fy = y - yi
+    fz = z - zi
+    m = (1 << BRICK_SHIFT) - 1
+    pitch = (1 << BRICK_SHIFT) + 1
+    brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
+    q = _u(base + brick * (pitch * pitch * pitch) + ((zi & m) * pitch + (yi & m)) * pitch + (xi & m))
+    p1 = _u(pitch)
+    p2 = _u(pitch * pitch)
+    one = _u(1)
+    v000 = np.float64(bricks[q])
+    v100 = np.float64(bricks[q + one])
+    v010 = np.float64(bricks[q + p1])
+    v110 = np.float64(bricks[q + p1 + one])
+    v001 = np.float64(bricks[q + p2])
+    v101 = np.float64(bricks[q + p2 + one])
+    v011 = np.float64(bricks[q + p2 + p1])
+    v111 = np.float64(bricks[q + p2 + p1 + one])
+    c00 = v000 + fx * (v100 - v000)
+    c10 = v010 + fx * (v110 - v010)
+    c01 = v001 + fx * (v101 - v001)
+    c11 = v011 + fx * (v111 - v011)
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    return c0 + fz * (c1 - c0)
+
+
+@inline_kernel
+def level_value(pyr, pgeo, level, x, y, z):
+    """Trilinear value of mip level ``level`` at voxel coordinates ``(x, y, z)``.
+
+    ``pyr`` is one flat array of bricked levels: level ``L`` at offset ``pgeo[L, 0]``,
+    ``pgeo[L, 1:4]`` its points along x, y, z and ``pgeo[L, 4:6]`` its brick grid (y, x);
+    level ``L`` point ``i`` lies at voxel coordinate ``i * 2**L``.
+    """
+    s = 1.0 / (1 << level)
+    return trilinear(pyr, pgeo[level, 0], pgeo[level, 1], pgeo[level, 2], pgeo[level, 3], pgeo[level, 4],
+                     pgeo[level, 5], x * s, y * s, z * s)
+
+
+@kernel
+def mip_sampler(pgeo, lod, n_levels):
+    """The sampler tuple of a ray at level of detail ``lod`` (see ``_sample``): the two
+    levels' geometry and scale, read once per ray, not per sample. (No array in it: the
+    mip-map itself travels as ``bricks``.)"""
+    level = min(int(lod), n_levels - 1)
+    upper = min(level + 1, n_levels - 1)
+    f = lod - level if upper > level else 0.0
+    g0 = (pgeo[level, 0], pgeo[level, 1], pgeo[level, 2], pgeo[level, 3], pgeo[level, 4], pgeo[level, 5])
+    g1 = (pgeo[upper, 0], pgeo[upper, 1], pgeo[upper, 2], pgeo[upper, 3], pgeo[upper, 4], pgeo[upper, 5])
+    return g0, 1.0 / (1 << level), g1, 1.0 / (1 << upper), f
+
+
+@inline_kernel
+def mip_value(pyr, sampler, x, y, z):
+    """Value between the two levels of the mip-map ``pyr`` that ``sampler`` (``mip_sampler``)
+    names, at voxel ``(x, y, z)``."""
+    g0, s0, g1, s1, f = sampler
+    v0 = trilinear(pyr, g0[0], g0[1], g0[2], g0[3], g0[4], g0[5], x * s0, y * s0, z * s0)
+    if f == 0.0:
+        return v0
+    return v0 + f * (trilinear(pyr, g1[0], g1[1], g1[2], g1[3], g1[4], g1[5], x * s1, y * s1, z * s1) - v0)
+
+
+def _sample(sampler, bricks, leap, g, x, y, z):
+    """``(radius, ib, jb, kb, v)`` at ``(x, y, z)``: ``_probe`` for the plain sampler (an
+    int), mip-mapped for a ``mip_sampler`` tuple, ``bricks`` then being the mip-map
+    (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_sample, jit_options=_JIT)
+def _sample_impl(sampler, bricks, leap, g, x, y, z):
+    if isinstance(sampler, numba.types.Integer):
+        def plain(sampler, bricks, leap, g, x, y, z):
+            return _probe(bricks, leap, g, x, y, z)
+        return plain
+
+    def mipmapped(sampler, bricks, leap, g, x, y, z):
+        radius, ib, jb, kb = _block(leap, g, x, y, z)
+        if radius != 0:
+            return radius, ib, jb, kb, math.nan
+        return 0, ib, jb, kb, mip_value(bricks, sampler, x, y, z)
+    return mipmapped
+
+
 @kernel
 def _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
     """The next segment after leaving the empty cube of blocks around ``(ib, jb, kb)``:
@@ -347,8 +455,9 @@ def _finish_impl(marker, state):
 
 
 @kernel
-def _march_in(marker, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p):
-    """The sampling and compositing loop of ``_march``, compiled once per ``marker`` type.
+def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p):
+    """The sampling and compositing loop of ``_march``, compiled once per ``marker`` and
+    ``sampler`` type (``_sample``).
 
     Full segments take their opacity from the table; the last, shorter one from the
     extinction ``sigma``.
@@ -370,7 +479,7 @@ def _march_in(marker, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, d
     n_full = n_seg - 1
     while k < n_full:
         tm = t0 + (k + 0.5) * step
-        radius, ib, jb, kb, v = _probe(bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        radius, ib, jb, kb, v = _sample(sampler, bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
         if radius != 0:
             k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
             continue
@@ -393,7 +502,7 @@ def _march_in(marker, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, d
         # opacity comes from the extinction column (the per-step one may have rounded to 1)
         ta = t0 + n_full * step
         tm = 0.5 * (ta + t1)
-        radius, ib, jb, kb, v = _probe(bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        radius, ib, jb, kb, v = _sample(sampler, bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
         if radius == 0 and v == v:
             samples += 1
             r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
@@ -407,8 +516,11 @@ def _march_in(marker, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, d
 
 
 @kernel
-def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
+def _march(sampler, bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
+
+    ``sampler`` is ``0`` (trilinear in ``bricks``) or a ``mip_sampler`` tuple: a ray
+    with a level of detail samples the mip-map, passed as ``bricks`` (see ``_sample``).
 
     ``grids`` holds the shapes (z, y, x) of the empty-space block grid, then of the
     brick grid. ``leap`` (flat over the block grid) is 0 for a block to sample, else the
@@ -442,10 +554,11 @@ def _march(bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, 
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
     if p.precision == F64:
-        return _march_in(0.0, F64, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
+        return _march_in(0.0, sampler, F64, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
     if p.precision == F32:
-        return _march_in(np.float32(0.0), F32, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
-    return _march_in(0, p.precision, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
+        return _march_in(np.float32(0.0), sampler, F32, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
+                         t1, p)
+    return _march_in(0, sampler, p.precision, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
 
 
 @parallel_kernel
@@ -468,7 +581,7 @@ def render_tiles(bricks, table, sigma, leap, grids, dims, origins, directions, w
             for row in range(row0, min(row0 + tile, height)):
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
-                    r, g, b, a, dep, ns = _march(bricks, table, sigma, leap, grids, dims,
+                    r, g, b, a, dep, ns = _march(0, bricks, table, sigma, leap, grids, dims,
                                                  origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                  directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                  lo, hi, p)
@@ -505,6 +618,42 @@ def make_bricks(values, shift, bz, by, bx, out):
                             i = min(ib * size + li, nx - 1)
                             out[q] = values[k, j, i]
                             q += 1
+
+
+@kernel
+def level_block_ranges(values, level, shift, out_min, out_max):
+    """Min and max (NaN ignored) of the mip level ``level`` points that samples in each
+    level-0 block can read.
+
+    Level-0 block ``b`` (``2**shift`` cells) spans voxel coordinates ``[b s, (b + 1) s]``;
+    a level-``L`` sample there reads the level points from ``floor(b s / 2**L)`` to
+    ``ceil((b + 1) s / 2**L)``. ``out_min``/``out_max`` have the level-0 block grid's shape.
+    """
+    nz, ny, nx = values.shape
+    bz, by, bx = out_min.shape
+    size = 1 << shift
+    step = 1 << level
+    for kb in range(bz):
+        k0 = (kb * size) // step
+        k1 = min(-(-((kb + 1) * size) // step), nz - 1)
+        for jb in range(by):
+            j0 = (jb * size) // step
+            j1 = min(-(-((jb + 1) * size) // step), ny - 1)
+            for ib in range(bx):
+                i0 = (ib * size) // step
+                i1 = min(-(-((ib + 1) * size) // step), nx - 1)
+                lo = math.inf
+                hi = -math.inf
+                for k in range(min(k0, nz - 1), k1 + 1):
+                    for j in range(min(j0, ny - 1), j1 + 1):
+                        for i in range(min(i0, nx - 1), i1 + 1):
+                            v = np.float64(values[k, j, i])
+                            if v < lo:
+                                lo = v
+                            if v > hi:
+                                hi = v
+                out_min[kb, jb, ib] = lo
+                out_max[kb, jb, ib] = hi
 
 
 @kernel

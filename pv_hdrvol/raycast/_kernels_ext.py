@@ -25,8 +25,8 @@ import numpy as np
 
 from .._jit import kernel, parallel_kernel, uindex as _u
 from ._kernels import (
-    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _finish, _leap_to, _march, _opacity, _probe,
-    _ray_box, _start,
+    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity, _probe,
+    _ray_box, _start, mip_sampler, mip_value, trilinear as _trilinear,
 )
 
 # blending codes (params.BLENDING_CODES)
@@ -57,75 +57,11 @@ class ExtParams(NamedTuple):
     midpoint: int
 
 
-# -- sampling -----------------------------------------------------------------------------
-@kernel
-def _block(leap, g, x, y, z):
-    """Leap radius and block indices of voxel position ``(x, y, z)`` (as ``_probe``)."""
-    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
-    xi = min(int(min(max(x, 0.0), x_max)), nx - 2)
-    yi = min(int(min(max(y, 0.0), y_max)), ny - 2)
-    zi = min(int(min(max(z, 0.0), z_max)), nz - 2)
-    ib = xi >> shift
-    jb = yi >> shift
-    kb = zi >> shift
-    return leap[_u((kb * by + jb) * bx + ib)], ib, jb, kb
-
-
-@kernel
-def _trilinear(bricks, base, nx, ny, nz, qy, qx, x, y, z):
-    """Trilinear value at point coordinates ``(x, y, z)`` of a bricked grid at ``base``."""
-    x = min(max(x, 0.0), nx - 1.0)
-    y = min(max(y, 0.0), ny - 1.0)
-    z = min(max(z, 0.0), nz - 1.0)
-    xi = int(x)  # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
-    yi = int(y)
-    zi = int(z)
-    fx = x - xi
-    fy = y - yi
-    fz = z - zi
-    m = (1 << BRICK_SHIFT) - 1
-    pitch = (1 << BRICK_SHIFT) + 1
-    brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
-    q = _u(base + brick * (pitch * pitch * pitch) + ((zi & m) * pitch + (yi & m)) * pitch + (xi & m))
-    p1 = _u(pitch)
-    p2 = _u(pitch * pitch)
-    one = _u(1)
-    v000 = np.float64(bricks[q])
-    v100 = np.float64(bricks[q + one])
-    v010 = np.float64(bricks[q + p1])
-    v110 = np.float64(bricks[q + p1 + one])
-    v001 = np.float64(bricks[q + p2])
-    v101 = np.float64(bricks[q + p2 + one])
-    v011 = np.float64(bricks[q + p2 + p1])
-    v111 = np.float64(bricks[q + p2 + p1 + one])
-    c00 = v000 + fx * (v100 - v000)
-    c10 = v010 + fx * (v110 - v010)
-    c01 = v001 + fx * (v101 - v001)
-    c11 = v011 + fx * (v111 - v011)
-    c0 = c00 + fy * (c10 - c00)
-    c1 = c01 + fy * (c11 - c01)
-    return c0 + fz * (c1 - c0)
-
-
-@kernel
-def _level_value(pyr, pgeo, level, x, y, z):
-    """Trilinear value of mip level ``level`` at voxel coordinates ``(x, y, z)``."""
-    s = 1.0 / (1 << level)
-    return _trilinear(pyr, pgeo[level, 0], pgeo[level, 1], pgeo[level, 2], pgeo[level, 3], pgeo[level, 4],
-                      pgeo[level, 5], x * s, y * s, z * s)
-
-
+# -- sampling --------------------------------------------------------------------------------------
 @kernel
 def _lod_value(pyr, pgeo, n_levels, lod, x, y, z):
     """Value at fractional mip level ``lod``: linear between the two nearest levels."""
-    level = int(lod)
-    f = lod - level
-    if level >= n_levels - 1:
-        return _level_value(pyr, pgeo, n_levels - 1, x, y, z)
-    v0 = _level_value(pyr, pgeo, level, x, y, z)
-    if f == 0.0:
-        return v0
-    return v0 + f * (_level_value(pyr, pgeo, level + 1, x, y, z) - v0)
+    return mip_value(pyr, mip_sampler(pgeo, lod, n_levels), x, y, z)
 
 
 @kernel
@@ -139,6 +75,7 @@ def _sample(bricks, leap, g, pyr, pgeo, n_levels, lod, x, y, z):
     return 0, ib, jb, kb, _lod_value(pyr, pgeo, n_levels, lod, x, y, z)
 
 
+# -- labels ------------------------------------------------------------------------------------
 @kernel
 def _label_slot(slots, g, x, y, z):
     """Style slot of the grid point nearest to ``(x, y, z)`` (a label is not interpolated)."""
@@ -318,7 +255,7 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
 
 
 @parallel_kernel
-def render_projection(bricks, leap, grids, dims, pyr, pgeo, lods, tables, sigmas, axes, origins, directions,
+def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tables, sigmas, axes, origins, directions,
                       width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows`` with ``_project`` (as ``_kernels.render_tiles``)."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
@@ -334,8 +271,9 @@ def render_projection(bricks, leap, grids, dims, pyr, pgeo, lods, tables, sigmas
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
                     lod = lods[pix] if has_lod else 0.0
+                    level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
                     v, r, gg, b, a, dep, ns = _project(
-                        bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes,
+                        bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, tables, sigmas, axes,
                         origins[pix, 0], origins[pix, 1], origins[pix, 2],
                         directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e)
                     out_value[pix] = v
@@ -520,8 +458,9 @@ def render_ext(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, sl
                out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
     level of detail 0) goes through ``_kernels._march`` with slot 0's table, so it is
-    bit-identical to a plain render; ``leap_lod`` (blocks dilated by the widest mip
-    filter) serves rays with ``lod > 0``."""
+    bit-identical to a plain render; a ray with a level of detail (and nothing else)
+    runs the same loop on the mip-map. ``leap_lod[L]`` serves rays between levels ``L``
+    and ``L + 1`` (``grid._mip_leaps``)."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
     plain_ok = e.labelled == 0 and e.gradient == 0
@@ -538,14 +477,22 @@ def render_ext(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, sl
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
                     lod = lods[pix] if has_lod else 0.0
+                    level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
                     if plain_ok and lod == 0.0:
-                        r, gg, b, a, dep, ns = _march(bricks, table0, sigma0, leap, grids, dims,
+                        r, gg, b, a, dep, ns = _march(0, bricks, table0, sigma0, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                                                      directions[pix, 0], directions[pix, 1], directions[pix, 2],
+                                                      lo, hi, p)
+                    elif plain_ok:
+                        # the plain loop, sampling two mip levels
+                        r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, table0,
+                                                      sigma0, leap_lod[level],
+                                                      grids, dims, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                       lo, hi, p)
                     else:
                         r, gg, b, a, dep, ns = _march_ext(
-                            bricks, leap if lod == 0.0 else leap_lod, g, pyr, pgeo, lod, gbricks, slots, modes,
+                            bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, slots, modes,
                             tables, sigmas, axes, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                             directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e)
                     out_rgba[pix, 0] = r

@@ -121,22 +121,42 @@ class BlockGrid:
         between those of its minimum and maximum. Non-linear axes get a margin of 1e-9
         of the axis, because the kernel's ``log10`` may differ from numpy's by an ulp.
         """
-        n = opacity.size
-        nonzero = np.concatenate([[0], np.cumsum(opacity > 0)])
-        all_nan = ~np.isfinite(self.minimum)
-        lo = np.where(all_nan, 0.0, self.minimum)
-        hi = np.where(all_nan, 0.0, self.maximum)
-        margin = 0.0 if params.scale == SCALE_CODES["linear"] else 1e-9
-        ulo = np.clip(_axis_position(lo, params) - margin, 0.0, 1.0)
-        uhi = np.clip(_axis_position(hi, params) + margin, 0.0, 1.0)
-        if params.precision == PRECISION_CODES["uint8"]:
-            i0 = np.floor(ulo * (n - 1) + 0.5).astype(np.int64)
-            i1 = np.floor(uhi * (n - 1) + 0.5).astype(np.int64)
-        else:
-            i0 = np.floor(ulo * (n - 1)).astype(np.int64)
-            i1 = np.ceil(uhi * (n - 1)).astype(np.int64)
-        vis = (nonzero[i1 + 1] - nonzero[i0]) > 0
-        return (vis & ~all_nan).astype(np.uint8)
+        return _visible(self.minimum, self.maximum, opacity, params)
+
+
+def _visible(minimum, maximum, opacity, params):
+    """:meth:`BlockGrid.visible` for any arrays of block ranges."""
+    n = opacity.size
+    nonzero = np.concatenate([[0], np.cumsum(opacity > 0)])
+    all_nan = ~np.isfinite(minimum)
+    lo = np.where(all_nan, 0.0, minimum)
+    hi = np.where(all_nan, 0.0, maximum)
+    margin = 0.0 if params.scale == SCALE_CODES["linear"] else 1e-9
+    ulo = np.clip(_axis_position(lo, params) - margin, 0.0, 1.0)
+    uhi = np.clip(_axis_position(hi, params) + margin, 0.0, 1.0)
+    if params.precision == PRECISION_CODES["uint8"]:
+        i0 = np.floor(ulo * (n - 1) + 0.5).astype(np.int64)
+        i1 = np.floor(uhi * (n - 1) + 0.5).astype(np.int64)
+    else:
+        i0 = np.floor(ulo * (n - 1)).astype(np.int64)
+        i1 = np.ceil(uhi * (n - 1)).astype(np.int64)
+    vis = (nonzero[i1 + 1] - nonzero[i0]) > 0
+    return (vis & ~all_nan).astype(np.uint8)
+
+
+def _active_blocks(minimum, maximum, opts, styles, table, params):
+    """Blocks a render must sample, from block value ranges (uint8, z, y, x)."""
+    if opts.blending != "composite" or (styles is not None and styles.needs_all_blocks):
+        # a projection (or a maximum label) must see every value, opaque or not
+        return np.isfinite(minimum).astype(np.uint8)
+    if not opts.skip_empty:
+        return np.ones(minimum.shape, np.uint8)
+    if styles is not None:
+        active = np.zeros(minimum.shape, np.uint8)
+        for t in styles.opacity_columns():
+            active |= _visible(minimum, maximum, t, params)
+        return active
+    return _visible(minimum, maximum, table[:, 3], params)
 
 
 def leap_radius(active, cap=255):
@@ -324,22 +344,16 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     dims = np.array(volume.dims, dtype=np.int64)
     styles = _LabelStyles(volume, labels, label_styles, tf, table, sigma, params, opts, step_world, unit) \
         if labels is not None else None
-    if opts.blending != "composite" or (styles is not None and styles.needs_all_blocks):
-        # a projection (or a maximum label) must see every value, opaque or not
-        active = np.isfinite(blocks.minimum).astype(np.uint8)
-    elif styles is not None and opts.skip_empty:
-        active = np.zeros(blocks.shape, np.uint8)
-        for t in styles.opacity_columns():
-            active |= blocks.visible(t, params)
-    else:
-        active = blocks.visible(table[:, 3], params) if opts.skip_empty else np.ones(blocks.shape, np.uint8)
+    active = _active_blocks(blocks.minimum, blocks.maximum, opts, styles, table, params)
+    mask = None
     if block_mask is not None:
         mask = np.asarray(block_mask)
         if mask.shape != blocks.shape:
             raise ValueError(f"block_mask must have shape {blocks.shape} (blocks along z, y, x); got {mask.shape}")
         if mask.dtype != np.bool_:
             raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
-        active = active & mask.astype(np.uint8)
+        mask = mask.astype(np.uint8)
+        active = active & mask
     leap = leap_radius(active).reshape(-1)  # flat, (z, y, x) order
     bricks = Bricks.of(volume)
     grids = np.array(blocks.shape + bricks.shape, dtype=np.int64)
@@ -360,7 +374,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     value = None
     if extended and not flat:
         kernel_args = _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles,
-                                          tf, prec)
+                                          tf, prec, mask)
         if opts.blending != "composite":
             value = np.full(height * width, np.nan)
 
@@ -373,8 +387,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
                            _TILE, rows, lanes, lo, hi, params, rgba, depth, samples)
         elif value is not None:
             a = kernel_args
-            KX.render_projection(bricks.values, leap, grids, dims, a.pyr, a.pgeo, a.lods, a.tables, a.sigmas, a.axes,
-                                 origins, directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, value,
+            KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
+                                 a.sigmas, a.axes, origins, directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, value,
                                  rgba, depth, samples)
         else:
             a = kernel_args
@@ -477,19 +491,16 @@ class _Extended(NamedTuple):
     e: KX.ExtParams
 
 
-def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles, tf, prec):
+def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles, tf, prec, mask):
     dtype = np.float64 if prec == "float64" else np.float32
     one = np.zeros(1, dtype)
     if lod is not None:
         levels = int(math.ceil(lod.max())) + 1
-        pyr, pgeo = _mip_pyramid(volume, dtype, levels)
-        # a level-L value mixes level-0 values up to 2**(L+1) voxels away: widen the
-        # sampled blocks by that much for these rays
-        widen = -(-(2 ** int(pgeo.shape[0])) // int(opts.block_size))
-        leap_lod = np.ascontiguousarray(np.maximum(leap.astype(np.int64) - widen, 0).astype(np.uint8))
+        pyr, pgeo, grids = _mip_pyramid(volume, dtype, levels)
+        leap_lod = _mip_leaps(grids, blocks, opts, styles, table, params, mask)
         lods = lod
     else:
-        pyr, pgeo, lods, leap_lod = one, np.zeros((1, 6), np.int64), np.zeros(1), leap
+        pyr, pgeo, lods, leap_lod = one, np.zeros((1, 6), np.int64), np.zeros(1), leap.reshape(1, -1)
     gbricks = _gradient_bricks(volume, dtype) if opts.gradient_opacity is not None else one
     g_lo, g_hi = opts.gradient_opacity if opts.gradient_opacity is not None else (0.0, 1.0)
     if styles is not None:
@@ -513,6 +524,36 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
     return _Extended(pyr, pgeo, lods, leap_lod, gbricks, slots, modes, tables, sigmas, axes, e)
 
 
+def _mip_leaps(grids, blocks, opts, styles, table, params, mask):
+    """Leap radii, one row per mip level ``L``, for rays that sample levels ``L`` and ``L + 1``.
+
+    A level-``L`` sample in level-0 block ``b`` reads only the level-``L`` points over
+    that block's span (``_kernels.level_block_ranges``), and a value between two levels
+    lies within both levels' ranges. So a level-0 block is sampled when the union of
+    those ranges can be visible (the same test as level 0): skipping changes no pixel.
+    """
+    ranges = []
+    for ell, g in enumerate(grids):
+        if ell == 0:
+            ranges.append((blocks.minimum, blocks.maximum))
+            continue
+        lo = np.empty(blocks.shape)
+        hi = np.empty(blocks.shape)
+        K.level_block_ranges(g, ell, blocks.shift, lo, hi)
+        ranges.append((lo, hi))
+    rows = []
+    for ell in range(len(grids)):
+        lo, hi = ranges[ell]
+        if ell + 1 < len(grids):
+            lo = np.fmin(lo, ranges[ell + 1][0])
+            hi = np.fmax(hi, ranges[ell + 1][1])
+        active = _active_blocks(lo, hi, opts, styles, table, params)
+        if mask is not None:
+            active = active & mask
+        rows.append(leap_radius(active).reshape(-1))
+    return np.ascontiguousarray(np.stack(rows))
+
+
 def block_is_whole(active, blocks):
     """Whether every block with a finite value is sampled (no mask excludes any)."""
     return bool(np.all(active.astype(bool) | ~np.isfinite(blocks.minimum)))
@@ -521,8 +562,8 @@ def block_is_whole(active, blocks):
 def _mip_pyramid(volume, dtype, levels):
     """Bricked mip-map levels ``0 .. levels - 1`` (fewer if the volume gets too small).
 
-    Cached on the volume; returns ``(flat values, geometry (levels, 6) int64)`` as
-    ``_kernels_ext`` reads them.
+    Cached on the volume; returns ``(flat values, geometry (levels, 6) int64, the levels
+    as (z, y, x) arrays)``, the first two as ``_kernels.level_value`` reads them.
     """
     key = ("mip", np.dtype(dtype).str)
     cached = volume.cache.get(key)
@@ -545,9 +586,9 @@ def _mip_pyramid(volume, dtype, levels):
             geo.append((offset, dims[0], dims[1], dims[2], shape[1], shape[2]))
             parts.append(b)
             offset += b.size
-        cached = (np.concatenate(parts), np.array(geo, dtype=np.int64))
+        cached = (np.concatenate(parts), np.array(geo, dtype=np.int64), grids)
         volume.cache[key] = cached
-    return cached[0], cached[1][:levels]
+    return cached[0], cached[1][:levels], cached[2][:levels]
 
 
 def _gradient_bricks(volume, dtype):

@@ -175,6 +175,30 @@ def antialias_trade(name, volume, feature_threshold, repeat, k=4):
     return rows
 
 
+def table_size_trade(repeat):
+    """The sampling-rate lens's table: error of the source radius rho(r) in pixels against a
+    2**20-entry table, and the time of ``rays()`` at 512^2, per table size."""
+    import pv_hdrvol as hv
+
+    cam = hv.Camera((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    c, radius = (256.0, 256.0), 200.0
+    r = np.linspace(0.0, radius, 2001)
+    ref = hv.SamplingRateLens(c, radius, factor=6.0, table_size=2 ** 20).source_radius(r)
+    rows = []
+    for n in (16, 64, 256, 1024, 4096, 16384):
+        lens = hv.SamplingRateLens(c, radius, factor=6.0, table_size=n)
+        err = float(np.max(np.abs(lens.source_radius(r) - ref)))
+        ts = []
+        for _ in range(repeat):
+            t = time.perf_counter()
+            lens.rays(cam, SIZE)
+            ts.append(time.perf_counter() - t)
+        rows.append({"table_size": n, "max_rho_error_px": err, "rays_ms": 1e3 * statistics.median(ts)})
+        print(f"sampling-rate table {n:6d}: max |rho - rho_ref| {err:.2e} px, rays() {rows[-1]['rays_ms']:.1f} ms",
+              flush=True)
+    return rows
+
+
 def markdown(results):
     lines = [f"Machine: {results['machine']}, {results['cpus']} CPUs, numba threads {results['threads']}; "
              f"load {results['load_start']} -> {results['load_end']}. {SIZE}², step {STEP} voxel, float32, "
@@ -200,6 +224,12 @@ def markdown(results):
     for r in results["antialias"]:
         lines.append(f"| {r['dataset']} | {r['lens']} | {r['band_pixels']} | {r['plain']['rel_rmse']:.4f} | "
                      f"{r['antialias']['rel_rmse']:.4f} | {r['plain']['ms']:.0f} | {r['antialias']['ms']:.0f} |")
+    if results.get("table"):
+        lines += ["", "Sampling-rate lens table (cubic rate, factor 6, radius 200 px): largest error of the source "
+                  "radius against a 2^20-entry table, and the time of `rays()` at 512²:", "",
+                  "| table size | max error (px) | rays() ms |", "|--:|--:|--:|"]
+        for r in results["table"]:
+            lines.append(f"| {r['table_size']} | {r['max_rho_error_px']:.1e} | {r['rays_ms']:.1f} |")
     return "\n".join(lines)
 
 
@@ -224,6 +254,7 @@ def main(argv=None):
         results["overhead"] += overhead(name, volume, threshold, args.repeat)
         if not args.skip_antialias:
             results["antialias"] += antialias_trade(name, volume, threshold, max(1, args.repeat // 2))
+    results["table"] = table_size_trade(args.repeat)
     results["load_end"] = load()
     print()
     print(markdown(results))

@@ -278,6 +278,34 @@ def _squared_edt(mask):
 
 
 @kernel
+def _project_cubes(cells, origin, spacing, pos, right, up, fwd, parallel, half_h, w, h, pts, flags):
+    """Pixel positions (col, row) of the 8 corners of each voxel cube ``cells[v] + [-0.5, 0.5]^3``
+    (index order x, y, z), as ``Camera.project``; ``flags``: 1 when every corner is behind
+    the eye, 2 when a perspective cube straddles the eye plane, else 0."""
+    aspect = w / h
+    for v in range(cells.shape[0]):
+        behind = 0
+        for a in range(8):
+            px = origin[0] + (cells[v, 0] + (a & 1) - 0.5) * spacing[0] - pos[0]
+            py = origin[1] + (cells[v, 1] + ((a >> 1) & 1) - 0.5) * spacing[1] - pos[1]
+            pz = origin[2] + (cells[v, 2] + ((a >> 2) & 1) - 0.5) * spacing[2] - pos[2]
+            x = px * right[0] + py * right[1] + pz * right[2]
+            y = px * up[0] + py * up[1] + pz * up[2]
+            z = px * fwd[0] + py * fwd[1] + pz * fwd[2]
+            if z <= 0.0:
+                behind += 1
+            if parallel:
+                u = x / half_h
+                t = y / half_h
+            else:
+                u = x / (z * half_h)
+                t = y / (z * half_h)
+            pts[v, a, 0] = (u / aspect + 1.0) * w / 2.0
+            pts[v, a, 1] = (1.0 - t) * h / 2.0
+        flags[v] = 1 if behind == 8 else (2 if behind > 0 and not parallel else 0)
+
+
+@kernel
 def _fill_projected_cubes(pts, flags, mask):
     """Mark pixels whose centre lies in the convex hull of each voxel's 8 projected corners.
 

@@ -76,7 +76,7 @@ import numpy as np
 
 from .._validate import as_choice, as_int, as_real, as_size, as_vector
 from ._kernels import (
-    _apply_homothety, _fill_lod, _fill_projected_cubes, _fisheye_grid, _fisheye_points,
+    _apply_homothety, _fill_lod, _fill_projected_cubes, _fisheye_grid, _fisheye_points, _project_cubes,
     _invert_rates, _magnifier_scale, _mask_scale, _numeric_sigma, _sampling_scale, _squared_edt,
 )
 from .camera import Camera, Rays
@@ -557,11 +557,6 @@ class Magnifier(_Fields, _PlanarLens):
 
 
 # -- feature lens -------------------------------------------------------------------------------
-
-
-_CUBE_CORNERS = np.array([[x, y, z] for z in (-0.5, 0.5) for y in (-0.5, 0.5) for x in (-0.5, 0.5)])
-
-
 def _is_volume(obj):
     return all(hasattr(obj, a) for a in ("values", "origin", "spacing"))
 
@@ -690,20 +685,16 @@ class FeatureLens(_Fields, _PlanarLens):
         w, h = as_size(size)
         mask = np.zeros((h, w), dtype=bool)
         right, up, fwd = camera.basis()
-        pos = np.asarray(camera.position)
-        spacing, origin = np.asarray(self.spacing), np.asarray(self.origin)
+        pos = np.asarray(camera.position, dtype=np.float64)
+        spacing, origin = np.asarray(self.spacing, np.float64), np.asarray(self.origin, np.float64)
+        half_h = camera.parallel_scale if camera.parallel_projection else math.tan(math.radians(camera.view_angle) / 2)
         for start in range(0, len(self._surface), _VOXEL_CHUNK):
-            idx = self._surface[start:start + _VOXEL_CHUNK]
-            corners = (origin + (idx[:, None, :] + _CUBE_CORNERS[None]) * spacing).reshape(-1, 3)
-            depth = ((corners - pos) @ fwd).reshape(-1, 8)
-            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                pts = camera.project(corners, (w, h)).reshape(-1, 8, 2)
-            flags = np.zeros(len(idx), dtype=np.int8)
-            behind = depth <= 0.0
-            flags[behind.all(axis=1)] = 1
-            if not camera.parallel_projection:
-                flags[behind.any(axis=1) & ~behind.all(axis=1)] = 2
-            _fill_projected_cubes(np.ascontiguousarray(pts), flags, mask)
+            cells = np.ascontiguousarray(self._surface[start:start + _VOXEL_CHUNK])
+            pts = np.empty((len(cells), 8, 2))
+            flags = np.empty(len(cells), dtype=np.int8)
+            _project_cubes(cells, origin, spacing, pos, right, up, fwd, camera.parallel_projection, half_h,
+                           float(w), float(h), pts, flags)
+            _fill_projected_cubes(pts, flags, mask)
         return mask
 
     def _window(self, camera, w, h, jacobian):

@@ -455,14 +455,13 @@ def _finish_impl(marker, state):
 
 
 @kernel
-def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p):
+def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step):
     """The sampling and compositing loop of ``_march``, compiled once per ``marker`` and
     ``sampler`` type (``_sample``).
 
     Full segments take their opacity from the table; the last, shorter one from the
     extinction ``sigma``.
     """
-    step = p.step
     size = 1 << p.block_shift
     n_table = table.shape[0] // 4
     rx = 1.0 / dx if dx != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
@@ -516,7 +515,7 @@ def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, 
 
 
 @kernel
-def _march(sampler, bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p):
+def _march(sampler, bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``) or a ``mip_sampler`` tuple: a ray
@@ -554,11 +553,11 @@ def _march(sampler, bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy,
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
     if p.precision == F64:
-        return _march_in(0.0, sampler, F64, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
+        return _march_in(0.0, sampler, F64, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step)
     if p.precision == F32:
         return _march_in(np.float32(0.0), sampler, F32, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
-                         t1, p)
-    return _march_in(0, sampler, p.precision, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p)
+                         t1, p, step)
+    return _march_in(0, sampler, p.precision, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step)
 
 
 @parallel_kernel
@@ -584,7 +583,7 @@ def render_tiles(bricks, table, sigma, leap, grids, dims, origins, directions, w
                     r, g, b, a, dep, ns = _march(0, bricks, table, sigma, leap, grids, dims,
                                                  origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                  directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                 lo, hi, p)
+                                                 lo, hi, p, p.step)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

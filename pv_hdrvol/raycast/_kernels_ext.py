@@ -454,13 +454,14 @@ def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, s
 
 @parallel_kernel
 def render_ext(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, slots, modes, tables, sigmas, axes,
-               sigma0, origins, directions, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth,
+               sigma0, level_tables, level_steps, origins, directions, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth,
                out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
     level of detail 0) goes through ``_kernels._march`` with slot 0's table, so it is
     bit-identical to a plain render; a ray with a level of detail (and nothing else)
-    runs the same loop on the mip-map. ``leap_lod[L]`` serves rays between levels ``L``
-    and ``L + 1`` (``grid._mip_leaps``)."""
+    runs the same loop on the mip-map, with the step ``level_steps[L]`` (the render's
+    times ``2**L``) and its opacity table ``level_tables[L]``, and skips with
+    ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the lower of its two levels."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
     plain_ok = e.labelled == 0 and e.gradient == 0
@@ -482,14 +483,14 @@ def render_ext(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, sl
                         r, gg, b, a, dep, ns = _march(0, bricks, table0, sigma0, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p)
+                                                      lo, hi, p, p.step)
                     elif plain_ok:
                         # the plain loop, sampling two mip levels
-                        r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, table0,
+                        r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, level_tables[level],
                                                       sigma0, leap_lod[level],
                                                       grids, dims, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p)
+                                                      lo, hi, p, level_steps[level])
                     else:
                         r, gg, b, a, dep, ns = _march_ext(
                             bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, slots, modes,

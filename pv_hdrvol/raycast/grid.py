@@ -388,13 +388,13 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         elif value is not None:
             a = kernel_args
             KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
-                                 a.sigmas, a.axes, origins, directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, value,
-                                 rgba, depth, samples)
+                                 a.sigmas, a.axes, origins, directions, width, height, _TILE, rows, lanes, lo, hi,
+                                 params, a.e, value, rgba, depth, samples)
         else:
             a = kernel_args
             KX.render_ext(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.gbricks, a.slots,
-                          a.modes, a.tables, a.sigmas, a.axes, sigma, origins, directions, width, height, _TILE, rows,
-                          lanes, lo, hi, params, a.e, rgba, depth, samples)
+                          a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
+                          directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth, samples)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
 
     _check_progress_bar(progress_bar)
@@ -488,6 +488,8 @@ class _Extended(NamedTuple):
     tables: np.ndarray
     sigmas: np.ndarray
     axes: np.ndarray
+    level_tables: np.ndarray
+    level_steps: np.ndarray
     e: KX.ExtParams
 
 
@@ -499,8 +501,15 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
         pyr, pgeo, grids = _mip_pyramid(volume, dtype, levels)
         leap_lod = _mip_leaps(grids, blocks, opts, styles, table, params, mask)
         lods = lod
+        # A ray at level L samples a volume filtered to 2**L voxels: along the ray too,
+        # a step of 2**L times the render's step resolves it (the opacity table follows)
+        steps = [params.step * 2.0 ** level for level in range(pgeo.shape[0])]
+        level_tables = np.stack([np.column_stack([table[:, :3], -np.expm1(-sigma.astype(np.float64) * st)])
+                                 .astype(table.dtype).reshape(-1) for st in steps])
+        level_steps = np.array(steps)
     else:
         pyr, pgeo, lods, leap_lod = one, np.zeros((1, 6), np.int64), np.zeros(1), leap.reshape(1, -1)
+        level_tables, level_steps = table.reshape(1, -1), np.array([params.step])
     gbricks = _gradient_bricks(volume, dtype) if opts.gradient_opacity is not None else one
     g_lo, g_hi = opts.gradient_opacity if opts.gradient_opacity is not None else (0.0, 1.0)
     if styles is not None:
@@ -521,7 +530,8 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
     e = KX.ExtParams(BLENDING_CODES[opts.blending], float(unit), stop, int(opts.gradient_opacity is not None),
                      float(g_lo), float(1.0 / (g_hi - g_lo)), int(pgeo.shape[0]) if lod is not None else 0,
                      int(styles is not None), int(lattice), int(midpoint))
-    return _Extended(pyr, pgeo, lods, leap_lod, gbricks, slots, modes, tables, sigmas, axes, e)
+    return _Extended(pyr, pgeo, lods, leap_lod, gbricks, slots, modes, tables, sigmas, axes, level_tables,
+                     level_steps, e)
 
 
 def _mip_leaps(grids, blocks, opts, styles, table, params, mask):

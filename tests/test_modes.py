@@ -222,6 +222,21 @@ def test_level_zero_rays_are_bit_identical_to_plain(random_volume):
     assert not np.array_equal(plain.rgba.reshape(-1, 4)[:40], mixed.rgba.reshape(-1, 4)[:40])
 
 
+def test_lens_pixels_outside_it_are_the_plain_render(random_volume):
+    vol = hv.volume_from_array(random_volume)
+    cam = hv.Camera.fit(vol, "iso")
+    plain = hv.render(vol, GRAY, cam, 32)
+    same = hv.render(vol, GRAY, cam, 32, lens=hv.Magnifier((16.0, 16.0), radius=8, factor=1.0))
+    assert np.array_equal(plain.rgba, same.rgba) and np.array_equal(plain.depth, same.depth)
+    lens = hv.Magnifier((12.5, 14.5), radius=8, transition=3, factor=3.0)
+    img = hv.render(vol, GRAY, cam, 32, lens=lens)
+    s, _ = lens.scale(cam, 32)
+    outside = s == 1.0
+    assert lens.rays(cam, 32).lod is not None  # the band is anti-aliased, the rest is not touched
+    assert np.array_equal(img.rgba[outside], plain.rgba[outside])
+    assert not np.array_equal(img.rgba[~outside], plain.rgba[~outside])
+
+
 def test_mipmap_ignores_nan_neighbours():
     from pv_hdrvol.raycast._kernels_ext import downsample
 

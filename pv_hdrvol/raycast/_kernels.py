@@ -179,63 +179,8 @@ def _axis_exit(o, inv_d, b, radius, size):
 
 
 @inline_kernel
-def _probe(bricks, leap, g, x, y, z):
-    """The block radius at voxel position ``(x, y, z)`` and, in a block to sample, the value there.
-
-    ``g`` is the geometry tuple built in ``_march``. Returns ``(radius, ib, jb, kb, v)``:
-    ``radius`` from ``leap`` (0: sample) and the block indices; ``v`` is NaN when
-    ``radius != 0`` (not sampled).
-
-    Written out without calling other jitted helpers: numba 0.56 deep-copies the
-    dispatchers an inlined function refers to, which made compiling this loop take
-    minutes. Each coordinate is clamped to ``[0, n - 1]``; ``x = n - 1`` takes the
-    "cell" past the last one with fraction 0 (the bricks repeat the edge there), so
-    every grid value comes back exactly, and its block index is that of the last cell.
-    """
-    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
-    x = min(max(x, 0.0), x_max)
-    y = min(max(y, 0.0), y_max)
-    z = min(max(z, 0.0), z_max)
-    xi = int(x)
-    yi = int(y)
-    zi = int(z)
-    ib = min(xi, nx - 2) >> shift
-    jb = min(yi, ny - 2) >> shift
-    kb = min(zi, nz - 2) >> shift
-    radius = leap[np.uint64((kb * by + jb) * bx + ib)]
-    if radius != 0:
-        return radius, ib, jb, kb, math.nan
-    fx = x - xi
-    fy = y - yi
-    fz = z - zi
-    # trilinear interpolation inside one brick
-    m = (1 << BRICK_SHIFT) - 1
-    pitch = (1 << BRICK_SHIFT) + 1
-    brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
-    q = np.uint64(brick * (pitch * pitch * pitch) + ((zi & m) * pitch + (yi & m)) * pitch + (xi & m))
-    p1 = np.uint64(pitch)
-    p2 = np.uint64(pitch * pitch)
-    one = np.uint64(1)
-    v000 = np.float64(bricks[q])
-    v100 = np.float64(bricks[q + one])
-    v010 = np.float64(bricks[q + p1])
-    v110 = np.float64(bricks[q + p1 + one])
-    v001 = np.float64(bricks[q + p2])
-    v101 = np.float64(bricks[q + p2 + one])
-    v011 = np.float64(bricks[q + p2 + p1])
-    v111 = np.float64(bricks[q + p2 + p1 + one])
-    c00 = v000 + fx * (v100 - v000)
-    c10 = v010 + fx * (v110 - v010)
-    c01 = v001 + fx * (v101 - v001)
-    c11 = v011 + fx * (v111 - v011)
-    c0 = c00 + fy * (c10 - c00)
-    c1 = c01 + fy * (c11 - c01)
-    return 0, ib, jb, kb, c0 + fz * (c1 - c0)
-
-
-@inline_kernel
 def _block(leap, g, x, y, z):
-    """Leap radius and block indices of voxel position ``(x, y, z)`` (as ``_probe``)."""
+    """Leap radius and block indices of voxel position ``(x, y, z)`` (as ``_sample``)."""
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
     xi = min(int(min(max(x, 0.0), x_max)), nx - 2)
     yi = min(int(min(max(y, 0.0), y_max)), ny - 2)
@@ -308,7 +253,7 @@ def mip_sampler(pgeo, lod, n_levels):
     return g0, 1.0 / (1 << level), g1, 1.0 / (1 << upper), f
 
 
-@inline_kernel
+@kernel
 def mip_value(pyr, sampler, x, y, z):
     """Value between the two levels of the mip-map ``pyr`` that ``sampler`` (``mip_sampler``)
     names, at voxel ``(x, y, z)``."""
@@ -320,21 +265,78 @@ def mip_value(pyr, sampler, x, y, z):
 
 
 def _sample(sampler, bricks, leap, g, x, y, z):
-    """``(radius, ib, jb, kb, v)`` at ``(x, y, z)``: ``_probe`` for the plain sampler (an
-    int), mip-mapped for a ``mip_sampler`` tuple, ``bricks`` then being the mip-map
-    (compiled only)."""
+    """The block radius at voxel position ``(x, y, z)`` and, in a block to sample, the
+    value there: ``(radius, ib, jb, kb, v)`` (compiled only).
+
+    ``g`` is the geometry tuple built in ``_march``; ``radius`` comes from ``leap`` (0:
+    sample), with the block indices; ``v`` is NaN when ``radius != 0`` (not sampled).
+    The plain ``sampler`` (an int) interpolates ``bricks`` trilinearly; a ``mip_sampler``
+    tuple interpolates the mip-map passed as ``bricks`` between two levels.
+
+    The plain sampler calls no other jitted helper: numba 0.56 deep-copies the
+    dispatchers an inlined function refers to, which made compiling the loop take
+    minutes. Each coordinate is clamped to ``[0, n - 1]``; ``x = n - 1`` takes the
+    "cell" past the last one with fraction 0 (the bricks repeat the edge there), so
+    every grid value comes back exactly, and its block index is that of the last cell.
+    """
     raise NotImplementedError("compiled only")
 
 
-@overload(_sample, jit_options=_JIT)
+@overload(_sample, jit_options=_JIT, inline="always")
 def _sample_impl(sampler, bricks, leap, g, x, y, z):
+    # Inlined into the marching loop (as a call per sample, passing arrays, it cost 5-20 %). The
+    # plain sampler is written out here, not through another inlined helper: numba's IR
+    # inlining of nested inlines trips its own scope checks.
     if isinstance(sampler, numba.types.Integer):
         def plain(sampler, bricks, leap, g, x, y, z):
-            return _probe(bricks, leap, g, x, y, z)
+            nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+            x = min(max(x, 0.0), x_max)
+            y = min(max(y, 0.0), y_max)
+            z = min(max(z, 0.0), z_max)
+            xi = int(x)
+            yi = int(y)
+            zi = int(z)
+            ib = min(xi, nx - 2) >> shift
+            jb = min(yi, ny - 2) >> shift
+            kb = min(zi, nz - 2) >> shift
+            radius = leap[np.uint64((kb * by + jb) * bx + ib)]
+            if radius != 0:
+                return radius, ib, jb, kb, math.nan
+            fx = x - xi
+            fy = y - yi
+            fz = z - zi
+            # trilinear interpolation inside one brick
+            m = (1 << BRICK_SHIFT) - 1
+            pitch = (1 << BRICK_SHIFT) + 1
+            brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
+            q = np.uint64(brick * (pitch * pitch * pitch) + ((zi & m) * pitch + (yi & m)) * pitch + (xi & m))
+            p1 = np.uint64(pitch)
+            p2 = np.uint64(pitch * pitch)
+            one = np.uint64(1)
+            v000 = np.float64(bricks[q])
+            v100 = np.float64(bricks[q + one])
+            v010 = np.float64(bricks[q + p1])
+            v110 = np.float64(bricks[q + p1 + one])
+            v001 = np.float64(bricks[q + p2])
+            v101 = np.float64(bricks[q + p2 + one])
+            v011 = np.float64(bricks[q + p2 + p1])
+            v111 = np.float64(bricks[q + p2 + p1 + one])
+            c00 = v000 + fx * (v100 - v000)
+            c10 = v010 + fx * (v110 - v010)
+            c01 = v001 + fx * (v101 - v001)
+            c11 = v011 + fx * (v111 - v011)
+            c0 = c00 + fy * (c10 - c00)
+            c1 = c01 + fy * (c11 - c01)
+            return 0, ib, jb, kb, c0 + fz * (c1 - c0)
         return plain
 
     def mipmapped(sampler, bricks, leap, g, x, y, z):
-        radius, ib, jb, kb = _block(leap, g, x, y, z)
+        # _block written out, for the same reason; mip_value is a call
+        nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+        ib = min(int(min(max(x, 0.0), x_max)), nx - 2) >> shift
+        jb = min(int(min(max(y, 0.0), y_max)), ny - 2) >> shift
+        kb = min(int(min(max(z, 0.0), z_max)), nz - 2) >> shift
+        radius = leap[np.uint64((kb * by + jb) * bx + ib)]
         if radius != 0:
             return radius, ib, jb, kb, math.nan
         return 0, ib, jb, kb, mip_value(bricks, sampler, x, y, z)

@@ -25,7 +25,7 @@ import numpy as np
 
 from .._jit import kernel, parallel_kernel, uindex as _u
 from ._kernels import (
-    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity, _probe,
+    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity, _sample as _probe_any,
     _ray_box, _start, mip_sampler, mip_value, trilinear as _trilinear,
 )
 
@@ -66,9 +66,9 @@ def _lod_value(pyr, pgeo, n_levels, lod, x, y, z):
 
 @kernel
 def _sample(bricks, leap, g, pyr, pgeo, n_levels, lod, x, y, z):
-    """``(radius, ib, jb, kb, v)`` as ``_kernels._probe``; mip-mapped where ``lod > 0``."""
+    """``(radius, ib, jb, kb, v)`` as ``_kernels._sample``; mip-mapped where ``lod > 0``."""
     if lod == 0.0:
-        return _probe(bricks, leap, g, x, y, z)
+        return _probe_any(0, bricks, leap, g, x, y, z)
     radius, ib, jb, kb = _block(leap, g, x, y, z)
     if radius != 0:
         return radius, ib, jb, kb, math.nan

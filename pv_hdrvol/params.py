@@ -68,7 +68,8 @@ class RenderOptions:
         extreme value along the ray (MIP/MinIP), ``average``: the mean, coloured by the
         transfer function with its opacity over one unit distance; ``additive``: the
         line integral of the value (an X-ray) and of the emission ``c sigma``. The
-        projections also return the value itself (:attr:`HDRImage.value`).
+        projections also return the value itself (:attr:`HDRImage.value`; with
+        ``precision="uint8"``, in the 8-bit pipeline's levels 0-255).
     gradient_opacity : (float, float) or None
         Emission-absorption only: scale extinction by a ramp of the gradient magnitude
         ``|grad v|`` (data units per world unit), 0 at the first value and 1 from the

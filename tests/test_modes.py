@@ -57,6 +57,19 @@ def test_float32_mip_is_the_max_of_the_float32_data(random_volume):
     assert np.array_equal(img.value, vals.astype(np.float32).max(axis=0).astype(np.float64))
 
 
+def test_uint8_mip_is_the_max_of_the_8bit_levels(random_volume):
+    # the 8-bit pipeline quantises the data to the table's 256 levels first; the early
+    # stop must use those levels' maximum, not the caller's data range
+    vals = random_volume
+    img = hv.render(vals, GRAY, axis_rays(vals.shape, 0), blending="maximum", step=1.0, precision="uint8")
+    assert np.array_equal(img.value, np.round(vals * 255).max(axis=0))
+
+
+def test_flat_volume_projection_has_an_empty_value_image():
+    img = hv.render(np.ones((1, 4, 4)), GRAY, size=3, blending="maximum")
+    assert img.value.shape == (3, 3) and np.isnan(img.value).all()
+
+
 def test_mip_colour_is_the_transfer_function_at_the_maximum():
     vals = np.zeros((5, 3, 3))
     vals[2, 1, 1] = 0.8

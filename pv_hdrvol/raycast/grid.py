@@ -371,12 +371,10 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
         or lod is not None
-    value = None
+    value = np.full(height * width, np.nan) if opts.blending != "composite" else None
     if extended and not flat:
         kernel_args = _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles,
                                           tf, prec, mask)
-        if opts.blending != "composite":
-            value = np.full(height * width, np.nan)
 
     def cast(tile_rows):
         rows = np.ascontiguousarray(tile_rows)
@@ -521,12 +519,16 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
         tables, sigmas = table.reshape(-1), sigma
         axes = np.array([[params.scale, params.axis_lo, params.axis_inv_range, params.linthresh]], np.float64)
         lattice, midpoint = 0, 1
-    lo, hi = volume.value_range
+    # a maximum (minimum) projection may stop at the largest (smallest) value the
+    # sampled data holds: the block ranges of the values actually rendered (a float32
+    # or 8-bit copy has other extremes than the caller's array)
+    finite = np.isfinite(blocks.minimum)
     stop = math.inf
-    if opts.blending == "maximum" and block_is_whole(active, blocks):
-        stop = float(hi)
-    elif opts.blending == "minimum" and block_is_whole(active, blocks):
-        stop = -float(lo)
+    if finite.any() and block_is_whole(active, blocks):
+        if opts.blending == "maximum":
+            stop = float(blocks.maximum[finite].max())
+        elif opts.blending == "minimum":
+            stop = -float(blocks.minimum[finite].min())
     e = KX.ExtParams(BLENDING_CODES[opts.blending], float(unit), stop, int(opts.gradient_opacity is not None),
                      float(g_lo), float(1.0 / (g_hi - g_lo)), int(pgeo.shape[0]) if lod is not None else 0,
                      int(styles is not None), int(lattice), int(midpoint))

@@ -207,7 +207,7 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
         if samples == 0:
             return nan_out
         value = sign * best
-        r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, False)
+        r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, p.precision == 3)
         alpha = -math.expm1(-_sigma(sigmas, 0, n_table, i, f) * e.unit)
         return value, alpha * r, alpha * gg, alpha * b, alpha, depth, samples
     # average and additive: midpoint rule over the segments
@@ -238,7 +238,7 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
         total += v * dt
         length += dt
         if mode == ADDITIVE:
-            r, gg, b, a, i, f = _row(tables, 0, n_table, axes, v, False)
+            r, gg, b, a, i, f = _row(tables, 0, n_table, axes, v, p.precision == 3)
             sd = _sigma(sigmas, 0, n_table, i, f) * dt
             tau += sd
             er += r * sd
@@ -249,7 +249,7 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
     if mode == ADDITIVE:
         return total, er, eg, eb, -math.expm1(-tau), depth, samples
     value = total / length
-    r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, False)
+    r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, p.precision == 3)
     alpha = -math.expm1(-_sigma(sigmas, 0, n_table, i, f) * e.unit)
     return value, alpha * r, alpha * gg, alpha * b, alpha, depth, samples
 

@@ -66,6 +66,20 @@ def test_render_matches_library(volume_file, tmp_path, capsys):
     assert _png_size(out_png) == (20, 16)
 
 
+def test_render_maximum_projection_keeps_the_value(volume_file, tmp_path, capsys):
+    out_exr = tmp_path / "mip.exr"
+    args = ["render", str(volume_file), "-o", str(out_exr), "--size", "12", "--blending", "maximum",
+            "--scalars", "twice", "--no-progress"]
+    assert main(args) == 0
+    grid = pv.read(volume_file)
+    image = hv.load(out_exr)
+    # the projected value does not depend on the transfer function (every finite block is sampled)
+    tf = hv.TransferFunction.ramp(0.0, 1.0, cmap="gray")
+    ref = hv.render(grid, tf, hv.Camera.fit(grid.bounds, "iso"), 12, scalars="twice", blending="maximum")
+    assert image.metadata["blending"] == "maximum"
+    np.testing.assert_array_equal(image.value, ref.value.astype(np.float32))
+
+
 def test_render_defaults_legacy_vtk(volume_file, tmp_path, monkeypatch):
     legacy = tmp_path / "orbital.vtk"
     pv.read(volume_file).save(legacy)

@@ -17,7 +17,7 @@ import sys
 
 from .. import __version__
 from ..data.transfer import SCALES
-from ..params import PRECISIONS
+from ..params import BLENDINGS, PRECISIONS
 
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
 READABLE = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
@@ -41,6 +41,9 @@ def _add_render_options(p):
     p.add_argument("--step", type=float, default=None, help="sample distance in voxels (default 0.5)")
     p.add_argument("--precision", choices=PRECISIONS, default=None, help="compositing precision (default float32)")
     p.add_argument("--global-alpha", type=float, default=None, help="opacity multiplier in (0, 1]")
+    p.add_argument("--blending", choices=BLENDINGS, default=None,
+                   help="composite (default), maximum/minimum intensity projection, average, or additive (X-ray); "
+                        "projections also store the projected value (EXR channel V)")
     p.add_argument("--view", default=None, metavar="VIEW", help=f"camera direction, one of {', '.join(VIEWS)}")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
@@ -228,7 +231,8 @@ def _render(args, volume, tf, default_view, zoom=1.0):
     from .. import Camera, render
 
     options = {name: value for name, value in (("step", args.step), ("precision", args.precision),
-                                               ("global_alpha", args.global_alpha)) if value is not None}
+                                               ("global_alpha", args.global_alpha), ("blending", args.blending))
+               if value is not None}
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         size = _size(args.size)

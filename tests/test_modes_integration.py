@@ -29,6 +29,16 @@ def test_accessor_projection_and_labels_match_render(grid):
     assert grid["lab"].dtype == np.int32  # the dataset is not modified
 
 
+def test_accessor_takes_a_lens(grid):
+    lens = hv.Magnifier((6.5, 5.5), radius=4, transition=1.5, factor=2.5)
+    a = grid.hdrvol.render(scalars="v", tf=GRAY, size=(14, 12), lens=lens, precision="float64")
+    b = hv.render(grid, GRAY, hv.Camera.fit(grid, "iso"), (14, 12), scalars="v", lens=lens, precision="float64")
+    assert np.array_equal(a.rgba, b.rgba)
+    assert a.metadata["lens"] == repr(lens)
+    plain = grid.hdrvol.render(scalars="v", tf=GRAY, size=(14, 12), precision="float64")
+    assert not np.array_equal(a.rgba, plain.rgba)
+
+
 def test_labels_by_name_need_a_dataset(grid):
     with pytest.raises(TypeError, match="labels may name an array of a dataset only; got the name 'lab' with a "
                                         "ndarray"):

@@ -287,6 +287,20 @@ def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tabl
 
 # -- extended compositing -------------------------------------------------------------------
 @kernel
+def _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, slot, value, t, u8, p, e):
+    """Composite a finished maximum/minimum segment of label ``slot`` (its extreme
+    ``value``, met at ``t``) as one sample of the label's opacity over the unit
+    distance. Returns the new ``(state, depth)``."""
+    r, gg, b, a, i, f = _row(tables, slot, n_table, axes, value, u8)
+    a_seg = -math.expm1(-_sigma(sigmas, slot, n_table, i, f) * e.unit)
+    if a_seg > 0.0:
+        state = _accumulate(marker, prec, state, a_seg, r, gg, b)
+        if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+            depth = t
+    return state, depth
+
+
+@kernel
 def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes,
                    ox, oy, oz, dx, dy, dz, t0, t1, p, e):
     """Front-to-back compositing with gradient modulation, labels and mip sampling.
@@ -329,12 +343,8 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
             kn = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
             if seg_slot >= 0:
                 # an empty stretch ends the open segment (values there are transparent anyway)
-                r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
-                a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
-                if a_seg > 0.0:
-                    state = _accumulate(marker, prec, state, a_seg, r, gg, b)
-                    if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
-                        depth = seg_t
+                state, depth = _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, seg_slot,
+                                              seg_sign * seg_best, seg_t, u8, p, e)
                 seg_slot = -1
             k = kn
             continue
@@ -346,12 +356,8 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
             sl = np.int64(_label_slot(slots, g, xa, ya, za))
             mode = modes[sl]
             if seg_slot >= 0 and sl != seg_slot:
-                r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
-                a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
-                if a_seg > 0.0:
-                    state = _accumulate(marker, prec, state, a_seg, r, gg, b)
-                    if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
-                        depth = seg_t
+                state, depth = _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, seg_slot,
+                                              seg_sign * seg_best, seg_t, u8, p, e)
                 seg_slot = -1
             if mode == MAXIMUM or mode == MINIMUM:
                 if lod == 0.0:
@@ -377,12 +383,8 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
                 continue
             if seg_slot >= 0:
                 # a composite sample after an open segment: that segment is over
-                r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
-                a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
-                if a_seg > 0.0:
-                    state = _accumulate(marker, prec, state, a_seg, r, gg, b)
-                    if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
-                        depth = seg_t
+                state, depth = _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, seg_slot,
+                                              seg_sign * seg_best, seg_t, u8, p, e)
                 seg_slot = -1
         samples += 1
         r, gg, b, a_i, i, f = _row(tables, slot, n_table, axes, v, u8)
@@ -425,12 +427,8 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
                 seg_t = t1
                 samples += 1
         if seg_slot >= 0:
-            r, gg, b, a, i, f = _row(tables, seg_slot, n_table, axes, seg_sign * seg_best, u8)
-            a_seg = -math.expm1(-_sigma(sigmas, seg_slot, n_table, i, f) * e.unit)
-            if a_seg > 0.0:
-                state = _accumulate(marker, prec, state, a_seg, r, gg, b)
-                if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
-                    depth = seg_t
+            state, depth = _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, seg_slot,
+                                          seg_sign * seg_best, seg_t, u8, p, e)
     cr, cg, cb, alpha = _finish(marker, state)
     return cr, cg, cb, alpha, depth, samples
 

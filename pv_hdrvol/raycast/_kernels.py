@@ -227,24 +227,16 @@ def trilinear(bricks, base, nx, ny, nz, qy, qx, x, y, z):
     return c0 + fz * (c1 - c0)
 
 
-@inline_kernel
-def level_value(pyr, pgeo, level, x, y, z):
-    """Trilinear value of mip level ``level`` at voxel coordinates ``(x, y, z)``.
-
-    ``pyr`` is one flat array of bricked levels: level ``L`` at offset ``pgeo[L, 0]``,
-    ``pgeo[L, 1:4]`` its points along x, y, z and ``pgeo[L, 4:6]`` its brick grid (y, x);
-    level ``L`` point ``i`` lies at voxel coordinate ``i * 2**L``.
-    """
-    s = 1.0 / (1 << level)
-    return trilinear(pyr, pgeo[level, 0], pgeo[level, 1], pgeo[level, 2], pgeo[level, 3], pgeo[level, 4],
-                     pgeo[level, 5], x * s, y * s, z * s)
-
-
 @kernel
 def mip_sampler(pgeo, lod, n_levels):
     """The sampler tuple of a ray at level of detail ``lod`` (see ``_sample``): the two
     levels' geometry and scale, read once per ray, not per sample. (No array in it: the
-    mip-map itself travels as ``bricks``.)"""
+    mip-map itself travels as ``bricks``.)
+
+    The mip-map is one flat array of bricked levels: level ``L`` at offset ``pgeo[L, 0]``,
+    ``pgeo[L, 1:4]`` its points along x, y, z and ``pgeo[L, 4:6]`` its brick grid (y, x);
+    level ``L`` point ``i`` lies at voxel coordinate ``i * 2**L``.
+    """
     level = min(int(lod), n_levels - 1)
     upper = min(level + 1, n_levels - 1)
     f = lod - level if upper > level else 0.0

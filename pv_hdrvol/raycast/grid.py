@@ -575,7 +575,7 @@ def _mip_pyramid(volume, dtype, levels):
     """Bricked mip-map levels ``0 .. levels - 1`` (fewer if the volume gets too small).
 
     Cached on the volume; returns ``(flat values, geometry (levels, 6) int64, the levels
-    as (z, y, x) arrays)``, the first two as ``_kernels.level_value`` reads them.
+    as (z, y, x) arrays)``, the first two as ``_kernels.mip_sampler`` reads them.
     """
     key = ("mip", np.dtype(dtype).str)
     cached = volume.cache.get(key)

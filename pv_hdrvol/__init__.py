@@ -7,6 +7,7 @@ import numpy as np
 
 from . import datasets
 from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
+from .data.tets import TetMesh, tetmesh_from_arrays, tetmesh_from_dataset
 from .data.transfer import TransferFunction
 from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
@@ -14,6 +15,7 @@ from .params import PRECISIONS, RenderOptions
 from .rays.camera import Camera, Rays
 from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
 from .raycast.grid import BlockGrid, render_volume
+from .raycast.tets import render_tets
 
 __version__ = "0.1.0"
 
@@ -24,11 +26,22 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
     """Render a volume to an :class:`HDRImage` (see :func:`render_volume` for all options).
 
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
-    a :class:`GridVolume`; ``scalars``/``preference`` pick the array of a dataset, and
+    a :class:`GridVolume`, or a tetrahedral mesh (``pyvista.UnstructuredGrid``,
+    ``vtkUnstructuredGrid``, :class:`TetMesh`: see :func:`render_tets`); ``scalars``/``preference`` pick the array of a dataset, and
     ``labels`` may name another of its arrays.
     """
+    from .data.tets import is_unstructured
     from .raycast.grid import as_volume
 
+    if is_unstructured(data):
+        from .raycast.tets import render_tets
+
+        for name, value in (("block_mask", block_mask), ("lens", lens), ("labels", labels),
+                            ("label_styles", label_styles)):
+            if value is not None:
+                raise ValueError(f"{name}= is not supported for tetrahedral meshes")
+        return render_tets(data, tf, camera, size, options, scalars=scalars, preference=preference,
+                           progress_bar=progress_bar, progress=progress, **option_kwargs)
     volume = as_volume(data, scalars=scalars, preference=preference)
     if isinstance(labels, str):
         if isinstance(data, (GridVolume, np.ndarray)):
@@ -43,6 +56,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 __all__ = [
     "datasets", "BlockGrid", "Camera", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Magnifier",
-    "PRECISIONS", "Rays", "RenderOptions", "SamplingRateLens", "ScalarsError", "ToneMapped", "TransferFunction",
-    "load", "render", "render_volume", "tonemap", "volume_from_array", "volume_from_dataset",
+    "PRECISIONS", "Rays", "RenderOptions", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
+    "TransferFunction", "load", "render", "render_tets", "render_volume", "tetmesh_from_arrays",
+    "tetmesh_from_dataset", "tonemap", "volume_from_array", "volume_from_dataset",
 ]

@@ -128,17 +128,33 @@ def test_option_errors(grid):
 
 
 def test_other_datasets_are_refused():
-    tets = pv.ImageData(dimensions=(3, 3, 3)).triangulate()
-    assert isinstance(tets, pv.UnstructuredGrid)
-    with pytest.raises(TypeError, match=r"got UnstructuredGrid: tetrahedral meshes \(UnstructuredGrid\) are not "
-                                        r"supported yet"):
-        tets.hdrvol.render(size=SIZE)
-    with pytest.raises(TypeError, match=r"hdrvol renders pyvista.ImageData only; got PolyData"):
+    with pytest.raises(TypeError, match=r"hdrvol renders pyvista.ImageData and UnstructuredGrid; got PolyData"):
         pv.Sphere().hdrvol.render(size=SIZE)
     # attribute access itself never raises: dir() and hasattr() keep working
     assert hasattr(pv.Sphere(), "hdrvol")
-    assert repr(tets.hdrvol) == ("<hdrvol accessor of UnstructuredGrid: not renderable (ImageData only; tetrahedral "
-                                 "meshes not yet)>")
+    assert repr(pv.Sphere().hdrvol) == ("<hdrvol accessor of PolyData: not renderable (ImageData and "
+                                        "UnstructuredGrid only)>")
+
+
+def test_tetrahedral_meshes_render_through_the_accessor():
+    """A tetrahedralised image renders like the image itself (same camera, same tf)."""
+    grid = pv.ImageData(dimensions=(5, 4, 6), spacing=(0.5, 0.5, 0.5))
+    x, y, z = grid.points.T
+    grid["s"] = 0.2 * x + 0.3 * y + 0.1 * z
+    tets = grid.triangulate()
+    tets["other"] = np.arange(tets.n_cells, dtype=float)
+    assert isinstance(tets, pv.UnstructuredGrid)
+    tf = hv.TransferFunction.ramp(0.0, 1.2, cmap="viridis", opacity=(0.0, 0.6))
+    unit = 0.5
+    a = tets.hdrvol.render(scalars="s", tf=tf, size=SIZE, precision="float64", opacity_unit_distance=unit)
+    b = grid.hdrvol.render(scalars="s", tf=tf, size=SIZE, precision="float64", opacity_unit_distance=unit, step=0.02)
+    assert a.metadata["renderer"] == "pv_hdrvol tetrahedral ray caster"
+    assert np.abs(a.rgba - b.rgba).max() < 2e-4
+    assert "5x4x6" not in repr(tets.hdrvol) and f"{tets.n_cells} cells" in repr(tets.hdrvol)
+    with pytest.raises(ValueError, match=r"lens= is not supported for tetrahedral meshes"):
+        tets.hdrvol.render(scalars="s", size=SIZE, lens=hv.Fisheye())
+    with pytest.raises(ValueError, match=r"tetrahedral meshes support blending='composite' only; got 'maximum'"):
+        tets.hdrvol.render(scalars="s", size=SIZE, blending="maximum")
 
 
 def test_repr_and_cache(grid):

@@ -91,6 +91,20 @@ def test_render_defaults_legacy_vtk(volume_file, tmp_path, monkeypatch):
     np.testing.assert_array_equal(image.rgba, ref.rgba)
 
 
+def test_render_tetrahedral_mesh(tmp_path, capsys):
+    mesh = pv.ImageData(dimensions=(4, 5, 3), spacing=(0.5, 0.25, 1.0)).triangulate()
+    mesh["pressure"] = np.linspace(1.0, 2.0, mesh.n_points)
+    path = tmp_path / "part.vtu"
+    mesh.save(path)
+    out = tmp_path / "part.exr"
+    assert main(["render", str(path), "-o", str(out), "--size", "14", "12", "--opacity", "0", "0.4",
+                 "--no-progress"]) == 0
+    assert f"part.vtu (pressure, {mesh.n_cells} tets): 14x12 float32" in capsys.readouterr().out
+    tf = hv.TransferFunction.ramp(1.0, 2.0, cmap="magma", opacity=(0.0, 0.4))
+    ref = hv.render(mesh, tf, hv.Camera.fit(mesh.bounds, "iso"), (14, 12))
+    np.testing.assert_array_equal(hv.load(out).rgba, ref.rgba)
+
+
 def test_render_nrrd(tmp_path):
     values, spacing, _ = hydrogen_orbital_array(size=12)
     header = (f"NRRD0004\ntype: double\ndimension: 3\nsizes: 12 12 12\nspacings: {spacing[0]!r} {spacing[1]!r} "
@@ -134,9 +148,9 @@ def test_info(volume_file, tmp_path, capsys):
     (["render", "{tmp}/notes.txt"], "pv-hdrvol render: error: cannot read '{tmp}/notes.txt': unknown extension "
                                     "'.txt'"),
     (["render", "{tmp}/sphere.vtk"], "pv-hdrvol render: error: '{tmp}/sphere.vtk' holds a PolyData; pv-hdrvol "
-                                     "renders image data (ImageData) only"),
-    (["render", "{tmp}/tets.vtk"], "pv-hdrvol render: error: '{tmp}/tets.vtk' holds a UnstructuredGrid; pv-hdrvol "
-                                   "renders image data (ImageData) only (tetrahedral meshes are not supported yet)"),
+                                     "renders image data (ImageData) and tetrahedral meshes (UnstructuredGrid)"),
+    (["render", "{tmp}/tets.vtk", "--blending", "maximum"],
+     "pv-hdrvol render: error: tetrahedral meshes support blending='composite' only; got 'maximum'"),
     (["demo", "--orbital", "2", "2", "0"], "pv-hdrvol demo: error: l must satisfy 0 <= l < n = 2; got l=2"),
     (["info", "{tmp}/missing.exr"], "pv-hdrvol info: error: file not found: '{tmp}/missing.exr'"),
     (["info", "{tmp}/notes.txt"], "pv-hdrvol info: error: unknown image extension '.txt'; use .exr, .hdr or .npy"),
@@ -147,7 +161,9 @@ def test_user_errors_exit_2_without_traceback(args, message, volume_file, tmp_pa
     (tmp_path / "notes.txt").write_text("not a volume")
     (tmp_path / "fake.exr").write_bytes(b"not an exr")
     pv.Sphere().save(tmp_path / "sphere.vtk")
-    pv.ImageData(dimensions=(3, 3, 3)).triangulate().save(tmp_path / "tets.vtk")
+    tets = pv.ImageData(dimensions=(3, 3, 3)).triangulate()
+    tets["s"] = np.arange(tets.n_points, dtype=float)
+    tets.save(tmp_path / "tets.vtk")
     args = [a.format(tmp=tmp_path, vol=volume_file) for a in args]
     with pytest.raises(SystemExit) as exit_info:
         main(args + (["--no-progress"] if args[0] in ("render", "demo") else []))

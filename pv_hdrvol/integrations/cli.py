@@ -20,7 +20,7 @@ from ..data.transfer import SCALES
 from ..params import BLENDINGS, PRECISIONS
 
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
-READABLE = (".vti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd")
+READABLE = (".vti", ".vtk", ".vtu", ".nrrd", ".nhdr", ".mha", ".mhd")
 
 
 class UserError(Exception):
@@ -130,12 +130,17 @@ def _cmd_render(args):
         dataset = pv.read(path)
     except Exception as exc:  # readers raise anything from OSError to ValueError
         raise UserError(f"cannot read {str(path)!r}: {exc}") from None
-    if not isinstance(dataset, pv.ImageData):
+    if not isinstance(dataset, (pv.ImageData, pv.UnstructuredGrid)):
         kind = type(dataset).__name__
-        extra = " (tetrahedral meshes are not supported yet)" if isinstance(dataset, pv.UnstructuredGrid) else ""
-        raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) only{extra}")
+        raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) and "
+                        f"tetrahedral meshes (UnstructuredGrid)")
     try:
-        volume = volume_from_dataset(dataset, scalars=args.scalars)
+        if isinstance(dataset, pv.UnstructuredGrid):
+            from ..data.tets import tetmesh_from_dataset
+
+            volume = tetmesh_from_dataset(dataset, scalars=args.scalars)
+        else:
+            volume = volume_from_dataset(dataset, scalars=args.scalars)
     except (ScalarsError, ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
     tf = _transfer_function(args, volume)
@@ -144,7 +149,8 @@ def _cmd_render(args):
     image = _render(args, volume, tf, default_view="iso")
     image.metadata["source_file"] = str(path)
     _write(image, output, png)
-    _print_stats(image, f"{path.name} ({volume.name}, {'x'.join(map(str, volume.dims))})")
+    shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
+    _print_stats(image, f"{path.name} ({volume.name}, {shape})")
 
 
 def _cmd_demo(args):

@@ -15,10 +15,11 @@ _IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
 
 @pv.register_dataset_accessor("hdrvol", pv.DataSet)
 class HDRVolAccessor:
-    """High-dynamic-range volume rendering of ``pyvista.ImageData``.
+    """High-dynamic-range volume rendering of ``pyvista.ImageData`` and tetrahedral
+    ``pyvista.UnstructuredGrid``.
 
-    Available as ``dataset.hdrvol`` on every PyVista dataset; only image data can be
-    rendered so far.
+    Available as ``dataset.hdrvol`` on every PyVista dataset; image data and
+    unstructured grids (tetrahedra; other 3-D cells are split) can be rendered.
 
     Examples
     --------
@@ -36,14 +37,12 @@ class HDRVolAccessor:
     def _check_renderable(self):
         ds = self._dataset
         name = ds.GetClassName()
-        if name in _IMAGE_CLASSES:
+        if name in _IMAGE_CLASSES or name == "vtkUnstructuredGrid":
             return
         kind = type(ds).__name__
-        if name == "vtkUnstructuredGrid":
-            raise TypeError(f"hdrvol renders pyvista.ImageData only; got {kind}: tetrahedral meshes "
-                            "(UnstructuredGrid) are not supported yet")
-        raise TypeError(f"hdrvol renders pyvista.ImageData only; got {kind} "
-                        "(resample it onto an ImageData first, e.g. with dataset.sample())")
+        raise TypeError(f"hdrvol renders pyvista.ImageData and UnstructuredGrid; got {kind} "
+                        "(cast it, e.g. dataset.cast_to_unstructured_grid(), or resample it onto an ImageData "
+                        "with dataset.sample())")
 
     def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point", lens=None,
                labels=None, label_styles=None, progress_bar=None, progress=None, **options):
@@ -97,8 +96,8 @@ class HDRVolAccessor:
         Raises
         ------
         TypeError
-            For datasets other than ImageData (tetrahedral meshes are not supported
-            yet), unknown options or an unusable camera.
+            For datasets other than ImageData and UnstructuredGrid, unknown options
+            or an unusable camera.
         ScalarsError
             (a ``ValueError``) when ``scalars`` is missing or ambiguous.
         """
@@ -106,6 +105,14 @@ class HDRVolAccessor:
 
         self._check_renderable()
         cam = resolve_camera(camera, self._dataset.bounds)
+        if self._dataset.GetClassName() == "vtkUnstructuredGrid":
+            from ..raycast.tets import render_tets
+
+            for name, value in (("lens", lens), ("labels", labels), ("label_styles", label_styles)):
+                if value is not None:
+                    raise ValueError(f"{name}= is not supported for tetrahedral meshes")
+            return render_tets(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
+                               progress_bar=progress_bar, progress=progress, **options)
         volume = self._volumes.get(self._dataset, scalars, preference)
         if isinstance(labels, str):
             from ..data.grid import labels_from_dataset
@@ -120,10 +127,11 @@ class HDRVolAccessor:
         try:
             self._check_renderable()
         except TypeError:
-            return f"<hdrvol accessor of {kind}: not renderable (ImageData only; tetrahedral meshes not yet)>"
+            return f"<hdrvol accessor of {kind}: not renderable (ImageData and UnstructuredGrid only)>"
         arrays = [f"point {n!r}" for n in ds.point_data.keys()] + [f"cell {n!r}" for n in ds.cell_data.keys()]
         active = ds.active_scalars_name
-        return (f"<hdrvol accessor of {kind} {tuple(ds.dimensions)}; arrays: {', '.join(arrays) or 'none'}; "
+        shape = f"{ds.n_cells} cells" if ds.GetClassName() == "vtkUnstructuredGrid" else str(tuple(ds.dimensions))
+        return (f"<hdrvol accessor of {kind} {shape}; arrays: {', '.join(arrays) or 'none'}; "
                 f"active scalars: {active!r}; call .render(scalars=, tf=, camera=, size=, **options)>")
 
 

@@ -365,8 +365,6 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     # a volume with one point along an axis has no thickness: nothing to integrate
     flat = min(volume.dims) < 2
-    tile_count_y = -(-height // _TILE)
-    all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
     lanes = _lanes()
 
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
@@ -397,38 +395,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     _check_progress_bar(progress_bar)
     t_start = time.perf_counter()
-    bar = None
-    done = 0
-    # Chunks are every n-th row of tiles, each a uniform sample of the image. Each chunk
-    # ends in a thread barrier, so a render is split only when someone watches it.
-    n = max(1, min(tile_count_y // 4, 64))
-    if progress is None and progress_bar is None:
-        # automatic bar: time the first chunk; go on in chunks with a bar only when the
-        # whole render would take over a second, else finish in one call
-        done = cast(all_tile_rows[::n])
-        if (time.perf_counter() - t_start) * n > _AUTO_BAR_SECONDS and n > 1:
-            bar = _progress_bar(True, height, quiet_without_tqdm=True)
-            chunks = [all_tile_rows[c::n] for c in range(1, n)]
-        else:
-            chunks = [all_tile_rows[all_tile_rows % n != 0]]
-    elif progress is None and not progress_bar:
-        chunks = [all_tile_rows]
-    else:
-        bar = _progress_bar(progress_bar, height)
-        chunks = [all_tile_rows[c::n] for c in range(n)]
-    try:
-        if bar is not None and done:
-            bar.update(done)
-        for tile_rows in chunks:
-            rows = cast(tile_rows) if tile_rows.size else 0
-            done += rows
-            if bar is not None:
-                bar.update(rows)
-            if progress is not None and progress(done / height) is False:
-                raise RuntimeError("render aborted")
-    finally:
-        if bar is not None:
-            bar.close()
+    run_in_chunks(cast, height, progress, progress_bar)
     elapsed = time.perf_counter() - t_start
 
     meta = {
@@ -737,6 +704,49 @@ def _lanes():
     import numba
 
     return 8 * numba.get_num_threads()
+
+
+def run_in_chunks(cast, height, progress=None, progress_bar=None):
+    """Call ``cast(tile_rows)`` (which renders those rows of ``_TILE``-pixel tiles and
+    returns how many pixel rows it did) over all rows of tiles, with progress.
+
+    Chunks are every n-th row of tiles, each a uniform sample of the image. Each chunk
+    ends in a thread barrier, so a render is split only when someone watches it: with
+    ``progress_bar=None`` the first chunk is timed and the rest goes on in chunks with
+    a bar only when the whole render would take over a second, else in one call.
+    ``progress(fraction)`` returning ``False`` raises ``RuntimeError("render aborted")``.
+    """
+    t_start = time.perf_counter()
+    tile_count_y = -(-height // _TILE)
+    all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
+    bar = None
+    done = 0
+    n = max(1, min(tile_count_y // 4, 64))
+    if progress is None and progress_bar is None:
+        done = cast(all_tile_rows[::n])
+        if (time.perf_counter() - t_start) * n > _AUTO_BAR_SECONDS and n > 1:
+            bar = _progress_bar(True, height, quiet_without_tqdm=True)
+            chunks = [all_tile_rows[c::n] for c in range(1, n)]
+        else:
+            chunks = [all_tile_rows[all_tile_rows % n != 0]]
+    elif progress is None and not progress_bar:
+        chunks = [all_tile_rows]
+    else:
+        bar = _progress_bar(progress_bar, height)
+        chunks = [all_tile_rows[c::n] for c in range(n)]
+    try:
+        if bar is not None and done:
+            bar.update(done)
+        for tile_rows in chunks:
+            rows = cast(tile_rows) if tile_rows.size else 0
+            done += rows
+            if bar is not None:
+                bar.update(rows)
+            if progress is not None and progress(done / height) is False:
+                raise RuntimeError("render aborted")
+    finally:
+        if bar is not None:
+            bar.close()
 
 
 def _check_progress_bar(value):

@@ -1,0 +1,534 @@
+"""numba kernels for tetrahedral meshes: arrays in, arrays out (``raycast/tets.py`` validates).
+
+Traversal (Platis & Theoharis 2003; Marmitt & Slusallek 2006): a ray ``o + t d`` meets
+the edge ``a -> b`` of a cell with the Plücker product
+
+    pi(a, b) = d . (a x b) + (b - a) . (o x d),
+
+whose sign says on which side of the edge the ray passes. The ray crosses the
+triangle ``(a, b, c)`` iff ``pi(a, b)``, ``pi(b, c)``, ``pi(c, a)`` share a sign, and
+then meets it at the barycentric point ``(pi(b, c), pi(c, a), pi(a, b)) / sum``. Each
+edge's product is formed from its two corners in ascending point order and negated
+for the other direction, so a cell and its neighbour compute the very same numbers for
+their shared edges and always agree on where a ray leaves one and enters the other: no
+ray leaks through a crack between cells, whatever the rounding, and zero-volume cells
+need no special case (they are crossed in zero length).
+
+Rays enter through the mesh boundary: ``boundary_hits`` lists, per pixel, every
+boundary face the ray crosses, sorted by ``t`` (the same products decide), so rays
+that leave a non-convex mesh re-enter at their next entering face. The same lists are
+the depth layers of the boundary.
+
+Integration of a cell's segment: the scalar is linear along it, from ``s0`` to ``s1``.
+Within one table cell the extinction and the colour are linear too and the segment
+is one piece: optical depth ``h (sigma_0 + sigma_1) / 2`` (exact) and emission
+``int c sigma`` by the product rule. Across table cells the integrals come from
+cumulative tables over the scalar (``cumulative_tables``), again exact for the
+table's piecewise-linear functions; the segment is cut into pieces of optical depth
+at most ``tau_max`` so that ignoring the attenuation inside a piece (the only
+approximation) costs at most about ``tau_max / 2`` of a piece's colour variation.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from .._jit import inline_kernel, kernel, parallel_kernel
+from ._kernels import _accumulate, _finish, _opacity, _start, table_position, F32, F64
+
+
+#: directions of the symbolic perturbation of rays (generic: no simple ratios)
+PERTURB_O = (0.5772156649015329, 0.2614972128476428, 0.7390851332151607)
+PERTURB_D = (0.3183098861837907, 0.8346268416740731, 0.4472135954999579)
+#: magnitude of a product decided by the perturbation (a weight of nothing)
+TIE = 1e-250
+
+#: table cells a segment may cross and still be integrated cell by cell (beyond: cumulative tables)
+WALK_CELLS = 16
+
+
+class TetParams(NamedTuple):
+    """Scalars of a tet render (15 fields at most, see ``_kernels.GridParams``)."""
+
+    precision: int
+    scale: int  # transfer-function axis (data/transfer.SCALE_CODES)
+    axis_lo: float
+    axis_inv_range: float
+    linthresh: float
+    alpha_stop: float
+    depth_alpha: float
+    length_scale: float  # world units per normalised unit (TetMesh.scale)
+    tau_max: float  # largest optical depth of one piece
+    max_pieces: int
+    max_steps: int  # cells a ray may visit before it is stopped (a guard, never reached on valid meshes)
+
+
+# -- Plücker products -----------------------------------------------------------------------
+@inline_kernel
+def _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
+    """Product of the ray (origin o, direction d, moment m = o x d) with the edge a -> b,
+    formed from the lower-numbered corner so that both directions give exactly
+    opposite numbers."""
+    if a > b:
+        return -_pi_ordered(points, b, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    return _pi_ordered(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
+
+
+@inline_kernel
+def _pi_ordered(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
+    """See ``_pi``. A product of exactly 0 (the ray meets the edge's line: through an edge
+    or a vertex, or parallel to the edge) takes the sign it has for the ray moved by an
+    infinitesimal ``eps PERTURB_O`` and turned by ``eps**2 PERTURB_D`` (simulation of
+    simplicity): the first non-zero of the expansion's terms. Every cell sees the same
+    perturbed ray, so the decisions stay consistent; the value returned is then
+    ``+-TIE``, a weight of nothing."""
+    ax = points[a, 0]
+    ay = points[a, 1]
+    az = points[a, 2]
+    bx = points[b, 0]
+    by = points[b, 1]
+    bz = points[b, 2]
+    ex = bx - ax
+    ey = by - ay
+    ez = bz - az
+    pi = (dx * (ay * bz - az * by) + dy * (az * bx - ax * bz) + dz * (ax * by - ay * bx)
+          + ex * mx + ey * my + ez * mz)
+    if pi != 0.0:
+        return pi
+    wx, wy, wz = PERTURB_O
+    vx, vy, vz = PERTURB_D
+    # eps: (b - a) . (w x d)
+    q = ex * (wy * dz - wz * dy) + ey * (wz * dx - wx * dz) + ez * (wx * dy - wy * dx)
+    if q == 0.0:
+        # eps^2: the product of the line (o, v) with the edge
+        q = (vx * (ay * bz - az * by) + vy * (az * bx - ax * bz) + vz * (ax * by - ay * bx)
+             + ex * (oy * vz - oz * vy) + ey * (oz * vx - ox * vz) + ez * (ox * vy - oy * vx))
+        if q == 0.0:
+            # eps^3: (b - a) . (w x v)
+            q = ex * (wy * vz - wz * vy) + ey * (wz * vx - wx * vz) + ez * (wx * vy - wy * vx)
+    return TIE if q >= 0.0 else -TIE
+
+
+@inline_kernel
+def _same_sign(x, y, z):
+    return (x >= 0.0 and y >= 0.0 and z >= 0.0) or (x <= 0.0 and y <= 0.0 and z <= 0.0)
+
+
+@inline_kernel
+def _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz):
+    """``(t, ua, ub, uc)``: where the ray meets triangle ``(a, b, c)`` and the point's
+    barycentric weights; ``t = nan`` when the ray lies in the triangle's plane."""
+    s = wab + wbc + wca
+    if abs(s) < 1e3 * TIE:  # the ray lies in the triangle's plane
+        return math.nan, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0
+    ua = wbc / s
+    ub = wca / s
+    uc = wab / s
+    x = ua * points[a, 0] + ub * points[b, 0] + uc * points[c, 0]
+    y = ua * points[a, 1] + ub * points[b, 1] + uc * points[c, 1]
+    z = ua * points[a, 2] + ub * points[b, 2] + uc * points[c, 2]
+    return (x - ox) * dx + (y - oy) * dy + (z - oz) * dz, ua, ub, uc
+
+
+# -- boundary faces per pixel (entry points and depth layers) --------------------------------
+@kernel
+def _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz):
+    """``(t, entering)`` of the ray through boundary face ``f``, ``t = nan`` on a miss."""
+    mx = oy * dz - oz * dy
+    my = oz * dx - ox * dz
+    mz = ox * dy - oy * dx
+    a = tri[f, 0]
+    b = tri[f, 1]
+    c = tri[f, 2]
+    wab = _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    wbc = _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    wca = _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    if not _same_sign(wab, wbc, wca):
+        return math.nan, False
+    t, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
+    dn = dx * normals[f, 0] + dy * normals[f, 1] + dz * normals[f, 2]
+    return t, dn < 0.0
+
+
+@parallel_kernel
+def boundary_hits(points, tri, normals, boxes, origins, directions, width, height, bands, offsets, out_t,
+                  out_face, out_enter, count_only, counts):
+    """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
+
+    ``boxes`` (b, 4) int64: each face's pixel bounding box ``col0, col1, row0, row1``
+    (inclusive, already clipped to the image; empty when ``col1 < col0``). Rows are
+    split into ``bands``, one band per thread at a time, so no two threads write one
+    pixel. With ``count_only`` the hits are only counted into ``counts``; otherwise
+    they are written from ``offsets[pixel]`` on and sorted by ``t``.
+    """
+    n_faces = tri.shape[0]
+    band_rows = (height + bands - 1) // bands
+    for band in numba.prange(bands):
+        r0 = band * band_rows
+        r1 = min(height, r0 + band_rows) - 1
+        for f in range(n_faces):
+            row0 = max(boxes[f, 2], r0)
+            row1 = min(boxes[f, 3], r1)
+            if row1 < row0:
+                continue
+            for row in range(row0, row1 + 1):
+                for col in range(boxes[f, 0], boxes[f, 1] + 1):
+                    pix = row * width + col
+                    t, enter = _hit(points, tri, normals, f, origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                                    directions[pix, 0], directions[pix, 1], directions[pix, 2])
+                    if not t >= 0.0:
+                        continue
+                    if count_only:
+                        counts[pix] += 1
+                    else:
+                        q = offsets[pix] + counts[pix]
+                        out_t[q] = t
+                        out_face[q] = f
+                        out_enter[q] = enter
+                        counts[pix] += 1
+        if not count_only:
+            for row in range(r0, r1 + 1):
+                for col in range(width):
+                    pix = row * width + col
+                    _sort_hits(out_t, out_face, out_enter, offsets[pix], offsets[pix + 1])
+
+
+@kernel
+def _sort_hits(ts, faces, enter, lo, hi):
+    """Insertion sort of ``ts[lo:hi]`` (with ``faces`` and ``enter``) by ``t``, then face."""
+    for i in range(lo + 1, hi):
+        t = ts[i]
+        f = faces[i]
+        e = enter[i]
+        j = i - 1
+        while j >= lo and (ts[j] > t or (ts[j] == t and faces[j] > f)):
+            ts[j + 1] = ts[j]
+            faces[j + 1] = faces[j]
+            enter[j + 1] = enter[j]
+            j -= 1
+        ts[j + 1] = t
+        faces[j + 1] = f
+        enter[j + 1] = e
+
+
+# -- integration of one segment -----------------------------------------------------------
+@inline_kernel
+def _tpos(v, n, p):
+    """Fractional table index of data value ``v`` (clamped to ``[0, n - 1]``)."""
+    return table_position(v, p) * (n - 1)
+
+
+@inline_kernel
+def _row(table, x):
+    """Table row ``(r, g, b, sigma)`` interpolated at fractional index ``x``."""
+    n = table.shape[0]
+    i = min(int(x), n - 2)
+    f = x - i
+    return (table[i, 0] + f * (table[i + 1, 0] - table[i, 0]), table[i, 1] + f * (table[i + 1, 1] - table[i, 1]),
+            table[i, 2] + f * (table[i + 1, 2] - table[i, 2]), table[i, 3] + f * (table[i + 1, 3] - table[i, 3]))
+
+
+@inline_kernel
+def _cumulative(table, knots, cum, s, p):
+    """``int sigma ds`` and ``int c sigma ds`` (r, g, b) from the first knot to data value ``s``."""
+    n = knots.shape[0]
+    if s <= knots[0]:
+        h = s - knots[0]
+        return h * table[0, 3], h * table[0, 3] * table[0, 0], h * table[0, 3] * table[0, 1], h * table[0, 3] * table[0, 2]
+    if s >= knots[n - 1]:
+        h = s - knots[n - 1]
+        sg = table[n - 1, 3]
+        return (cum[n - 1, 0] + h * sg, cum[n - 1, 1] + h * sg * table[n - 1, 0],
+                cum[n - 1, 2] + h * sg * table[n - 1, 1], cum[n - 1, 3] + h * sg * table[n - 1, 2])
+    x = _tpos(s, n, p)
+    i = min(int(x), n - 2)
+    # the part of cell i from its knot to s: linear in s between the knot's row and s's row
+    h = s - knots[i]
+    r1, g1, b1, s1 = _row(table, x)
+    s0 = table[i, 3]
+    e0 = h * (s0 + 0.5 * s1) / 3.0  # weights of the product rule, see _piece
+    e1 = h * (0.5 * s0 + s1) / 3.0
+    return (cum[i, 0] + 0.5 * h * (s0 + s1), cum[i, 1] + e0 * table[i, 0] + e1 * r1,
+            cum[i, 2] + e0 * table[i, 1] + e1 * g1, cum[i, 3] + e0 * table[i, 2] + e1 * b1)
+
+
+@kernel
+def cumulative_tables(table, knots, out):
+    """``out[i] = (int sigma ds, int c sigma ds)`` from knot 0 to knot i, exact for the
+    rows' linear interpolation in the data value between knots."""
+    out[0, 0] = 0.0
+    out[0, 1] = 0.0
+    out[0, 2] = 0.0
+    out[0, 3] = 0.0
+    for i in range(1, knots.shape[0]):
+        h = knots[i] - knots[i - 1]
+        s0 = table[i - 1, 3]
+        s1 = table[i, 3]
+        e0 = h * (s0 + 0.5 * s1) / 3.0
+        e1 = h * (0.5 * s0 + s1) / 3.0
+        out[i, 0] = out[i - 1, 0] + 0.5 * h * (s0 + s1)
+        out[i, 1] = out[i - 1, 1] + e0 * table[i - 1, 0] + e1 * table[i, 0]
+        out[i, 2] = out[i - 1, 2] + e0 * table[i - 1, 1] + e1 * table[i, 1]
+        out[i, 3] = out[i - 1, 3] + e0 * table[i - 1, 2] + e1 * table[i, 2]
+
+
+@inline_kernel
+def _piece(marker, prec, state, tau, er, eg, eb):
+    """Composite a piece of optical depth ``tau`` and emission ``(er, eg, eb) = int c sigma dt``."""
+    if not tau > 0.0:
+        return state
+    a = -math.expm1(-tau)
+    inv = 1.0 / tau
+    return _accumulate(marker, prec, state, a, er * inv, eg * inv, eb * inv)
+
+
+@inline_kernel
+def _piece_linear(marker, prec, state, h, r0, g0, b0, a0, r1, g1, b1, a1):
+    """Composite a piece of length ``h`` along which colour and extinction go linearly
+    from ``(r0, g0, b0, a0)`` to ``(r1, g1, b1, a1)``: exact optical depth and emission."""
+    w0 = h * (a0 + 0.5 * a1) / 3.0
+    w1 = h * (0.5 * a0 + a1) / 3.0
+    return _piece(marker, prec, state, 0.5 * h * (a0 + a1), w0 * r0 + w1 * r1, w0 * g0 + w1 * g1, w0 * b0 + w1 * b1)
+
+
+@kernel
+def _segment(marker, prec, state, table, knots, cum, s0, s1, length, p):
+    """Composite the segment of world ``length`` along which the scalar goes linearly from
+    ``s0`` to ``s1``. Returns the state and the number of pieces."""
+    n = knots.shape[0]
+    x0 = _tpos(s0, n, p)
+    x1 = _tpos(s1, n, p)
+    i0 = min(int(x0), n - 2)
+    i1 = min(int(x1), n - 2)
+    inside0 = s0 >= knots[0] and s0 <= knots[n - 1]
+    inside1 = s1 >= knots[0] and s1 <= knots[n - 1]
+    if i0 == i1 and inside0 == inside1 and (inside0 or (s0 < knots[0]) == (s1 < knots[0])):
+        # one table cell (or one constant end region): sigma and c are linear in t
+        r0, g0, b0, a0 = _row(table, x0)
+        r1, g1, b1, a1 = _row(table, x1)
+        return _piece_linear(marker, prec, state, length, r0, g0, b0, a0, r1, g1, b1, a1), 1
+    # a few table cells: walk them, one exact piece per cell (no cancellation)
+    up = s1 > s0
+    j_first = (0 if s0 < knots[0] else i0 + 1) if up else (n - 1 if s0 > knots[n - 1] else i0)
+    j_last = (n - 1 if s1 > knots[n - 1] else i1) if up else (0 if s1 < knots[0] else i1 + 1)
+    if abs(j_last - j_first) <= WALK_CELLS:
+        scale = length / (s1 - s0)
+        sa = s0
+        ra, ga, ba, aa = _row(table, x0)
+        pieces = 0
+        j = max(j_first - 1, 0) if up else min(j_first + 1, n - 1)
+        while True:
+            if (up and j > j_last + 1) or (not up and j < j_last - 1) or j < 0 or j >= n:
+                break
+            sk = knots[j]
+            if (up and sk > sa and sk < s1) or (not up and sk < sa and sk > s1):
+                state = _piece_linear(marker, prec, state, (sk - sa) * scale, ra, ga, ba, aa,
+                                      table[j, 0], table[j, 1], table[j, 2], table[j, 3])
+                pieces += 1
+                sa = sk
+                ra, ga, ba, aa = table[j, 0], table[j, 1], table[j, 2], table[j, 3]
+            j = j + 1 if up else j - 1
+        rb, gb, bb, ab = _row(table, x1)
+        state = _piece_linear(marker, prec, state, (s1 - sa) * scale, ra, ga, ba, aa, rb, gb, bb, ab)
+        return state, pieces + 1
+    # many table cells: integrals from the cumulative tables, per unit of s
+    scale = length / (s1 - s0)
+    c0 = _cumulative(table, knots, cum, s0, p)
+    c1 = _cumulative(table, knots, cum, s1, p)
+    tau = (c1[0] - c0[0]) * scale
+    pieces = 1
+    if tau > p.tau_max:
+        pieces = min(int(math.ceil(tau / p.tau_max)), p.max_pieces)
+    if pieces == 1:
+        return _piece(marker, prec, state, tau, (c1[1] - c0[1]) * scale, (c1[2] - c0[2]) * scale,
+                      (c1[3] - c0[3]) * scale), 1
+    ca = c0
+    for k in range(1, pieces + 1):
+        sb = s0 + (s1 - s0) * (k / pieces) if k < pieces else s1
+        cb = _cumulative(table, knots, cum, sb, p)
+        state = _piece(marker, prec, state, (cb[0] - ca[0]) * scale, (cb[1] - ca[1]) * scale,
+                       (cb[2] - ca[2]) * scale, (cb[3] - ca[3]) * scale)
+        ca = cb
+        if _opacity(marker, state) >= p.alpha_stop:
+            break
+    return state, pieces
+
+
+# -- one ray -------------------------------------------------------------------------------
+@inline_kernel
+def _face_value(tets, values, cell, a, b, c, ua, ub, uc):
+    """The scalar at the point with weights ``(ua, ub, uc)`` on the face ``(a, b, c)`` of
+    ``cell``, from the cell's own corner values (a field may jump between cells that
+    share merged points). A corner repeated in a degenerate cell counts once."""
+    s = 0.0
+    got_a = False
+    got_b = False
+    got_c = False
+    for k in range(4):
+        vk = tets[cell, k]
+        if vk == a and not got_a:
+            s += ua * values[cell, k]
+            got_a = True
+        elif vk == b and not got_b:
+            s += ub * values[cell, k]
+            got_b = True
+        elif vk == c and not got_c:
+            s += uc * values[cell, k]
+            got_c = True
+    return s
+
+
+@kernel
+def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
+              knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
+    """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``."""
+    mx = oy * dz - oz * dy
+    my = oz * dx - ox * dz
+    mz = ox * dy - oy * dx
+    state = _start(marker)
+    depth = math.inf
+    t_cur = -math.inf
+    cells = 0
+    pieces = 0
+    guard = False
+    done = False
+    for h in range(lo, hi):
+        if done:
+            break
+        if not hit_enter[h] or hit_t[h] < t_cur:
+            continue
+        f = hit_face[h]
+        cell = bcell[f]
+        face = bface[f]
+        a = btri[f, 0]
+        b = btri[f, 1]
+        c = btri[f, 2]
+        wab = _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
+        wbc = _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz)
+        wca = _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
+        t_in, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
+        if t_in != t_in:
+            continue
+        while True:
+            cells += 1
+            if cells > p.max_steps:
+                guard = True
+                done = True
+                break
+            v0 = tets[cell, 0]
+            v1 = tets[cell, 1]
+            v2 = tets[cell, 2]
+            v3 = tets[cell, 3]
+            s_in = _face_value(tets, values, cell, a, b, c, ua, ub, uc)
+            w01 = _pi(points, v0, v1, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            w02 = _pi(points, v0, v2, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            w03 = _pi(points, v0, v3, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            w12 = _pi(points, v1, v2, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            w13 = _pi(points, v1, v3, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            w23 = _pi(points, v2, v3, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            # faces in cyclic order: 0 (1 2 3), 1 (0 2 3), 2 (0 1 3), 3 (0 1 2)
+            out = -1
+            best = -math.inf
+            for g in range(4):
+                if g == face:
+                    continue
+                if g == 0:
+                    x, y, z = w12, w23, -w13
+                elif g == 1:
+                    x, y, z = w02, w23, -w03
+                elif g == 2:
+                    x, y, z = w01, w13, -w03
+                else:
+                    x, y, z = w01, w12, -w02
+                if _same_sign(x, y, z):
+                    out = g
+                    break
+                # rounding gave no consistent face (only possible next to a degenerate
+                # configuration): keep the least inconsistent one
+                m = max(min(x, y, z), -max(x, y, z))
+                if m > best:
+                    best = m
+                    out = -2 - g
+            if out < -1:
+                out = -2 - out
+            if out == 0:
+                a, b, c, wab, wbc, wca = v1, v2, v3, w12, w23, -w13
+            elif out == 1:
+                a, b, c, wab, wbc, wca = v0, v2, v3, w02, w23, -w03
+            elif out == 2:
+                a, b, c, wab, wbc, wca = v0, v1, v3, w01, w13, -w03
+            else:
+                a, b, c, wab, wbc, wca = v0, v1, v2, w01, w12, -w02
+            t_out, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
+            if not t_out > t_in:  # NaN (ray in the face's plane) or rounding: no length
+                t_out = t_in
+            if active[cell] and t_out > t_in:
+                s_out = _face_value(tets, values, cell, a, b, c, ua, ub, uc)
+                state, np_ = _segment(marker, prec, state, table, knots, cum, s_in, s_out,
+                                      (t_out - t_in) * p.length_scale, p)
+                pieces += np_
+                alpha = _opacity(marker, state)
+                if depth == math.inf and alpha >= p.depth_alpha:
+                    depth = 0.5 * (t_in + t_out) * p.length_scale
+                if alpha >= p.alpha_stop:
+                    done = True
+                    break
+            t_in = t_out
+            nb = neighbors[cell, out]
+            if nb < 0:
+                t_cur = t_out
+                break
+            face = neighbor_faces[cell, out]
+            cell = nb
+    r, g_, b_, alpha = _finish(marker, state)
+    return r, g_, b_, alpha, depth, cells, pieces, guard
+
+
+@kernel
+def _march(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, knots, cum, hit_t,
+           hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
+    """One ray in the precision ``p.precision`` (one compiled loop per precision)."""
+    if p.precision == F64:
+        return _march_in(0.0, F64, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface,
+                         table, knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+    if p.precision == F32:
+        return _march_in(np.float32(0.0), F32, points, tets, values, neighbors, neighbor_faces, active, btri, bcell,
+                         bface, table, knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+    return _march_in(0, p.precision, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface,
+                     table, knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+
+
+@parallel_kernel
+def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, knots, cum,
+                 hit_offsets, hit_t, hit_face, hit_enter, origins, directions, width, height, tile, tile_rows, lanes,
+                 p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
+    """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
+    ``_kernels.render_tiles``: lanes of interleaved tiles per thread)."""
+    tiles_x = (width + tile - 1) // tile
+    n_tiles = tile_rows.shape[0] * tiles_x
+    for lane in numba.prange(lanes):
+        for t in range(lane, n_tiles, lanes):
+            row0 = tile_rows[t // tiles_x] * tile
+            col0 = (t % tiles_x) * tile
+            for row in range(row0, min(row0 + tile, height)):
+                for col in range(col0, min(col0 + tile, width)):
+                    pix = row * width + col
+                    lo = hit_offsets[pix]
+                    hi = hit_offsets[pix + 1]
+                    if hi == lo:
+                        continue
+                    r, g, b, a, dep, nc, npc, guard = _march(
+                        points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, knots,
+                        cum, hit_t, hit_face, hit_enter, lo, hi, origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                        directions[pix, 0], directions[pix, 1], directions[pix, 2], p)
+                    out_rgba[pix, 0] = r
+                    out_rgba[pix, 1] = g
+                    out_rgba[pix, 2] = b
+                    out_rgba[pix, 3] = a
+                    out_depth[pix] = dep
+                    out_cells[pix] = nc
+                    out_pieces[pix] = npc
+                    out_guard[pix] = guard

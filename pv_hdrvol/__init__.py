@@ -11,10 +11,12 @@ from .data.tets import TetMesh, tetmesh_from_arrays, tetmesh_from_dataset
 from .data.transfer import TransferFunction
 from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
+from .image.upsample import upsample
 from .params import PRECISIONS, RenderOptions
 from .rays.camera import Camera, Rays
 from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
 from .raycast.grid import BlockGrid, render_volume
+from .raycast.layers import DepthLayers, depth_layers
 from .raycast.tets import render_tets
 
 __version__ = "0.1.0"
@@ -27,15 +29,13 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
     a :class:`GridVolume`, or a tetrahedral mesh (``pyvista.UnstructuredGrid``,
-    ``vtkUnstructuredGrid``, :class:`TetMesh`: see :func:`render_tets`); ``scalars``/``preference`` pick the array of a dataset, and
-    ``labels`` may name another of its arrays.
+    ``vtkUnstructuredGrid``, :class:`TetMesh`: see :func:`render_tets`); ``scalars``/``preference``
+    pick the array of a dataset, and ``labels`` may name another of its arrays.
     """
     from .data.tets import is_unstructured
     from .raycast.grid import as_volume
 
     if is_unstructured(data):
-        from .raycast.tets import render_tets
-
         for name, value in (("block_mask", block_mask), ("lens", lens), ("labels", labels),
                             ("label_styles", label_styles)):
             if value is not None:
@@ -55,8 +55,8 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 
 __all__ = [
-    "datasets", "BlockGrid", "Camera", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Magnifier",
+    "datasets", "BlockGrid", "Camera", "DepthLayers", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Magnifier",
     "PRECISIONS", "Rays", "RenderOptions", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
-    "TransferFunction", "load", "render", "render_tets", "render_volume", "tetmesh_from_arrays",
-    "tetmesh_from_dataset", "tonemap", "volume_from_array", "volume_from_dataset",
+    "TransferFunction", "depth_layers", "load", "render", "render_tets", "render_volume", "tetmesh_from_arrays",
+    "tetmesh_from_dataset", "tonemap", "upsample", "volume_from_array", "volume_from_dataset",
 ]

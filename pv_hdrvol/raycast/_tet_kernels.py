@@ -153,16 +153,37 @@ def _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz):
     return t, dn < 0.0
 
 
+@inline_kernel
+def _edge_line(ax, ay, bx, by, cx, cy):
+    """Coefficients ``(nx, ny, k)`` of the edge a -> b as a signed distance in pixels,
+    positive on the side of c; ``(0, 0, 1)`` (always inside) for a zero-length edge."""
+    nx = ay - by
+    ny = bx - ax
+    length = math.sqrt(nx * nx + ny * ny)
+    if length == 0.0:
+        return 0.0, 0.0, 1.0
+    nx /= length
+    ny /= length
+    k = -(nx * ax + ny * ay)
+    if nx * cx + ny * cy + k < 0.0:
+        return -nx, -ny, -k
+    return nx, ny, k
+
+
 @parallel_kernel
-def boundary_hits(points, tri, normals, boxes, origins, directions, width, height, bands, offsets, out_t,
+def boundary_hits(points, tri, normals, boxes, proj, origins, directions, width, height, bands, offsets, out_t,
                   out_face, out_enter, count_only, counts):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
 
     ``boxes`` (b, 4) int64: each face's pixel bounding box ``col0, col1, row0, row1``
-    (inclusive, already clipped to the image; empty when ``col1 < col0``). Rows are
-    split into ``bands``, one band per thread at a time, so no two threads write one
-    pixel. With ``count_only`` the hits are only counted into ``counts``; otherwise
-    they are written from ``offsets[pixel]`` on and sorted by ``t``.
+    (inclusive, already clipped to the image; empty when ``col1 < col0``). ``proj``
+    (b, 3, 2): the corners' pixel coordinates, NaN when a corner is behind the camera;
+    a pixel whose centre is over 0.01 pixel outside the projected triangle is not
+    tested further, every other one gets the exact Plücker test (the projection only
+    saves work; it decides nothing). Rows are split into ``bands``, one band per
+    thread at a time, so no two threads write one pixel. With ``count_only`` the hits
+    are only counted into ``counts``; otherwise they are written from
+    ``offsets[pixel]`` on and sorted by ``t``.
     """
     n_faces = tri.shape[0]
     band_rows = (height + bands - 1) // bands
@@ -174,8 +195,26 @@ def boundary_hits(points, tri, normals, boxes, origins, directions, width, heigh
             row1 = min(boxes[f, 3], r1)
             if row1 < row0:
                 continue
+            ax = proj[f, 0, 0]
+            ay = proj[f, 0, 1]
+            bx = proj[f, 1, 0]
+            by = proj[f, 1, 1]
+            cx = proj[f, 2, 0]
+            cy = proj[f, 2, 1]
+            # a face seen edge-on (or partly behind the camera) skips the 2-D test
+            area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+            flat = not abs(area) > 1e-6
+            n0x, n0y, k0 = _edge_line(ax, ay, bx, by, cx, cy)
+            n1x, n1y, k1 = _edge_line(bx, by, cx, cy, ax, ay)
+            n2x, n2y, k2 = _edge_line(cx, cy, ax, ay, bx, by)
             for row in range(row0, row1 + 1):
+                py = row + 0.5
                 for col in range(boxes[f, 0], boxes[f, 1] + 1):
+                    if not flat:
+                        px = col + 0.5
+                        if (n0x * px + n0y * py + k0 < -0.01 or n1x * px + n1y * py + k1 < -0.01
+                                or n2x * px + n2y * py + k2 < -0.01):
+                            continue
                     pix = row * width + col
                     t, enter = _hit(points, tri, normals, f, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                     directions[pix, 0], directions[pix, 1], directions[pix, 2])

@@ -13,7 +13,7 @@ import numpy as np
 from ..data.tets import as_tetmesh
 from ..data.transfer import SCALE_CODES, TransferFunction, _scale_inverse
 from ..image.hdr import HDRImage
-from .._validate import as_real
+from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
 from . import _tet_kernels as TK
@@ -27,7 +27,7 @@ MAX_PIECES = 256
 
 
 def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, scalars=None, preference="point",
-                tau_max=TAU_MAX, progress=None, progress_bar=None, **option_kwargs):
+                tau_max=TAU_MAX, upsample=1, progress=None, progress_bar=None, **option_kwargs):
     r"""Ray cast a tetrahedral mesh into an :class:`~pv_hdrvol.HDRImage`.
 
     Parameters
@@ -54,6 +54,11 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
         which shifts a piece's colour by at most about ``tau_max / 2`` of its colour
         variation: smaller is more accurate and cuts dense segments into more pieces
         (docs/tetrahedra.md measures the trade).
+    upsample : int
+        ``f > 1``: render at ``1/f`` of the size, peel the boundary's depth layers at
+        full size and upsample with the joint bilateral filter (Callahan & Silva
+        2009; see :func:`~pv_hdrvol.upsample`). The size must be a multiple of ``f``.
+        The metadata gives the time of each part.
     progress, progress_bar
         As :func:`render_volume`.
 
@@ -74,6 +79,10 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     Rays that leave a non-convex mesh re-enter it at the next boundary face they cross.
     """
     mesh = as_tetmesh(mesh, scalars=scalars, preference=preference)
+    upsample = as_int("upsample", upsample, low=1)
+    if upsample > 1:
+        return _render_upsampled(mesh, tf, camera, size, options, upsample, tau_max, progress, progress_bar,
+                                 option_kwargs)
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
     if opts.blending != "composite":
         raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
@@ -169,6 +178,30 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
 
 
+def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress, progress_bar, option_kwargs):
+    """``render_tets(upsample=factor)``: low-resolution render (I), full-resolution
+    reference layers (R), joint bilateral upsampling (U)."""
+    from ..image.upsample import upsample
+    from .layers import depth_layers
+
+    width, height = as_size(size)
+    if width % factor or height % factor:
+        raise ValueError(f"size {width}x{height} must be a multiple of upsample={factor}")
+    if camera is None:
+        camera = Camera.fit(mesh.bounds, "iso")
+    t0 = time.perf_counter()
+    low = render_tets(mesh, tf, camera, (width // factor, height // factor), options, tau_max=tau_max,
+                      progress=progress, progress_bar=progress_bar, **option_kwargs)
+    t1 = time.perf_counter()
+    layers = depth_layers(mesh, camera, (width, height))
+    t2 = time.perf_counter()
+    out = upsample(low, layers, factor)
+    t3 = time.perf_counter()
+    out.metadata.update({"low_render_seconds": t1 - t0, "reference_seconds": t2 - t1, "upsample_seconds": t3 - t2,
+                         "reference_layers": layers.n_layers, "layers_needed": layers.layers_needed})
+    return out
+
+
 class BoundaryHits:
     """Per pixel, the boundary faces its ray crosses, sorted by distance.
 
@@ -192,7 +225,7 @@ def boundary_crossings(mesh, camera, size, origins, directions):
     pts = mesh.points
     a, b, c = (pts[tri[:, i]] for i in range(3))
     normals = np.ascontiguousarray(np.cross(b - a, c - a))
-    boxes = _face_boxes(mesh, camera, width, height)
+    boxes, proj = _face_boxes(mesh, camera, width, height)
     n_pix = width * height
     counts = np.zeros(n_pix, dtype=np.int64)
     bands = max(4 * _lanes(), 1)
@@ -201,7 +234,7 @@ def boundary_crossings(mesh, camera, size, origins, directions):
     empty_i = np.empty(0, dtype=np.int64)
     empty_b = np.empty(0, dtype=np.bool_)
     offsets0 = np.zeros(n_pix + 1, dtype=np.int64)
-    TK.boundary_hits(pts, tri, normals, boxes, origins, directions, width, height, bands, offsets0, empty_f, empty_i,
+    TK.boundary_hits(pts, tri, normals, boxes, proj, origins, directions, width, height, bands, offsets0, empty_f, empty_i,
                      empty_b, True, counts)
     offsets = np.zeros(n_pix + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
@@ -210,15 +243,17 @@ def boundary_crossings(mesh, camera, size, origins, directions):
     face = np.empty(total, dtype=np.int64)
     entering = np.empty(total, dtype=np.bool_)
     counts[:] = 0
-    TK.boundary_hits(pts, tri, normals, boxes, origins, directions, width, height, bands, offsets, t, face, entering,
+    TK.boundary_hits(pts, tri, normals, boxes, proj, origins, directions, width, height, bands, offsets, t, face, entering,
                      False, counts)
     return BoundaryHits(offsets, t, face, entering, width, height)
 
 
 def _face_boxes(mesh, camera, width, height):
-    """Pixel bounding boxes ``(col0, col1, row0, row1)`` of the boundary faces, one pixel
-    wider on every side (the exact test is the Plücker one); a face with a corner
-    behind a perspective camera gets the whole image."""
+    """``(boxes, corners)``: pixel bounding boxes ``(col0, col1, row0, row1)`` of the boundary
+    faces and their corners' pixel coordinates (b, 3, 2). The boxes hold the pixels
+    whose centres lie in the face's projected bounding box, widened by 1e-3 pixel
+    against rounding (the exact test is the Plücker one). A face with a corner behind
+    a perspective camera gets the whole image."""
     world = mesh.world_points()
     used = np.unique(mesh.boundary)
     pix = np.full((len(world), 2), np.nan)
@@ -229,8 +264,8 @@ def _face_boxes(mesh, camera, width, height):
         pix[used[z <= 0]] = np.nan
     p = pix[mesh.boundary]  # (b, 3, 2)
     with np.errstate(invalid="ignore"):
-        lo = np.floor(p.min(axis=1) - 0.5) - 1
-        hi = np.ceil(p.max(axis=1) - 0.5) + 1
+        lo = np.ceil(p.min(axis=1) - 0.5 - 1e-3)  # centres at index + 0.5
+        hi = np.floor(p.max(axis=1) - 0.5 + 1e-3)
     behind = np.any(np.isnan(p), axis=(1, 2))
     lo[behind] = 0
     hi[behind, 0], hi[behind, 1] = width - 1, height - 1
@@ -241,7 +276,7 @@ def _face_boxes(mesh, camera, width, height):
     boxes[:, 1] = hi[:, 0]
     boxes[:, 2] = lo[:, 1]
     boxes[:, 3] = hi[:, 1]
-    return boxes
+    return boxes, np.ascontiguousarray(p)
 
 
 def _active_cells(mesh, tf, sigma):

@@ -1,0 +1,144 @@
+"""Depth layers of a mesh boundary (and reference depths of volumes) and the
+upsampling filters they guide: nearest, bilinear, joint bilateral."""
+import math
+
+import numpy as np
+import pytest
+
+import pv_hdrvol as hv
+from pv_hdrvol.data.tets import tetmesh_from_arrays
+
+from meshes import box_mesh, constant_tf
+
+pytestmark = pytest.mark.core
+
+
+def two_boxes():
+    p1, t1, v1 = box_mesh((2, 2, 1))
+    p2, t2, v2 = box_mesh((2, 2, 1), origin=(0.0, 0.0, 2.0))
+    return tetmesh_from_arrays(np.concatenate([p1, p2]), np.concatenate([t1, t2 + len(p1)]), np.concatenate([v1, v2]))
+
+
+TOP = hv.Camera((1.0, 1.0, 10.0), (1.0, 1.0, 0.0), (0.0, 1.0, 0.0), parallel_projection=True, parallel_scale=1.5)
+
+
+def test_depth_layers_of_two_boxes_are_their_four_faces():
+    layers = hv.depth_layers(two_boxes(), TOP, (12, 12))
+    assert layers.n_layers == 4 and layers.layers_needed == 4
+    rays = TOP.rays((12, 12))
+    x = rays.origins[:, 0].reshape(12, 12)
+    y = rays.origins[:, 1].reshape(12, 12)
+    inside = (x > 0) & (x < 2) & (y > 0) & (y < 2)
+    assert np.all(layers.counts[inside] == 4) and np.all(layers.counts[~inside] == 0)
+    # the camera is at z = 10 looking down: faces at z = 3, 2, 1, 0
+    for k, z in enumerate((3.0, 2.0, 1.0, 0.0)):
+        np.testing.assert_allclose(layers.depth[k][inside], 10.0 - z, rtol=0, atol=1e-12)
+        assert np.all(np.isinf(layers.depth[k][~inside]))
+    two = hv.depth_layers(two_boxes(), TOP, (12, 12), max_layers=2)
+    assert two.n_layers == 2 and two.layers_needed == 4
+    g = layers.normalized()
+    assert g.shape == (12, 12, 4)
+    np.testing.assert_allclose(g[inside][:, 0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(g[inside][:, 3], 1.0, atol=1e-12)
+    assert np.all(g[~inside] == 2.0)
+    assert repr(layers).startswith("DepthLayers(12x12, 4 layers kept, 4 needed, ")
+
+
+def test_isosurface_reference_of_a_volume():
+    """A radial field: the isosurface r = 0.6 is a sphere; its depth from a parallel camera."""
+    n = 41
+    ax = np.linspace(-1, 1, n)
+    z, y, x = np.meshgrid(ax, ax, ax, indexing="ij")
+    r = np.sqrt(x * x + y * y + z * z)
+    volume = hv.volume_from_array(1.0 - r, spacing=(2 / (n - 1),) * 3, origin=(-1, -1, -1))
+    cam = hv.Camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), parallel_projection=True, parallel_scale=1.0)
+    layers = hv.depth_layers(volume, cam, (16, 16), isovalue=0.4, step=0.05, precision="float64")
+    rays = cam.rays((16, 16))
+    rho2 = (rays.origins[:, 0] ** 2 + rays.origins[:, 1] ** 2).reshape(16, 16)
+    hit = rho2 < 0.55 ** 2
+    expected = 5.0 - np.sqrt(0.36 - rho2[hit])
+    # trilinear interpolation of r and the step (0.05 voxel = 0.0025) bound the error
+    np.testing.assert_allclose(layers.depth[0][hit], expected, atol=0.01)
+    assert np.all(np.isinf(layers.depth[0][rho2 > 0.65 ** 2]))
+
+
+def test_nearest_and_bilinear():
+    low = np.arange(12.0).reshape(3, 4, 1) * np.array([1.0, -2.0])  # linear in row and column
+    near = hv.upsample(low, factor=2, method="nearest")
+    np.testing.assert_array_equal(near, np.repeat(np.repeat(low, 2, axis=0), 2, axis=1))
+    lin = hv.upsample(low, factor=2, method="bilinear")
+    rows, cols = np.mgrid[0:6, 0:8]
+    u = np.clip((cols + 0.5) / 2 - 0.5, 0, 3)
+    v = np.clip((rows + 0.5) / 2 - 0.5, 0, 2)
+    np.testing.assert_allclose(lin[..., 0], 4 * v + u, atol=1e-12)  # a linear image is reproduced
+
+
+def test_joint_bilateral_keeps_an_edge_the_guide_shows():
+    """Full resolution: a step at column 13 (not on a low-resolution boundary), a guide
+    with the same step. Bilinear blurs it; the joint bilateral filter keeps it."""
+    H, W, f = 16, 32, 4
+    cols = np.arange(W)
+    full = np.where(cols < 13, 1.0, 0.0)[None, :, None] * np.ones((H, 1, 1))
+    guide = np.where(cols < 13, 0.2, 0.8)[None, :, None] * np.ones((H, 1, 1))
+    low = full[f // 2::f, f // 2::f]  # point samples at the low pixel centres (+-1/2 pixel)
+    jbu = hv.upsample(low, guide, f)
+    lin = hv.upsample(low, guide, f, method="bilinear")
+    err_j = np.sqrt(np.mean((jbu - full) ** 2))
+    err_b = np.sqrt(np.mean((lin - full) ** 2))
+    assert err_j < 1e-6 < err_b
+    # flat guide, smooth image: the filter only smooths (a constant stays constant)
+    const = hv.upsample(np.full((4, 8, 2), 3.5), np.zeros((16, 32, 1)), 4)
+    np.testing.assert_allclose(const, 3.5, rtol=0, atol=1e-12)
+
+
+def test_denoising_at_factor_one_preserves_edges():
+    rng = np.random.default_rng(1)
+    H, W = 24, 24
+    clean = np.where(np.arange(W) < 12, 1.0, 0.2)[None, :, None] * np.ones((H, 1, 1))
+    noisy = clean + rng.normal(0, 0.05, clean.shape)
+    guide = np.where(np.arange(W) < 12, 0.0, 1.0)[None, :, None] * np.ones((H, 1, 1))
+    out = hv.upsample(noisy, guide, 1.0, support=4.0)
+    assert np.sqrt(np.mean((out - clean) ** 2)) < 0.5 * np.sqrt(np.mean((noisy - clean) ** 2))
+    assert abs(out[:, 11].mean() - 1.0) < 0.05 and abs(out[:, 12].mean() - 0.2) < 0.05
+
+
+def test_render_with_upsampling_is_the_three_steps():
+    mesh = two_boxes()
+    tf = constant_tf(0.3)
+    img = hv.render_tets(mesh, tf, TOP, (32, 24), upsample=4, precision="float64")
+    low = hv.render_tets(mesh, tf, TOP, (8, 6), precision="float64")
+    layers = hv.depth_layers(mesh, TOP, (32, 24))
+    np.testing.assert_array_equal(img.rgba, hv.upsample(low, layers, 4).rgba)
+    meta = img.metadata
+    assert meta["upsampled"] == {"method": "joint_bilateral", "factor": 4.0, "from": [8, 6]}
+    assert meta["layers_needed"] == 4 and meta["reference_layers"] == 4
+    assert all(meta[k] >= 0 for k in ("low_render_seconds", "reference_seconds", "upsample_seconds"))
+    # inside the boxes' footprint the picture is uniform: upsampling reproduces it exactly
+    # (no low-resolution ray grazes an edge of the boxes at this size)
+    sigma = -math.log(1 - 0.3) / mesh.default_unit_distance()
+    full = -math.expm1(-2 * sigma)
+    assert img.rgba[12, 16, 3] == pytest.approx(full, abs=1e-12)
+
+
+@pytest.mark.parametrize("call, error, message", [
+    (lambda: hv.upsample(np.zeros((2, 2, 4)), factor=2, method="cubic"), ValueError,
+     r"method must be one of \['joint_bilateral', 'bilinear', 'nearest'\]; got 'cubic'"),
+    (lambda: hv.upsample(np.zeros((2, 2, 4)), factor=2), ValueError,
+     r"method='joint_bilateral' needs the full-resolution layers"),
+    (lambda: hv.upsample(np.zeros((2, 2, 4)), np.zeros((5, 4, 1))), ValueError,
+     r"layers of 4x5 pixels are not the image's 2x2 times factor 2.5"),
+    (lambda: hv.upsample(np.zeros((2, 2, 4), dtype=int), factor=2, method="nearest"), TypeError,
+     r"image must hold floats; got dtype int64"),
+    (lambda: hv.upsample(np.zeros((2, 2, 4)), np.full((4, 4, 1), np.inf)), ValueError,
+     r"layers must be finite"),
+    (lambda: hv.render_tets(two_boxes(), None, TOP, (10, 8), upsample=4), ValueError,
+     r"size 10x8 must be a multiple of upsample=4"),
+    (lambda: hv.depth_layers(two_boxes(), TOP, 8, isovalue=0.5), ValueError,
+     r"isovalue= and tf= pick a reference for image volumes; a mesh's reference is its boundary"),
+    (lambda: hv.depth_layers(np.zeros((3, 3, 3)), TOP, 8), ValueError,
+     r"image volumes need isovalue= or tf= to define a reference depth"),
+    (lambda: hv.depth_layers(two_boxes(), TOP, 8, max_layers=0), ValueError, r"max_layers must be >= 1; got 0"),
+])
+def test_bad_input(call, error, message):
+    with pytest.raises(error, match=message):
+        call()

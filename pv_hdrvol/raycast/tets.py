@@ -19,9 +19,9 @@ from ..rays.camera import Camera
 from . import _tet_kernels as TK
 from .grid import _TILE, _check_progress_bar, _lanes, default_transfer_function, run_in_chunks
 
-#: largest optical depth of one integration piece (colour error ~ tau_max / 2 of a
-#: piece's colour variation; see _tet_kernels)
-TAU_MAX = 0.05
+#: largest optical depth of one integration piece (see _tet_kernels: the emission of a
+#: piece is exact for constant extinction or constant colour, else off by O(tau^3))
+TAU_MAX = 0.25
 #: most pieces one segment is cut into
 MAX_PIECES = 256
 
@@ -49,11 +49,10 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     scalars, preference
         Which array of the mesh (point or cell data).
     tau_max : float
-        Largest optical depth of one integration piece, in (0, 1]. The only
-        approximation of the integration is to neglect the attenuation inside a piece,
-        which shifts a piece's colour by at most about ``tau_max / 2`` of its colour
-        variation: smaller is more accurate and cuts dense segments into more pieces
-        (docs/tetrahedra.md measures the trade).
+        Largest optical depth of one integration piece, in (0, 1]. A piece's emission
+        takes its colour as linear in optical depth (exact for a constant extinction
+        or a constant colour); smaller is more accurate where both vary and cuts dense
+        segments into more pieces (docs/tetrahedra.md measures the trade).
     upsample : int
         ``f > 1``: render at ``1/f`` of the size, peel the boundary's depth layers at
         full size and upsample with the joint bilateral filter (Callahan & Silva
@@ -73,8 +72,9 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     The scalar is linear inside each tetrahedron, so along a ray it is piecewise
     linear, with a kink at every face. Each cell's segment is integrated with the
     transfer function's piecewise-linear extinction and colour: the optical depth is
-    exact, the emission :math:`\int c\,\sigma\,e^{-\tau}` is exact up to the
-    attenuation inside pieces of optical depth at most 0.05 (see ``_tet_kernels``),
+    exact, the emission :math:`\int c\,\sigma\,e^{-\tau}` is exact where extinction or
+    colour is constant along a piece of optical depth at most ``tau_max`` and within
+    a few 1e-6 of the colour range otherwise (see ``_tet_kernels``),
     and the pieces are composited front to back in ``precision`` as for image volumes.
     Rays that leave a non-convex mesh re-enter it at the next boundary face they cross.
     """

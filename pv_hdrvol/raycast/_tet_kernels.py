@@ -48,6 +48,11 @@ PERTURB_D = (0.3183098861837907, 0.8346268416740731, 0.4472135954999579)
 #: magnitude of a product decided by the perturbation (a weight of nothing)
 TIE = 1e-250
 
+#: columns of the tet renderer's table: r, g, b, sigma (per world unit) at the knot,
+#: then the cumulative integrals from knot 0 of sigma, c_r sigma, c_g sigma, c_b sigma
+#: over the data value, then the knot's data value (one row: one or two cache lines)
+TABLE_COLUMNS = 9
+
 #: table cells a segment may cross and still be integrated cell by cell (beyond: cumulative tables)
 WALK_CELLS = 2
 
@@ -273,74 +278,72 @@ def _row(table, x):
 
 
 @inline_kernel
-def _cumulative(table, knots, cum, s, p):
+def _cumulative(table, s, x):
     """``int sigma ds`` and ``int c sigma ds`` (r, g, b) from the first knot to data value
-    ``s``, then the colour (r, g, b) at ``s``."""
-    n = knots.shape[0]
-    if s <= knots[0]:
-        h = s - knots[0]
+    ``s`` (at fractional table index ``x``), then the colour (r, g, b) at ``s``."""
+    n = table.shape[0]
+    if s <= table[0, 8]:
+        h = s - table[0, 8]
         sg = table[0, 3]
         return (h * sg, h * sg * table[0, 0], h * sg * table[0, 1], h * sg * table[0, 2],
                 table[0, 0], table[0, 1], table[0, 2])
-    if s >= knots[n - 1]:
-        h = s - knots[n - 1]
+    if s >= table[n - 1, 8]:
+        h = s - table[n - 1, 8]
         sg = table[n - 1, 3]
-        return (cum[n - 1, 0] + h * sg, cum[n - 1, 1] + h * sg * table[n - 1, 0],
-                cum[n - 1, 2] + h * sg * table[n - 1, 1], cum[n - 1, 3] + h * sg * table[n - 1, 2],
+        return (table[n - 1, 4] + h * sg, table[n - 1, 5] + h * sg * table[n - 1, 0],
+                table[n - 1, 6] + h * sg * table[n - 1, 1], table[n - 1, 7] + h * sg * table[n - 1, 2],
                 table[n - 1, 0], table[n - 1, 1], table[n - 1, 2])
-    x = _tpos(s, n, p)
     i = min(int(x), n - 2)
     # the part of cell i from its knot to s: linear in s between the knot's row and s's row
-    h = s - knots[i]
+    h = s - table[i, 8]
     r1, g1, b1, s1 = _row(table, x)
     s0 = table[i, 3]
     e0 = h * (s0 + 0.5 * s1) / 3.0  # weights of the product rule, see _piece
     e1 = h * (0.5 * s0 + s1) / 3.0
-    return (cum[i, 0] + 0.5 * h * (s0 + s1), cum[i, 1] + e0 * table[i, 0] + e1 * r1,
-            cum[i, 2] + e0 * table[i, 1] + e1 * g1, cum[i, 3] + e0 * table[i, 2] + e1 * b1, r1, g1, b1)
+    return (table[i, 4] + 0.5 * h * (s0 + s1), table[i, 5] + e0 * table[i, 0] + e1 * r1,
+            table[i, 6] + e0 * table[i, 1] + e1 * g1, table[i, 7] + e0 * table[i, 2] + e1 * b1, r1, g1, b1)
 
 
 @kernel
-def cumulative_tables(table, knots, out):
-    """``out[i] = (int sigma ds, int c sigma ds)`` from knot 0 to knot i, exact for the
-    rows' linear interpolation in the data value between knots."""
-    out[0, 0] = 0.0
-    out[0, 1] = 0.0
-    out[0, 2] = 0.0
-    out[0, 3] = 0.0
-    for i in range(1, knots.shape[0]):
-        h = knots[i] - knots[i - 1]
+def cumulative_tables(table):
+    """Fill columns 4-7 of ``table`` (see ``TABLE_COLUMNS``): ``int sigma ds`` and
+    ``int c sigma ds`` from knot 0 to knot i, exact for the rows' linear interpolation
+    in the data value between knots."""
+    table[0, 4] = 0.0
+    table[0, 5] = 0.0
+    table[0, 6] = 0.0
+    table[0, 7] = 0.0
+    for i in range(1, table.shape[0]):
+        h = table[i, 8] - table[i - 1, 8]
         s0 = table[i - 1, 3]
         s1 = table[i, 3]
         e0 = h * (s0 + 0.5 * s1) / 3.0
         e1 = h * (0.5 * s0 + s1) / 3.0
-        out[i, 0] = out[i - 1, 0] + 0.5 * h * (s0 + s1)
-        out[i, 1] = out[i - 1, 1] + e0 * table[i - 1, 0] + e1 * table[i, 0]
-        out[i, 2] = out[i - 1, 2] + e0 * table[i - 1, 1] + e1 * table[i, 1]
-        out[i, 3] = out[i - 1, 3] + e0 * table[i - 1, 2] + e1 * table[i, 2]
-
-
-@inline_kernel
-def _tilt(tau):
-    """``k(tau) = (1 - e^-tau (1 + tau)) / tau - (1 - e^-tau) / 2``: the emission of a piece
-    whose colour goes linearly in optical depth from ``c_f`` to ``c_b`` is
-    ``(1 - e^-tau) mean(c) + k(tau) (c_b - c_f)`` (the front is seen through less of
-    the piece). Series below tau = 0.01 (it cancels there)."""
-    if tau < 0.01:
-        return tau * tau * (-1.0 / 12.0 + tau * (1.0 / 24.0 - tau / 80.0))
-    e = math.exp(-tau)
-    return (1.0 - e * (1.0 + tau)) / tau - 0.5 * (1.0 - e)
+        table[i, 4] = table[i - 1, 4] + 0.5 * h * (s0 + s1)
+        table[i, 5] = table[i - 1, 5] + e0 * table[i - 1, 0] + e1 * table[i, 0]
+        table[i, 6] = table[i - 1, 6] + e0 * table[i - 1, 1] + e1 * table[i, 1]
+        table[i, 7] = table[i - 1, 7] + e0 * table[i - 1, 2] + e1 * table[i, 2]
 
 
 @inline_kernel
 def _piece(marker, prec, state, tau, er, eg, eb, dr, dg, db):
     """Composite a piece of optical depth ``tau``, emission ``(er, eg, eb) = int c sigma dt``
-    (the colour's mean ``E / tau``) and colour change front to back ``(dr, dg, db)``."""
+    (the colour's mean ``E / tau``) and colour change front to back ``(dr, dg, db)``.
+
+    The colour is taken as linear in optical depth across the piece: the emission is
+    then ``a mean(c) + k (c_b - c_f)`` with ``a = 1 - e^-tau`` and
+    ``k = (1 - e^-tau (1 + tau)) / tau - a / 2`` (the front is seen through less of the
+    piece; exact for a constant extinction or a constant colour). ``k`` cancels for
+    small ``tau``: its series is used below 0.01."""
     if not tau > 0.0:
         return state
     a = -math.expm1(-tau)
     inv = 1.0 / tau
-    k = _tilt(tau) / a
+    if tau < 0.01:
+        k = tau * tau * (-1.0 / 12.0 + tau * (1.0 / 24.0 - tau / 80.0))
+    else:
+        k = (a - (1.0 - a) * tau) * inv - 0.5 * a
+    k /= a
     return _accumulate(marker, prec, state, a, max(er * inv + k * dr, 0.0), max(eg * inv + k * dg, 0.0),
                        max(eb * inv + k * db, 0.0))
 
@@ -357,25 +360,25 @@ def _piece_linear(marker, prec, state, h, r0, g0, b0, a0, r1, g1, b1, a1):
 
 
 @kernel
-def _segment(marker, prec, state, table, knots, cum, s0, s1, length, p):
+def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p):
     """Composite the segment of world ``length`` along which the scalar goes linearly from
-    ``s0`` to ``s1``. Returns the state and the number of pieces."""
-    n = knots.shape[0]
-    x0 = _tpos(s0, n, p)
-    x1 = _tpos(s1, n, p)
+    ``s0`` to ``s1`` (fractional table indices ``x0``, ``x1``). ``c0`` is
+    ``_cumulative`` at ``s0`` when ``c0_ok`` (the previous cell's exit). Returns the
+    state, the number of pieces, and ``(ok, _cumulative)`` at ``s1`` for the next cell."""
+    n = table.shape[0]
     i0 = min(int(x0), n - 2)
     i1 = min(int(x1), n - 2)
-    inside0 = s0 >= knots[0] and s0 <= knots[n - 1]
-    inside1 = s1 >= knots[0] and s1 <= knots[n - 1]
-    if i0 == i1 and inside0 == inside1 and (inside0 or (s0 < knots[0]) == (s1 < knots[0])):
+    inside0 = s0 >= table[0, 8] and s0 <= table[n - 1, 8]
+    inside1 = s1 >= table[0, 8] and s1 <= table[n - 1, 8]
+    if i0 == i1 and inside0 == inside1 and (inside0 or (s0 < table[0, 8]) == (s1 < table[0, 8])):
         # one table cell (or one constant end region): sigma and c are linear in t
         r0, g0, b0, a0 = _row(table, x0)
         r1, g1, b1, a1 = _row(table, x1)
-        return _piece_linear(marker, prec, state, length, r0, g0, b0, a0, r1, g1, b1, a1), 1
+        return _piece_linear(marker, prec, state, length, r0, g0, b0, a0, r1, g1, b1, a1), 1, False, c0
     # a few table cells: walk them, one exact piece per cell (no cancellation)
     up = s1 > s0
-    j_first = (0 if s0 < knots[0] else i0 + 1) if up else (n - 1 if s0 > knots[n - 1] else i0)
-    j_last = (n - 1 if s1 > knots[n - 1] else i1) if up else (0 if s1 < knots[0] else i1 + 1)
+    j_first = (0 if s0 < table[0, 8] else i0 + 1) if up else (n - 1 if s0 > table[n - 1, 8] else i0)
+    j_last = (n - 1 if s1 > table[n - 1, 8] else i1) if up else (0 if s1 < table[0, 8] else i1 + 1)
     if abs(j_last - j_first) <= WALK_CELLS:
         scale = length / (s1 - s0)
         sa = s0
@@ -385,7 +388,7 @@ def _segment(marker, prec, state, table, knots, cum, s0, s1, length, p):
         while True:
             if (up and j > j_last + 1) or (not up and j < j_last - 1) or j < 0 or j >= n:
                 break
-            sk = knots[j]
+            sk = table[j, 8]
             if (up and sk > sa and sk < s1) or (not up and sk < sa and sk > s1):
                 state = _piece_linear(marker, prec, state, (sk - sa) * scale, ra, ga, ba, aa,
                                       table[j, 0], table[j, 1], table[j, 2], table[j, 3])
@@ -395,32 +398,70 @@ def _segment(marker, prec, state, table, knots, cum, s0, s1, length, p):
             j = j + 1 if up else j - 1
         rb, gb, bb, ab = _row(table, x1)
         state = _piece_linear(marker, prec, state, (s1 - sa) * scale, ra, ga, ba, aa, rb, gb, bb, ab)
-        return state, pieces + 1
+        return state, pieces + 1, False, c0
     # many table cells: integrals from the cumulative tables, per unit of s
     scale = length / (s1 - s0)
-    c0 = _cumulative(table, knots, cum, s0, p)
-    c1 = _cumulative(table, knots, cum, s1, p)
+    if not c0_ok:
+        c0 = _cumulative(table, s0, x0)
+    c1 = _cumulative(table, s1, x1)
     tau = (c1[0] - c0[0]) * scale
     pieces = 1
     if tau > p.tau_max:
         pieces = min(int(math.ceil(tau / p.tau_max)), p.max_pieces)
     if pieces == 1:
         return _piece(marker, prec, state, tau, (c1[1] - c0[1]) * scale, (c1[2] - c0[2]) * scale,
-                      (c1[3] - c0[3]) * scale, c1[4] - c0[4], c1[5] - c0[5], c1[6] - c0[6]), 1
+                      (c1[3] - c0[3]) * scale, c1[4] - c0[4], c1[5] - c0[5], c1[6] - c0[6]), 1, True, c1
     ca = c0
     for k in range(1, pieces + 1):
         sb = s0 + (s1 - s0) * (k / pieces) if k < pieces else s1
-        cb = _cumulative(table, knots, cum, sb, p)
+        cb = _cumulative(table, sb, _tpos(sb, n, p))
         state = _piece(marker, prec, state, (cb[0] - ca[0]) * scale, (cb[1] - ca[1]) * scale,
                        (cb[2] - ca[2]) * scale, (cb[3] - ca[3]) * scale, cb[4] - ca[4], cb[5] - ca[5],
                        cb[6] - ca[6])
         ca = cb
         if _opacity(marker, state) >= p.alpha_stop:
             break
-    return state, pieces
+    return state, pieces, True, c1
 
 
 # -- one ray -------------------------------------------------------------------------------
+@inline_kernel
+def _corners(tets, cell, face, a, b, c):
+    """Local indices in ``cell`` of the points ``a, b, c`` of its face ``face``. A point
+    repeated in a degenerate cell is matched once; a corner left unmatched (only in a
+    cell whose face lists repeated points) takes a free index."""
+    ia = -1
+    ib = -1
+    ic = -1
+    for k in range(4):
+        if k == face:
+            continue
+        vk = tets[cell, k]
+        if vk == a and ia < 0:
+            ia = k
+        elif vk == b and ib < 0:
+            ib = k
+        elif vk == c and ic < 0:
+            ic = k
+    if ia < 0 or ib < 0 or ic < 0:
+        for k in range(4):
+            if k == face or k == ia or k == ib or k == ic:
+                continue
+            if ia < 0:
+                ia = k
+            elif ib < 0:
+                ib = k
+            elif ic < 0:
+                ic = k
+    return ia, ib, ic
+
+
+@inline_kernel
+def _consistency(x, y, z):
+    """How far the three products are from sharing a sign (larger: closer)."""
+    return max(min(x, y, z), -max(x, y, z))
+
+
 @inline_kernel
 def _face_value(tets, values, cell, a, b, c, ua, ub, uc):
     """The scalar at the point with weights ``(ua, ub, uc)`` on the face ``(a, b, c)`` of
@@ -446,7 +487,7 @@ def _face_value(tets, values, cell, a, b, c, ua, ub, uc):
 
 @kernel
 def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
-              knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
+              hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
     """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``."""
     mx = oy * dz - oz * dy
     my = oz * dx - ox * dz
@@ -458,6 +499,8 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
     pieces = 0
     guard = False
     done = False
+    no_cum = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    n_table = table.shape[0]
     for h in range(lo, hi):
         if done:
             break
@@ -475,63 +518,59 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
         t_in, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
         if t_in != t_in:
             continue
+        # the scalar where the ray left the previous cell, its table index and cumulative
+        # integrals: the next cell starts there (unless the field jumps across the face)
+        s_prev = math.nan
+        x_prev = 0.0
+        c_ok = False
+        c_prev = no_cum
         while True:
             cells += 1
             if cells > p.max_steps:
                 guard = True
                 done = True
                 break
-            v0 = tets[cell, 0]
-            v1 = tets[cell, 1]
-            v2 = tets[cell, 2]
-            v3 = tets[cell, 3]
-            s_in = _face_value(tets, values, cell, a, b, c, ua, ub, uc)
-            w01 = _pi(points, v0, v1, dx, dy, dz, mx, my, mz, ox, oy, oz)
-            w02 = _pi(points, v0, v2, dx, dy, dz, mx, my, mz, ox, oy, oz)
-            w03 = _pi(points, v0, v3, dx, dy, dz, mx, my, mz, ox, oy, oz)
-            w12 = _pi(points, v1, v2, dx, dy, dz, mx, my, mz, ox, oy, oz)
-            w13 = _pi(points, v1, v3, dx, dy, dz, mx, my, mz, ox, oy, oz)
-            w23 = _pi(points, v2, v3, dx, dy, dz, mx, my, mz, ox, oy, oz)
-            # faces in cyclic order: 0 (1 2 3), 1 (0 2 3), 2 (0 1 3), 3 (0 1 2)
-            out = -1
-            best = -math.inf
-            for g in range(4):
-                if g == face:
-                    continue
-                if g == 0:
-                    x, y, z = w12, w23, -w13
-                elif g == 1:
-                    x, y, z = w02, w23, -w03
-                elif g == 2:
-                    x, y, z = w01, w13, -w03
-                else:
-                    x, y, z = w01, w12, -w02
-                if _same_sign(x, y, z):
-                    out = g
-                    break
-                # rounding gave no consistent face (only possible next to a degenerate
-                # configuration): keep the least inconsistent one
-                m = max(min(x, y, z), -max(x, y, z))
-                if m > best:
-                    best = m
-                    out = -2 - g
-            if out < -1:
-                out = -2 - out
-            if out == 0:
-                a, b, c, wab, wbc, wca = v1, v2, v3, w12, w23, -w13
-            elif out == 1:
-                a, b, c, wab, wbc, wca = v0, v2, v3, w02, w23, -w03
-            elif out == 2:
-                a, b, c, wab, wbc, wca = v0, v1, v3, w01, w13, -w03
+            # the entry face (a, b, c) and its edge products come from the previous cell
+            # (or the boundary test): only the three edges to the fourth corner d are new
+            ia, ib, ic = _corners(tets, cell, face, a, b, c)
+            d = tets[cell, face]
+            s_in = ua * values[cell, ia] + ub * values[cell, ib] + uc * values[cell, ic]
+            wad = _pi(points, a, d, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            wbd = _pi(points, b, d, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            wcd = _pi(points, c, d, dx, dy, dz, mx, my, mz, ox, oy, oz)
+            # the exit is one of the faces (a, b, d), (b, c, d), (c, a, d), opposite c, a, b
+            if _same_sign(wab, wbd, -wad):
+                out = ic
+            elif _same_sign(wbc, wcd, -wbd):
+                out = ia
+            elif _same_sign(wca, wad, -wcd):
+                out = ib
             else:
-                a, b, c, wab, wbc, wca = v0, v1, v2, w01, w12, -w02
+                # rounding gave no consistent face (only next to a degenerate
+                # configuration): take the least inconsistent one
+                m0 = _consistency(wab, wbd, -wad)
+                m1 = _consistency(wbc, wcd, -wbd)
+                m2 = _consistency(wca, wad, -wcd)
+                out = ic if m0 >= m1 and m0 >= m2 else (ia if m1 >= m2 else ib)
+            # the exit face becomes (a, b, c) with its cyclic edge products
+            if out == ic:
+                a, b, c, ia, ib, ic, wab, wbc, wca = a, b, d, ia, ib, face, wab, wbd, -wad
+            elif out == ia:
+                a, b, c, ia, ib, ic, wab, wbc, wca = b, c, d, ib, ic, face, wbc, wcd, -wbd
+            else:
+                a, b, c, ia, ib, ic, wab, wbc, wca = c, a, d, ic, ia, face, wca, wad, -wcd
             t_out, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
             if not t_out > t_in:  # NaN (ray in the face's plane) or rounding: no length
                 t_out = t_in
             if active[cell] and t_out > t_in:
-                s_out = _face_value(tets, values, cell, a, b, c, ua, ub, uc)
-                state, np_ = _segment(marker, prec, state, table, knots, cum, s_in, s_out,
-                                      (t_out - t_in) * p.length_scale, p)
+                s_out = ua * values[cell, ia] + ub * values[cell, ib] + uc * values[cell, ic]
+                same = s_in == s_prev
+                x_in = x_prev if same else _tpos(s_in, n_table, p)
+                x_out = _tpos(s_out, n_table, p)
+                state, np_, c_ok, c_prev = _segment(marker, prec, state, table, s_in, x_in, s_out, x_out,
+                                                    c_ok and same, c_prev, (t_out - t_in) * p.length_scale, p)
+                s_prev = s_out
+                x_prev = x_out
                 pieces += np_
                 alpha = _opacity(marker, state)
                 if depth == math.inf and alpha >= p.depth_alpha:
@@ -551,21 +590,21 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
 
 
 @kernel
-def _march(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, knots, cum, hit_t,
+def _march(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, hit_t,
            hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
     """One ray in the precision ``p.precision`` (one compiled loop per precision)."""
     if p.precision == F64:
         return _march_in(0.0, F64, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface,
-                         table, knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                         table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
     if p.precision == F32:
         return _march_in(np.float32(0.0), F32, points, tets, values, neighbors, neighbor_faces, active, btri, bcell,
-                         bface, table, knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                         bface, table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
     return _march_in(0, p.precision, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface,
-                     table, knots, cum, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                     table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
 
 
 @parallel_kernel
-def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, knots, cum,
+def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
                  hit_offsets, hit_t, hit_face, hit_enter, origins, directions, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
@@ -584,8 +623,8 @@ def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, 
                     if hi == lo:
                         continue
                     r, g, b, a, dep, nc, npc, guard = _march(
-                        points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, knots,
-                        cum, hit_t, hit_face, hit_enter, lo, hi, origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                        points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
+                        hit_t, hit_face, hit_enter, lo, hi, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                         directions[pix, 0], directions[pix, 1], directions[pix, 2], p)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g

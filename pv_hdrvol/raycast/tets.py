@@ -110,13 +110,14 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
         rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
         alpha = np.round(-np.expm1(-sigma * unit) * 255) / 255
         sigma = -np.log1p(-np.minimum(alpha, 1 - 1e-12)) / unit
-    table = np.ascontiguousarray(np.column_stack([rgb, sigma]), dtype=np.float64)
     a0, a1 = tf.axis_range
+    table = np.empty((table_size, TK.TABLE_COLUMNS))
+    table[:, :3] = rgb
+    table[:, 3] = sigma
     knots = _scale_inverse(np.linspace(a0, a1, table_size), tf.scale, tf.linthresh)
     knots[0], knots[-1] = tf.vmin, tf.vmax
-    knots = np.maximum.accumulate(knots)  # monotone despite rounding of the inverse axis
-    cum = np.empty((table_size, 4))
-    TK.cumulative_tables(table, knots, cum)
+    table[:, 8] = np.maximum.accumulate(knots)  # monotone despite rounding of the inverse axis
+    TK.cumulative_tables(table)
     active = _active_cells(mesh, tf, sigma)
 
     # rays in the mesh's normalised frame; t scales back by mesh.scale
@@ -148,7 +149,7 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     def cast(tile_rows):
         rows = np.ascontiguousarray(tile_rows)
         TK.render_tiles(mesh.points, mesh.tets, mesh.values, mesh.neighbors, mesh.neighbor_faces, active,
-                        mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, knots, cum, hits.offsets,
+                        mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, hits.offsets,
                         hits.t, hits.face, hits.entering, origins, directions, width, height, _TILE, rows, lanes,
                         params, rgba, depth, cells, pieces, guard)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())

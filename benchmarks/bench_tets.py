@@ -1,0 +1,320 @@
+"""Tetrahedral meshes: our ray caster against VTK's three unstructured volume mappers,
+and joint bilateral upsampling against nearest and bilinear (Callahan & Silva's Table 1).
+
+1. **Peers** (``--part peers``). SPX, Blunt Fin, the FEA bracket and the LOX post from
+   ../shared/data, same camera (``Camera.to_vtk()``), same transfer-function control
+   points and opacity unit distance, at each ``--sizes``:
+   ``vtkUnstructuredGridVolumeRayCastMapper``, ``vtkProjectedTetrahedraMapper`` and
+   ``vtkUnstructuredGridVolumeZSweepMapper`` (offscreen, Mesa llvmpipe here) against
+   our float32 render. Frames are interleaved (one of each renderer per round) and the
+   median is reported. Then, at a low opacity (``global_alpha`` 0.02), the number of
+   distinct output levels: distinct luminance values of the covered pixels (ours:
+   float32; theirs: the 8-bit frame buffer).
+2. **Upsampling** (``--part upsample``). A 1024^2 target rendered in full, and from
+   512^2, 256^2 and 128^2: the time of the low-resolution render (I), of the full-size
+   reference layers (R) and of the upsampling (U), the total and the speedup over the
+   full render; the RMSE (linear premultiplied RGBA) against the full render of
+   nearest, bilinear and joint bilateral upsampling; how many boundary layers each
+   mesh has. ``--figure`` writes the rate-distortion plot to docs/images.
+
+Usage::
+
+    python3 benchmarks/bench_tets.py                         # both parts, ~10 minutes
+    python3 benchmarks/bench_tets.py --part peers --sizes 512 --repeat 3
+    python3 benchmarks/bench_tets.py --part upsample --figure docs/images/upsample_rd.png
+
+The load average is printed beside every row: the machine is shared.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+if not os.environ.get("DISPLAY"):
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+#: file, scalars, label
+MESHES = [
+    ("spx_12936tets.vtk", "scalars", "SPX"),
+    ("bluntfin_187395tets.vtu", "Density", "Blunt Fin"),
+    ("fea_bracket_56786tets.vtu", "Equivalent (von-Mises) Stress (psi)", "FEA bracket"),
+    ("post_513375tets.vtu", "VelocityMagnitude", "LOX post"),
+]
+PEERS = ("raycast", "projected", "zsweep")
+LOW_OPACITY = 0.02
+
+
+def data_dir():
+    return Path(os.environ.get("PV_HDRVOL_DATA", REPO.parent / "shared" / "data")) / "unstructured"
+
+
+def load():
+    return round(os.getloadavg()[0], 2)
+
+
+def scene(name, scalars):
+    import pyvista as pv
+
+    import pv_hdrvol as hv
+
+    grid = pv.read(data_dir() / name)
+    grid.set_active_scalars(scalars, preference="point" if scalars in grid.point_data else "cell")
+    mesh = hv.tetmesh_from_dataset(grid, scalars)
+    lo, hi = mesh.value_range
+    tf = hv.TransferFunction.ramp(lo, hi, cmap="viridis", opacity=(0.0, 0.3))
+    camera = hv.Camera.fit(mesh.bounds, "iso")
+    return grid, mesh, tf, camera, mesh.default_unit_distance()
+
+
+class VTKScene:
+    """One offscreen window with one unstructured volume mapper, matched to our render."""
+
+    def __init__(self, kind, grid, tf, camera, size, unit, global_alpha=1.0):
+        import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (object factories)
+        import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
+        from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
+        from vtkmodules.vtkRenderingCore import (
+            vtkColorTransferFunction, vtkRenderer, vtkRenderWindow, vtkVolume, vtkVolumeProperty,
+        )
+        from vtkmodules.vtkRenderingVolume import (
+            vtkProjectedTetrahedraMapper, vtkUnstructuredGridVolumeRayCastMapper,
+            vtkUnstructuredGridVolumeZSweepMapper,
+        )
+
+        ctf = vtkColorTransferFunction()
+        for v, c in zip(tf.values, tf.colors):
+            ctf.AddRGBPoint(float(v), *map(float, c))
+        otf = vtkPiecewiseFunction()
+        for v, a in zip(tf.values, tf.opacities):
+            otf.AddPoint(float(v), float(a) * global_alpha)
+        prop = vtkVolumeProperty()
+        prop.SetColor(ctf)
+        prop.SetScalarOpacity(otf)
+        prop.SetInterpolationTypeToLinear()
+        prop.ShadeOff()
+        prop.SetScalarOpacityUnitDistance(unit)
+        mapper = {"raycast": vtkUnstructuredGridVolumeRayCastMapper, "projected": vtkProjectedTetrahedraMapper,
+                  "zsweep": vtkUnstructuredGridVolumeZSweepMapper}[kind]()
+        mapper.SetInputData(grid)
+        if hasattr(mapper, "SetImageSampleDistance"):
+            mapper.SetImageSampleDistance(1.0)  # every pixel, as ours
+        if hasattr(mapper, "SetAutoAdjustSampleDistances"):
+            mapper.SetAutoAdjustSampleDistances(0)
+        volume = vtkVolume()
+        volume.SetMapper(mapper)
+        volume.SetProperty(prop)
+        ren = vtkRenderer()
+        ren.SetBackground(0.0, 0.0, 0.0)
+        ren.AddVolume(volume)
+        ren.SetActiveCamera(camera.to_vtk())
+        ren.ResetCameraClippingRange()
+        win = vtkRenderWindow()
+        win.SetOffScreenRendering(True)
+        win.SetMultiSamples(0)
+        win.SetSize(*size)
+        win.AddRenderer(ren)
+        self.window, self.size = win, size
+
+    def render(self):
+        t = time.perf_counter()
+        self.window.Render()
+        self.window.WaitForCompletion()
+        return time.perf_counter() - t
+
+    def levels(self):
+        """Distinct luminance levels of the covered pixels of the 8-bit frame buffer."""
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+        from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
+
+        grab = vtkWindowToImageFilter()
+        grab.SetInput(self.window)
+        grab.SetInputBufferTypeToRGB()
+        grab.ReadFrontBufferOff()
+        grab.Update()
+        rgb = vtk_to_numpy(grab.GetOutput().GetPointData().GetScalars()).reshape(-1, 3).astype(np.float64)
+        lum = rgb @ np.array([0.2126, 0.7152, 0.0722])
+        return int(np.unique(lum[lum > 0]).size)
+
+    def close(self):
+        self.window.Finalize()
+
+
+def our_levels(img):
+    rgba = np.asarray(img.rgba, dtype=np.float32)
+    lum = rgba[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+    return int(np.unique(lum[lum > 0]).size)
+
+
+def part_peers(sizes, repeat, peers):
+    import pv_hdrvol as hv
+
+    rows = []
+    for name, scalars, label in MESHES:
+        grid, mesh, tf, camera, unit = scene(name, scalars)
+        for size in sizes:
+            wh = (size, size)
+            load0 = load()
+            ours = lambda: hv.render(mesh, tf, camera, wh, precision="float32", progress_bar=False)  # noqa: E731
+            ours()  # warm-up: JIT and the mesh cache
+            scenes = {k: VTKScene(k, grid, tf, camera, wh, unit) for k in peers}
+            for s in scenes.values():
+                s.render()  # warm-up: VTK builds its structures on the first frame
+            times = {"ours": []} | {k: [] for k in scenes}
+            for _ in range(repeat):
+                t = time.perf_counter()
+                ours()
+                times["ours"].append(time.perf_counter() - t)
+                for k, s in scenes.items():
+                    times[k].append(s.render())
+            for s in scenes.values():
+                s.close()
+            med = {k: statistics.median(v) for k, v in times.items()}
+            # distinct levels at low opacity (one frame each)
+            faint = hv.render(mesh, tf, camera, wh, precision="float32", global_alpha=LOW_OPACITY, progress_bar=False)
+            levels = {"ours": our_levels(faint)}
+            for k in peers:
+                s = VTKScene(k, grid, tf, camera, wh, unit, global_alpha=LOW_OPACITY)
+                s.render()
+                levels[k] = s.levels()
+                s.close()
+            row = {"mesh": label, "tets": mesh.n_cells, "size": size, "seconds": med, "levels": levels,
+                   "load": (load0, load())}
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    return rows
+
+
+def rmse(a, b):
+    return float(np.sqrt(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2)))
+
+
+def part_upsample(target, lows, repeat):
+    import pv_hdrvol as hv
+
+    rows = []
+    for name, scalars, label in MESHES:
+        grid, mesh, tf, camera, unit = scene(name, scalars)
+        size = (target, target)
+        hv.render(mesh, tf, camera, (64, 64), progress_bar=False)  # warm-up
+        full_t = []
+        for _ in range(repeat):
+            t = time.perf_counter()
+            full = hv.render(mesh, tf, camera, size, progress_bar=False)
+            full_t.append(time.perf_counter() - t)
+        t_full = statistics.median(full_t)
+        layers = hv.depth_layers(mesh, camera, size)
+        for low in lows:
+            f = target // low
+            parts = {"I": [], "R": [], "U": [], "total": []}
+            for _ in range(repeat):
+                t = time.perf_counter()
+                img = hv.render(mesh, tf, camera, size, upsample=f, progress_bar=False)
+                parts["total"].append(time.perf_counter() - t)
+                parts["I"].append(img.metadata["low_render_seconds"])
+                parts["R"].append(img.metadata["reference_seconds"])
+                parts["U"].append(img.metadata["upsample_seconds"])
+            med = {k: statistics.median(v) for k, v in parts.items()}
+            small = hv.render(mesh, tf, camera, (low, low), progress_bar=False)
+            errors = {m: rmse(hv.upsample(small, layers, f, method=m).rgba, full.rgba)
+                      for m in ("nearest", "bilinear", "joint_bilateral")}
+            row = {"mesh": label, "tets": mesh.n_cells, "target": target, "low": low, "full_seconds": t_full,
+                   "seconds": med, "speedup": t_full / med["total"], "rmse": errors,
+                   "layers_needed": layers.layers_needed, "load": load()}
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    return rows
+
+
+def markdown(peers, ups):
+    lines = [f"Machine: {platform.platform()}, {os.cpu_count()} CPUs.", ""]
+    if peers:
+        names = [k for k in PEERS if k in peers[0]["seconds"]]
+        lines += ["| mesh | tets | size | ours f32 s | " + " | ".join(f"VTK {k} s" for k in names)
+                  + " | " + " | ".join(f"ours / {k}" for k in names) + " | levels ours | "
+                  + " | ".join(f"levels {k}" for k in names) + " | load |",
+                  "|---|--:|--:|--:|" + "--:|" * (3 * len(names) + 1) + "--:|"]
+        for r in peers:
+            s, lv = r["seconds"], r["levels"]
+            lines.append(f"| {r['mesh']} | {r['tets']:,} | {r['size']}² | {s['ours']:.3f} | "
+                         + " | ".join(f"{s[k]:.3f}" for k in names) + " | "
+                         + " | ".join(f"{s['ours'] / s[k]:.2f}" for k in names) + f" | {lv['ours']:,} | "
+                         + " | ".join(f"{lv[k]:,}" for k in names) + f" | {r['load'][0]}-{r['load'][1]} |")
+        lines.append("")
+    if ups:
+        lines += ["| mesh | layers | low | full s | I s | R s | U s | total s | speedup | RMSE nearest | "
+                  "RMSE bilinear | RMSE joint bilateral | load |",
+                  "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|"]
+        for r in ups:
+            s, e = r["seconds"], r["rmse"]
+            lines.append(f"| {r['mesh']} | {r['layers_needed']} | {r['low']}² | {r['full_seconds']:.3f} | "
+                         f"{s['I']:.3f} | {s['R']:.3f} | {s['U']:.3f} | {s['total']:.3f} | {r['speedup']:.1f}x | "
+                         f"{e['nearest']:.2e} | {e['bilinear']:.2e} | {e['joint_bilateral']:.2e} | {r['load']} |")
+    return "\n".join(lines)
+
+
+def figure(ups, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    meshes = list(dict.fromkeys(r["mesh"] for r in ups))
+    fig, axes = plt.subplots(1, len(meshes), figsize=(3.6 * len(meshes), 3.4), squeeze=False)
+    for ax, mesh in zip(axes[0], meshes):
+        rs = [r for r in ups if r["mesh"] == mesh]
+        for method, style in (("nearest", "s:"), ("bilinear", "o--"), ("joint_bilateral", "^-")):
+            ax.plot([r["seconds"]["total"] for r in rs], [r["rmse"][method] for r in rs], style,
+                    label=method.replace("_", " "))
+        for r in rs:
+            ax.annotate(f"{r['low']}²", (r["seconds"]["total"], r["rmse"]["bilinear"]), fontsize=7,
+                        textcoords="offset points", xytext=(3, 3))
+        ax.set_xlabel("seconds per 1024² frame")
+        ax.set_title(f"{mesh} (full: {rs[0]['full_seconds']:.2f} s)", fontsize=9)
+        ax.set_yscale("log")
+    axes[0][0].set_ylabel("RMSE against the full render")
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--part", choices=("peers", "upsample", "both"), default="both")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024])
+    ap.add_argument("--peers", nargs="+", choices=PEERS, default=list(PEERS))
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--target", type=int, default=1024)
+    ap.add_argument("--lows", type=int, nargs="+", default=[512, 256, 128])
+    ap.add_argument("--meshes", nargs="+", help="labels to run (default all)")
+    ap.add_argument("--out", type=Path)
+    ap.add_argument("--figure", type=Path)
+    args = ap.parse_args(argv)
+    if args.meshes:
+        MESHES[:] = [m for m in MESHES if m[2] in args.meshes]
+    import numba
+
+    print(f"numba threads {numba.get_num_threads()}, load {load()}", flush=True)
+    peers = part_peers(args.sizes, args.repeat, args.peers) if args.part in ("peers", "both") else []
+    ups = part_upsample(args.target, args.lows, args.repeat) if args.part in ("upsample", "both") else []
+    print(markdown(peers, ups))
+    if args.out:
+        args.out.write_text(json.dumps({"peers": peers, "upsample": ups}, indent=1))
+    if args.figure and ups:
+        figure(ups, args.figure)
+
+
+if __name__ == "__main__":
+    main()

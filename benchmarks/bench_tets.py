@@ -16,12 +16,15 @@ and joint bilateral upsampling against nearest and bilinear (Callahan & Silva's 
    full render; the RMSE (linear premultiplied RGBA) against the full render of
    nearest, bilinear and joint bilateral upsampling; how many boundary layers each
    mesh has. ``--figure`` writes the rate-distortion plot to docs/images.
+3. **Integration** (``--part tau``). Time and error of ``tau_max`` (the largest optical
+   depth of one integration piece) against ``tau_max = 0.002``, float64, at 256^2.
 
 Usage::
 
     python3 benchmarks/bench_tets.py                         # both parts, ~10 minutes
     python3 benchmarks/bench_tets.py --part peers --sizes 512 --repeat 3
     python3 benchmarks/bench_tets.py --part upsample --figure docs/images/upsample_rd.png
+    python3 benchmarks/bench_tets.py --part tau         # error and time against tau_max
 
 The load average is printed beside every row: the machine is shared.
 """
@@ -237,7 +240,29 @@ def part_upsample(target, lows, repeat):
     return rows
 
 
-def markdown(peers, ups):
+def part_tau(size, repeat, values=(1.0, 0.5, 0.25, 0.1, 0.05, 0.02)):
+    """Error and time against ``tau_max``: reference ``tau_max = 0.002``, float64."""
+    import pv_hdrvol as hv
+
+    rows = []
+    for name, scalars, label in MESHES:
+        grid, mesh, tf, camera, unit = scene(name, scalars)
+        ref = hv.render(mesh, tf, camera, (size, size), precision="float64", tau_max=0.002, progress_bar=False)
+        for tau in values:
+            ts = []
+            for _ in range(repeat):
+                img = hv.render(mesh, tf, camera, (size, size), precision="float64", tau_max=tau, progress_bar=False)
+                ts.append(img.metadata["render_seconds"])
+            err = np.abs(np.asarray(img.rgba, np.float64) - ref.rgba)
+            row = {"mesh": label, "size": size, "tau_max": tau, "seconds": statistics.median(ts),
+                   "pieces": img.metadata["pieces"], "cells": img.metadata["cells"], "max_error": float(err.max()),
+                   "rmse": float(np.sqrt(np.mean(err ** 2))), "load": load()}
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    return rows
+
+
+def markdown(peers, ups, taus=()):
     lines = [f"Machine: {platform.platform()}, {os.cpu_count()} CPUs.", ""]
     if peers:
         names = [k for k in PEERS if k in peers[0]["seconds"]]
@@ -261,6 +286,12 @@ def markdown(peers, ups):
             lines.append(f"| {r['mesh']} | {r['layers_needed']} | {r['low']}² | {r['full_seconds']:.3f} | "
                          f"{s['I']:.3f} | {s['R']:.3f} | {s['U']:.3f} | {s['total']:.3f} | {r['speedup']:.1f}x | "
                          f"{e['nearest']:.2e} | {e['bilinear']:.2e} | {e['joint_bilateral']:.2e} | {r['load']} |")
+    if taus:
+        lines += ["", "| mesh | tau_max | march s | pieces / cell | max error | RMSE | load |",
+                  "|---|--:|--:|--:|--:|--:|--:|"]
+        for r in taus:
+            lines.append(f"| {r['mesh']} | {r['tau_max']} | {r['seconds']:.3f} | {r['pieces'] / r['cells']:.2f} | "
+                         f"{r['max_error']:.1e} | {r['rmse']:.1e} | {r['load']} |")
     return "\n".join(lines)
 
 
@@ -292,7 +323,8 @@ def figure(ups, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--part", choices=("peers", "upsample", "both"), default="both")
+    ap.add_argument("--part", choices=("peers", "upsample", "tau", "both"), default="both",
+                    help="both: peers and upsample; tau: the tau_max trade (at --target / 4)")
     ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024])
     ap.add_argument("--peers", nargs="+", choices=PEERS, default=list(PEERS))
     ap.add_argument("--repeat", type=int, default=3)
@@ -309,9 +341,10 @@ def main(argv=None):
     print(f"numba threads {numba.get_num_threads()}, load {load()}", flush=True)
     peers = part_peers(args.sizes, args.repeat, args.peers) if args.part in ("peers", "both") else []
     ups = part_upsample(args.target, args.lows, args.repeat) if args.part in ("upsample", "both") else []
-    print(markdown(peers, ups))
+    taus = part_tau(args.target // 4, args.repeat) if args.part == "tau" else []
+    print(markdown(peers, ups, taus))
     if args.out:
-        args.out.write_text(json.dumps({"peers": peers, "upsample": ups}, indent=1))
+        args.out.write_text(json.dumps({"peers": peers, "upsample": ups, "tau": taus}, indent=1))
     if args.figure and ups:
         figure(ups, args.figure)
 

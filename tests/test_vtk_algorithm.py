@@ -92,6 +92,32 @@ def test_matches_hv_render_exactly():
     np.testing.assert_array_equal(hv.HDRImage.from_pyvista(out).rgba, ref.rgba)
 
 
+def test_tetrahedral_mesh_input():
+    """A vtkUnstructuredGrid of tets (a triangulated image) renders as hv.render renders it."""
+    from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter
+
+    tri = vtkDataSetTriangleFilter()
+    tri.SetInputData(_image_data())
+    tri.Update()
+    mesh = tri.GetOutput()
+    cam, vcam = _camera()
+    tf = demo_transfer_function(vmax=0.02)
+    alg = _renderer(tri)
+    alg.SetTransferFunction(tf)
+    alg.SetCamera(vcam)
+    alg.SetPrecision("float64")
+    assert alg.Update()
+    rgba, depth = _rgba(alg.GetOutput())
+    ref = hv.render(mesh, tf, cam, (W, H), precision="float64")
+    assert ref.metadata["renderer"] == "pv_hdrvol tetrahedral ray caster" and ref.rgba[..., 3].max() > 0.05
+    np.testing.assert_array_equal(rgba, ref.rgba)
+    np.testing.assert_array_equal(depth, ref.depth)
+    alg.SetLens(hv.Fisheye())
+    assert not alg.Update()
+    assert alg.GetLastError() == ("ValueError: SetLens and SetLabels apply to image data only, not to "
+                                  "tetrahedral meshes")
+
+
 def test_defaults_and_source_connection():
     source = vtkRTAnalyticSource()
     source.SetWholeExtent(-6, 6, -6, 6, -6, 6)

@@ -11,7 +11,7 @@ import traceback
 
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
 from vtkmodules.vtkCommonCore import vtkOutputWindow
-from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
+from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkDataSet, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from .._validate import as_choice, as_size
@@ -39,9 +39,12 @@ def _option_methods(field, meaning):
 
 
 class HDRVolumeRenderer(VTKPythonAlgorithmBase):
-    """Volume render a ``vtkImageData`` into a 2-D float RGBA ``vtkImageData``.
+    """Volume render a ``vtkImageData`` or a tetrahedral ``vtkUnstructuredGrid`` into a 2-D
+    float RGBA ``vtkImageData``.
 
-    Input port 0: ``vtkImageData`` (the whole extent is requested). Output: a
+    Input port 0: ``vtkImageData`` (the whole extent is requested) or
+    ``vtkUnstructuredGrid`` (tetrahedra; other 3-D cells are split, see
+    :func:`~pv_hdrvol.render_tets`; lenses and labels are for images only). Output: a
     ``width x height x 1`` ``vtkImageData`` with point arrays ``"rgba"`` (4 components,
     linear premultiplied RGBA, float32 or float64 as the precision) and ``"depth"``,
     VTK row order (row 0 at the bottom), as :meth:`HDRImage.to_vtk
@@ -83,7 +86,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
     """
 
     def __init__(self):
-        super().__init__(nInputPorts=1, inputType="vtkImageData", nOutputPorts=1, outputType="vtkImageData")
+        super().__init__(nInputPorts=1, inputType="vtkDataSet", nOutputPorts=1, outputType="vtkImageData")
         self._options = RenderOptions()
         self._size = (512, 512)
         self._scalars = None
@@ -265,9 +268,11 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         return 1
 
     def RequestUpdateExtent(self, request, inInfo, outInfo):
-        # a ray may cross any part of the volume: always ask for all of it
+        # a ray may cross any part of the volume: always ask for all of it (images; a
+        # mesh has no extent and is always whole)
         info = inInfo[0].GetInformationObject(0)
-        info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
+        if info.Has(_SDDP.WHOLE_EXTENT()):
+            info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
         return 1
 
     def _scalars_to_render(self):
@@ -307,10 +312,13 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         from ..data.grid import labels_from_dataset
         from ..raycast.grid import render_volume
 
-        inp = vtkImageData.GetData(inInfo[0])
+        inp = vtkDataSet.GetData(inInfo[0])
         out = vtkImageData.GetData(outInfo)
-        if inp is None or inp.GetNumberOfPoints() == 0:
-            raise ValueError("HDRVolumeRenderer needs a non-empty vtkImageData on input port 0")
+        kind = inp.GetClassName() if inp is not None else None
+        if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkUnstructuredGrid") \
+                or inp.GetNumberOfPoints() == 0:
+            raise ValueError(f"HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on input "
+                             f"port 0; got {'nothing' if inp is None else kind}")
         scalars, preference = self._scalars_to_render()
         camera = resolve_camera(self._camera, inp.GetBounds())
 
@@ -319,6 +327,15 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             return not self._should_abort()
 
         try:
+            if kind == "vtkUnstructuredGrid":
+                from ..raycast.tets import render_tets
+
+                if self._lens is not None or self._labels is not None:
+                    raise ValueError("SetLens and SetLabels apply to image data only, not to tetrahedral meshes")
+                image = render_tets(inp, self._tf, camera, self._size, options=self._options, scalars=scalars,
+                                    preference=preference, progress=progress, progress_bar=False)
+                out.ShallowCopy(image.to_vtk())
+                return 1
             volume = self._volumes.get(inp, scalars, preference)
             labels = None if self._labels is None else labels_from_dataset(inp, self._labels, preference)
             # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm

@@ -140,6 +140,38 @@ def _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz):
     return (x - ox) * dx + (y - oy) * dy + (z - oz) * dz, ua, ub, uc
 
 
+# -- rays ----------------------------------------------------------------------------------
+@inline_kernel
+def pixel_ray(cam, col, row, width, height):
+    """The ray of pixel ``(col, row)`` in the mesh's normalised frame, bit for bit as
+    ``Camera.rays`` then ``(origin - center) / scale`` compute it.
+
+    ``cam`` (float64, ``camera_array``): position, right, up, forward, half width, half
+    height, parallel (1.0) or not, the mesh's centre and scale."""
+    x = ((col + 0.5) * (2.0 / width) - 1.0) * cam[12]
+    y = (1.0 - (row + 0.5) * (2.0 / height)) * cam[13]
+    gx = x * cam[3] + y * cam[6]
+    gy = x * cam[4] + y * cam[7]
+    gz = x * cam[5] + y * cam[8]
+    if cam[14] != 0.0:
+        ox = cam[0] + gx
+        oy = cam[1] + gy
+        oz = cam[2] + gz
+        dx = cam[9]
+        dy = cam[10]
+        dz = cam[11]
+    else:
+        inv_len = 1.0 / math.sqrt(1.0 + x * x + y * y)
+        ox = cam[0]
+        oy = cam[1]
+        oz = cam[2]
+        dx = (gx + cam[9]) * inv_len
+        dy = (gy + cam[10]) * inv_len
+        dz = (gz + cam[11]) * inv_len
+    scale = cam[18]
+    return (ox - cam[15]) / scale, (oy - cam[16]) / scale, (oz - cam[17]) / scale, dx, dy, dz
+
+
 # -- boundary faces per pixel (entry points and depth layers) --------------------------------
 @kernel
 def _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz):
@@ -178,7 +210,7 @@ def _edge_line(ax, ay, bx, by, cx, cy):
 
 
 @parallel_kernel
-def boundary_hits(points, tri, normals, boxes, proj, origins, directions, width, height, bands, offsets, out_t,
+def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, offsets, out_t,
                   out_face, out_enter, count_only, counts):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
 
@@ -223,8 +255,8 @@ def boundary_hits(points, tri, normals, boxes, proj, origins, directions, width,
                                 or n2x * px + n2y * py + k2 < -0.01):
                             continue
                     pix = row * width + col
-                    t, enter = _hit(points, tri, normals, f, origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                                    directions[pix, 0], directions[pix, 1], directions[pix, 2])
+                    ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
+                    t, enter = _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz)
                     if not t >= 0.0:
                         continue
                     if count_only:
@@ -605,7 +637,7 @@ def _march(points, tets, values, neighbors, neighbor_faces, active, btri, bcell,
 
 @parallel_kernel
 def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
-                 hit_offsets, hit_t, hit_face, hit_enter, origins, directions, width, height, tile, tile_rows, lanes,
+                 hit_offsets, hit_t, hit_face, hit_enter, cam, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
     ``_kernels.render_tiles``: lanes of interleaved tiles per thread)."""
@@ -622,10 +654,10 @@ def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, 
                     hi = hit_offsets[pix + 1]
                     if hi == lo:
                         continue
+                    ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
                         points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
-                        hit_t, hit_face, hit_enter, lo, hi, origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                        directions[pix, 0], directions[pix, 1], directions[pix, 2], p)
+                        hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b
@@ -634,3 +666,14 @@ def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, 
                     out_cells[pix] = nc
                     out_pieces[pix] = npc
                     out_guard[pix] = guard
+
+
+@parallel_kernel
+def first_layers(offsets, ts, scale, out):
+    """``out[k, pixel]`` = the pixel's k-th crossing distance times ``scale`` (``inf`` past its count)."""
+    k = out.shape[0]
+    for pix in numba.prange(out.shape[1]):
+        lo = offsets[pix]
+        n = offsets[pix + 1] - lo
+        for layer in range(k):
+            out[layer, pix] = ts[lo + layer] * scale if layer < n else math.inf

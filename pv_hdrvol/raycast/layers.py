@@ -100,6 +100,7 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
     max_layers = as_int("max_layers", max_layers, low=1)
     t0 = time.perf_counter()
     if is_unstructured(data):
+        from ._tet_kernels import first_layers
         from .tets import boundary_crossings
 
         if isovalue is not None or tf is not None:
@@ -111,16 +112,11 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a Camera; got {type(camera).__name__}")
         width, height = as_size(size)
-        rays = camera.rays((width, height))
-        origins = np.ascontiguousarray((rays.origins - mesh.center) / mesh.scale)
-        hits = boundary_crossings(mesh, camera, (width, height), origins, np.ascontiguousarray(rays.directions))
+        hits = boundary_crossings(mesh, camera, (width, height))
         counts = np.diff(hits.offsets)
         k = max(1, min(max_layers, int(counts.max()) if counts.size else 0))
-        depth = np.full((k, width * height), np.inf)
-        start = hits.offsets[:-1]
-        for layer in range(k):
-            has = counts > layer
-            depth[layer, has] = hits.t[start[has] + layer] * mesh.scale
+        depth = np.empty((k, width * height))
+        first_layers(hits.offsets, hits.t, float(mesh.scale), depth)
         return DepthLayers(depth.reshape(k, height, width), counts.reshape(height, width),
                            time.perf_counter() - t0, f"boundary of {mesh.n_cells} tets")
     from .. import render

@@ -98,8 +98,7 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be a Camera; got {type(camera).__name__}")
     _check_progress_bar(progress_bar)
-    rays = camera.rays(size)
-    width, height = rays.width, rays.height
+    width, height = as_size(size)
     prec = opts.precision
 
     unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else mesh.default_unit_distance()
@@ -120,11 +119,10 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     TK.cumulative_tables(table)
     active = _active_cells(mesh, tf, sigma)
 
-    # rays in the mesh's normalised frame; t scales back by mesh.scale
-    origins = np.ascontiguousarray((rays.origins - mesh.center) / mesh.scale)
-    directions = np.ascontiguousarray(rays.directions)
+    # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
+    cam = camera_array(camera, mesh, width, height)
     t0 = time.perf_counter()
-    hits = boundary_crossings(mesh, camera, (width, height), origins, directions)
+    hits = boundary_crossings(mesh, camera, (width, height), cam)
     t_hits = time.perf_counter() - t0
     has = hits.offsets[1:] > hits.offsets[:-1]
     inside = int(np.count_nonzero(~hits.entering[hits.offsets[:-1][has]]))
@@ -150,7 +148,7 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
         rows = np.ascontiguousarray(tile_rows)
         TK.render_tiles(mesh.points, mesh.tets, mesh.values, mesh.neighbors, mesh.neighbor_faces, active,
                         mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, hits.offsets,
-                        hits.t, hits.face, hits.entering, origins, directions, width, height, _TILE, rows, lanes,
+                        hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
                         params, rgba, depth, cells, pieces, guard)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
 
@@ -219,9 +217,22 @@ class BoundaryHits:
         return np.diff(self.offsets).reshape(self.height, self.width)
 
 
-def boundary_crossings(mesh, camera, size, origins, directions):
-    """:class:`BoundaryHits` of the camera's rays (``origins`` in the mesh's normalised frame)."""
+def camera_array(camera, mesh, width, height):
+    """What ``_tet_kernels.pixel_ray`` needs to make the camera's rays (as ``Camera.rays``)
+    in the mesh's normalised frame."""
+    right, up, fwd = camera.basis()
+    half_h = camera.parallel_scale if camera.parallel_projection else math.tan(math.radians(camera.view_angle) / 2)
+    half_w = half_h * width / height
+    return np.concatenate([np.asarray(camera.position, dtype=np.float64), right, up, fwd,
+                           [half_w, half_h, 1.0 if camera.parallel_projection else 0.0], mesh.center,
+                           [mesh.scale]]).astype(np.float64)
+
+
+def boundary_crossings(mesh, camera, size, cam=None):
+    """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``)."""
     width, height = size
+    if cam is None:
+        cam = camera_array(camera, mesh, width, height)
     tri = mesh.boundary
     pts = mesh.points
     a, b, c = (pts[tri[:, i]] for i in range(3))
@@ -235,7 +246,7 @@ def boundary_crossings(mesh, camera, size, origins, directions):
     empty_i = np.empty(0, dtype=np.int64)
     empty_b = np.empty(0, dtype=np.bool_)
     offsets0 = np.zeros(n_pix + 1, dtype=np.int64)
-    TK.boundary_hits(pts, tri, normals, boxes, proj, origins, directions, width, height, bands, offsets0, empty_f, empty_i,
+    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets0, empty_f, empty_i,
                      empty_b, True, counts)
     offsets = np.zeros(n_pix + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
@@ -244,7 +255,7 @@ def boundary_crossings(mesh, camera, size, origins, directions):
     face = np.empty(total, dtype=np.int64)
     entering = np.empty(total, dtype=np.bool_)
     counts[:] = 0
-    TK.boundary_hits(pts, tri, normals, boxes, proj, origins, directions, width, height, bands, offsets, t, face, entering,
+    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets, t, face, entering,
                      False, counts)
     return BoundaryHits(offsets, t, face, entering, width, height)
 

@@ -8,65 +8,90 @@ import numba
 from .._jit import parallel_kernel
 
 
+#: exp(-x) is read from a table of EXP_STEPS entries per unit over [0, EXP_RANGE]
+#: (linear interpolation: relative error below 2e-6); weights past EXP_RANGE (e^-40 =
+#: 4e-18) count as 0
+EXP_RANGE = 40.0
+EXP_STEPS = 256
+
+
+def exp_table():
+    """``exp(-i / EXP_STEPS)`` for ``i = 0 .. EXP_RANGE * EXP_STEPS + 1``."""
+    import numpy as np
+
+    return np.exp(-np.arange(int(EXP_RANGE * EXP_STEPS) + 2) / EXP_STEPS)
+
+
 @parallel_kernel
-def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, out):
+def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, table, out):
     """Joint bilateral upsampling (Kopf et al. 2007; Callahan & Silva 2009).
 
-    ``low`` (h, w, c) float64; ``guide`` (H, W, k) float64, the full-resolution
-    reference (normalised depth layers); ``out`` (H, W, c). Low-resolution pixel
-    ``(i, j)`` has its centre at full-resolution coordinates ``((i + 1/2) f - 1/2,
-    (j + 1/2) f - 1/2)`` and takes the guide of the nearest full-resolution pixel.
-    Output pixel ``p`` averages the low pixels within ``radius`` (in low pixels) of
-    its nearest one, weighted by ``exp(-|p - q|^2 inv_2ss - |G(p) - G(q)|^2 inv_2sr)``
-    (distances in full-resolution pixels and in guide units). Where every weight
-    underflows (a reference that matches no neighbour), the spatial weights alone are
-    used.
+    ``low`` (h, w, 4) float64 (fewer channels are padded by the caller); ``guide``
+    (k, H, W) float64, the full-resolution reference (normalised depth layers, layer
+    first); ``out`` (H, W, 4). Low-resolution pixel ``(i, j)`` has its centre at
+    full-resolution coordinates ``((i + 1/2) f - 1/2, (j + 1/2) f - 1/2)`` and takes the
+    guide of the nearest full-resolution pixel. Output pixel ``p`` averages the low
+    pixels within ``radius`` (in low pixels) of its nearest one, weighted by
+    ``exp(-|p - q|^2 inv_2ss - |G(p) - G(q)|^2 inv_2sr)`` (distances in full-resolution
+    pixels and in guide units). Where every weight underflows (a reference that matches
+    no neighbour), the spatial weights alone are used. ``table``: ``exp_table()``.
     """
-    h, w, nc = low.shape
-    H, W, k = guide.shape
+    h, w, _ = low.shape
+    k, H, W = guide.shape
     for row in numba.prange(H):
         ci = int(math.floor((row + 0.5) / factor))
+        i0 = max(ci - radius, 0)
+        i1 = min(ci + radius, h - 1)
         for col in range(W):
             cj = int(math.floor((col + 0.5) / factor))
-            i0 = max(ci - radius, 0)
-            i1 = min(ci + radius, h - 1)
             j0 = max(cj - radius, 0)
             j1 = min(cj + radius, w - 1)
-            for c in range(nc):
-                out[row, col, c] = 0.0
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            a3 = 0.0
             total = 0.0
             for i in range(i0, i1 + 1):
                 qy = (i + 0.5) * factor - 0.5
                 gy = min(max(int(qy + 0.5), 0), H - 1)
+                dy2 = (row - qy) * (row - qy)
                 for j in range(j0, j1 + 1):
                     qx = (j + 0.5) * factor - 0.5
                     gx = min(max(int(qx + 0.5), 0), W - 1)
                     dr = 0.0
                     for m in range(k):
-                        diff = guide[row, col, m] - guide[gy, gx, m]
+                        diff = guide[m, row, col] - guide[m, gy, gx]
                         dr += diff * diff
-                    wgt = math.exp(-((row - qy) ** 2 + (col - qx) ** 2) * inv_2ss - dr * inv_2sr)
-                    total += wgt
-                    for c in range(nc):
-                        out[row, col, c] += wgt * low[i, j, c]
-            if total > 1e-300:
-                inv = 1.0 / total
-                for c in range(nc):
-                    out[row, col, c] *= inv
-                continue
-            for c in range(nc):
-                out[row, col, c] = 0.0
-            for i in range(i0, i1 + 1):
-                qy = (i + 0.5) * factor - 0.5
-                for j in range(j0, j1 + 1):
-                    qx = (j + 0.5) * factor - 0.5
-                    ws = math.exp(-((row - qy) ** 2 + (col - qx) ** 2) * inv_2ss)
-                    total += ws
-                    for c in range(nc):
-                        out[row, col, c] += ws * low[i, j, c]
+                    e = ((dy2 + (col - qx) * (col - qx)) * inv_2ss + dr * inv_2sr) * EXP_STEPS
+                    if e < EXP_RANGE * EXP_STEPS:
+                        n = int(e)
+                        wgt = table[n] + (e - n) * (table[n + 1] - table[n])
+                        total += wgt
+                        a0 += wgt * low[i, j, 0]
+                        a1 += wgt * low[i, j, 1]
+                        a2 += wgt * low[i, j, 2]
+                        a3 += wgt * low[i, j, 3]
+            if not total > 1e-300:
+                # no neighbour matches the reference: spatial weights alone
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                for i in range(i0, i1 + 1):
+                    qy = (i + 0.5) * factor - 0.5
+                    for j in range(j0, j1 + 1):
+                        qx = (j + 0.5) * factor - 0.5
+                        wgt = math.exp(-((row - qy) * (row - qy) + (col - qx) * (col - qx)) * inv_2ss)
+                        total += wgt
+                        a0 += wgt * low[i, j, 0]
+                        a1 += wgt * low[i, j, 1]
+                        a2 += wgt * low[i, j, 2]
+                        a3 += wgt * low[i, j, 3]
             inv = 1.0 / total
-            for c in range(nc):
-                out[row, col, c] *= inv
+            out[row, col, 0] = a0 * inv
+            out[row, col, 1] = a1 * inv
+            out[row, col, 2] = a2 * inv
+            out[row, col, 3] = a3 * inv
 
 
 @parallel_kernel

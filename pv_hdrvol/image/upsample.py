@@ -17,6 +17,7 @@ from . import _upsample_kernels as K
 from .hdr import HDRImage
 
 METHODS = ("joint_bilateral", "bilinear", "nearest")
+_EXP_TABLE = K.exp_table()
 
 
 def upsample(image, layers=None, factor=None, *, method="joint_bilateral", support=None, sigma_range=0.01):
@@ -64,36 +65,50 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", suppo
     h, w = low.shape[:2]
     guide = None
     if layers is not None:
-        guide = layers.normalized() if hasattr(layers, "normalized") else np.asarray(layers, dtype=np.float64)
-        if guide.ndim == 2:
-            guide = guide[..., None]
-        if guide.ndim != 3:
-            raise ValueError(f"layers must be DepthLayers or an array (rows, cols, k); got shape {guide.shape}")
-        if not np.all(np.isfinite(guide)):
-            raise ValueError("layers must be finite (DepthLayers.normalized() encodes missing layers as 2)")
-        guide = np.ascontiguousarray(guide, dtype=np.float64)
+        if hasattr(layers, "normalized"):
+            guide = layers.normalized(layer_first=True)
+        else:
+            guide = np.asarray(layers, dtype=np.float64)
+            if guide.ndim == 2:
+                guide = guide[..., None]
+            if guide.ndim != 3:
+                raise ValueError(f"layers must be DepthLayers or an array (rows, cols, k); got shape {guide.shape}")
+            if not np.all(np.isfinite(guide)):
+                raise ValueError("layers must be finite (DepthLayers.normalized() encodes missing layers as 2)")
+            guide = np.moveaxis(guide, -1, 0)
+        guide = np.ascontiguousarray(guide, dtype=np.float64)  # (k, rows, cols)
     elif method == "joint_bilateral":
         raise ValueError("method='joint_bilateral' needs the full-resolution layers")
     if factor is None:
         if guide is None:
             raise ValueError("factor must be given when there are no layers")
-        factor = guide.shape[0] / h
+        factor = guide.shape[1] / h
     factor = as_real("factor", factor, low=0.0, low_open=True)
-    H, W = (guide.shape[0], guide.shape[1]) if guide is not None else (int(round(h * factor)), int(round(w * factor)))
+    H, W = (guide.shape[1], guide.shape[2]) if guide is not None else (int(round(h * factor)), int(round(w * factor)))
     if abs(H - h * factor) > 0.5 or abs(W - w * factor) > 0.5:
         raise ValueError(f"layers of {W}x{H} pixels are not the image's {w}x{h} times factor {factor:g}")
     work = np.ascontiguousarray(low, dtype=np.float64)
-    out = np.empty((H, W, low.shape[2]))
     if method == "nearest":
+        out = np.empty((H, W, low.shape[2]))
         K.nearest(work, factor, out)
     elif method == "bilinear":
+        out = np.empty((H, W, low.shape[2]))
         K.bilinear(work, factor, out)
     else:
         omega = as_real("support", support, low=0.0, low_open=True) if support is not None else max(factor, 2.0)
         sigma_s = omega / 2.0
         sigma_range = as_real("sigma_range", sigma_range, low=0.0, low_open=True)
         radius = max(1, int(math.ceil(2.0 * sigma_s / factor)))
-        K.joint_bilateral(work, guide, factor, radius, 1.0 / (2 * sigma_s ** 2), 1.0 / (2 * sigma_range ** 2), out)
+        nc = low.shape[2]
+        groups = []
+        for c0 in range(0, nc, 4):  # the kernel filters four channels at a time
+            part = np.zeros((h, w, 4))
+            part[..., :min(4, nc - c0)] = work[..., c0:c0 + 4]
+            res = np.empty((H, W, 4))
+            K.joint_bilateral(part, guide, factor, radius, 1.0 / (2 * sigma_s ** 2), 1.0 / (2 * sigma_range ** 2),
+                              _EXP_TABLE, res)
+            groups.append(res[..., :min(4, nc - c0)])
+        out = np.concatenate(groups, axis=2)
     out = out.astype(low.dtype)
     depth = None
     if low_depth is not None:

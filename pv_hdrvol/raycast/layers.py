@@ -51,19 +51,19 @@ class DepthLayers:
         """The most layers any pixel has: peeling more finds nothing new."""
         return int(self.counts.max()) if self.counts.size else 0
 
-    def normalized(self, missing=2.0):
-        """The layers as a (rows, cols, k) float64 guide: depths scaled to [0, 1] over the
-        finite range, ``missing`` (default 2, far from every surface) where a pixel has
-        no such layer."""
+    def normalized(self, missing=2.0, layer_first=False):
+        """The layers as a float64 guide: depths scaled to [0, 1] over the finite range,
+        ``missing`` (default 2, far from every surface) where a pixel has no such layer;
+        (rows, cols, k), or (k, rows, cols) with ``layer_first``."""
         d = self.depth
         finite = np.isfinite(d)
+        out = np.full(d.shape, float(missing))
         if finite.any():
             near, far = float(d[finite].min()), float(d[finite].max())
             span = far - near if far > near else 1.0
-            out = np.where(finite, (d - near) / span, missing)
-        else:
-            out = np.full(d.shape, float(missing))
-        return np.ascontiguousarray(np.moveaxis(out, 0, -1))
+            np.subtract(d, near, out=out, where=finite)
+            np.divide(out, span, out=out, where=finite)
+        return out if layer_first else np.ascontiguousarray(np.moveaxis(out, 0, -1))
 
     def __repr__(self):
         rows, cols = self.shape

@@ -67,6 +67,10 @@ def load():
     return round(os.getloadavg()[0], 2)
 
 
+#: --opaque: the transfer function's opacity ramp goes to 1 over 1/8 of a typical cell
+OPAQUE = {"opacity": (0.0, 0.3), "unit_factor": 1.0}
+
+
 def scene(name, scalars):
     import pyvista as pv
 
@@ -76,9 +80,9 @@ def scene(name, scalars):
     grid.set_active_scalars(scalars, preference="point" if scalars in grid.point_data else "cell")
     mesh = hv.tetmesh_from_dataset(grid, scalars)
     lo, hi = mesh.value_range
-    tf = hv.TransferFunction.ramp(lo, hi, cmap="viridis", opacity=(0.0, 0.3))
+    tf = hv.TransferFunction.ramp(lo, hi, cmap="viridis", opacity=OPAQUE["opacity"])
     camera = hv.Camera.fit(mesh.bounds, "iso")
-    return grid, mesh, tf, camera, mesh.default_unit_distance()
+    return grid, mesh, tf, camera, mesh.default_unit_distance() * OPAQUE["unit_factor"]
 
 
 class VTKScene:
@@ -169,7 +173,8 @@ def part_peers(sizes, repeat, peers):
         for size in sizes:
             wh = (size, size)
             load0 = load()
-            ours = lambda: hv.render(mesh, tf, camera, wh, precision="float32", progress_bar=False)  # noqa: E731
+            ours = lambda: hv.render(mesh, tf, camera, wh, precision="float32", opacity_unit_distance=unit,  # noqa: E731
+                                     progress_bar=False)
             ours()  # warm-up: JIT and the mesh cache
             scenes = {k: VTKScene(k, grid, tf, camera, wh, unit) for k in peers}
             for s in scenes.values():
@@ -185,7 +190,8 @@ def part_peers(sizes, repeat, peers):
                 s.close()
             med = {k: statistics.median(v) for k, v in times.items()}
             # distinct levels at low opacity (one frame each)
-            faint = hv.render(mesh, tf, camera, wh, precision="float32", global_alpha=LOW_OPACITY, progress_bar=False)
+            faint = hv.render(mesh, tf, camera, wh, precision="float32", global_alpha=LOW_OPACITY,
+                              opacity_unit_distance=unit, progress_bar=False)
             levels = {"ours": our_levels(faint)}
             for k in peers:
                 s = VTKScene(k, grid, tf, camera, wh, unit, global_alpha=LOW_OPACITY)
@@ -210,11 +216,12 @@ def part_upsample(target, lows, repeat):
     for name, scalars, label in MESHES:
         grid, mesh, tf, camera, unit = scene(name, scalars)
         size = (target, target)
-        hv.render(mesh, tf, camera, (64, 64), progress_bar=False)  # warm-up
+        opts = {"opacity_unit_distance": unit, "progress_bar": False}
+        hv.render(mesh, tf, camera, (64, 64), **opts)  # warm-up
         full_t = []
         for _ in range(repeat):
             t = time.perf_counter()
-            full = hv.render(mesh, tf, camera, size, progress_bar=False)
+            full = hv.render(mesh, tf, camera, size, **opts)
             full_t.append(time.perf_counter() - t)
         t_full = statistics.median(full_t)
         layers = hv.depth_layers(mesh, camera, size)
@@ -223,13 +230,13 @@ def part_upsample(target, lows, repeat):
             parts = {"I": [], "R": [], "U": [], "total": []}
             for _ in range(repeat):
                 t = time.perf_counter()
-                img = hv.render(mesh, tf, camera, size, upsample=f, progress_bar=False)
+                img = hv.render(mesh, tf, camera, size, upsample=f, **opts)
                 parts["total"].append(time.perf_counter() - t)
                 parts["I"].append(img.metadata["low_render_seconds"])
                 parts["R"].append(img.metadata["reference_seconds"])
                 parts["U"].append(img.metadata["upsample_seconds"])
             med = {k: statistics.median(v) for k, v in parts.items()}
-            small = hv.render(mesh, tf, camera, (low, low), progress_bar=False)
+            small = hv.render(mesh, tf, camera, (low, low), **opts)
             errors = {m: rmse(hv.upsample(small, layers, f, method=m).rgba, full.rgba)
                       for m in ("nearest", "bilinear", "joint_bilateral")}
             row = {"mesh": label, "tets": mesh.n_cells, "target": target, "low": low, "full_seconds": t_full,
@@ -331,11 +338,15 @@ def main(argv=None):
     ap.add_argument("--target", type=int, default=1024)
     ap.add_argument("--lows", type=int, nargs="+", default=[512, 256, 128])
     ap.add_argument("--meshes", nargs="+", help="labels to run (default all)")
+    ap.add_argument("--opaque", action="store_true",
+                    help="opacity ramp to 1 per 1/8 of a typical cell (default: to 0.3 per cell)")
     ap.add_argument("--out", type=Path)
     ap.add_argument("--figure", type=Path)
     args = ap.parse_args(argv)
     if args.meshes:
         MESHES[:] = [m for m in MESHES if m[2] in args.meshes]
+    if args.opaque:
+        OPAQUE.update(opacity=(0.0, 1.0), unit_factor=1.0 / 8.0)
     import numba
 
     print(f"numba threads {numba.get_num_threads()}, load {load()}", flush=True)

@@ -76,22 +76,20 @@ class TetParams(NamedTuple):
 # -- Plücker products -----------------------------------------------------------------------
 @inline_kernel
 def _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
-    """Product of the ray (origin o, direction d, moment m = o x d) with the edge a -> b,
-    formed from the lower-numbered corner so that both directions give exactly
-    opposite numbers."""
+    """Product of the ray (origin o, direction d, moment m = o x d) with the edge a -> b.
+
+    It is formed from the lower-numbered corner and negated for the other direction, so
+    both directions give exactly opposite numbers. A product of exactly 0 (the ray
+    meets the edge's line: through an edge or a vertex, or parallel to the edge) takes
+    the sign it has for the ray moved by an infinitesimal ``eps PERTURB_O`` and turned
+    by ``eps**2 PERTURB_D`` (simulation of simplicity): the first non-zero term of the
+    expansion. Every cell sees the same perturbed ray, so the decisions stay
+    consistent; the value returned is then ``+-TIE``, a weight of nothing.
+    """
+    sign = 1.0
     if a > b:
-        return -_pi_ordered(points, b, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
-    return _pi_ordered(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
-
-
-@inline_kernel
-def _pi_ordered(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
-    """See ``_pi``. A product of exactly 0 (the ray meets the edge's line: through an edge
-    or a vertex, or parallel to the edge) takes the sign it has for the ray moved by an
-    infinitesimal ``eps PERTURB_O`` and turned by ``eps**2 PERTURB_D`` (simulation of
-    simplicity): the first non-zero of the expansion's terms. Every cell sees the same
-    perturbed ray, so the decisions stay consistent; the value returned is then
-    ``+-TIE``, a weight of nothing."""
+        a, b = b, a
+        sign = -1.0
     ax = points[a, 0]
     ay = points[a, 1]
     az = points[a, 2]
@@ -104,7 +102,7 @@ def _pi_ordered(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
     pi = (dx * (ay * bz - az * by) + dy * (az * bx - ax * bz) + dz * (ax * by - ay * bx)
           + ex * mx + ey * my + ez * mz)
     if pi != 0.0:
-        return pi
+        return sign * pi
     wx, wy, wz = PERTURB_O
     vx, vy, vz = PERTURB_D
     # eps: (b - a) . (w x d)
@@ -116,7 +114,7 @@ def _pi_ordered(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
         if q == 0.0:
             # eps^3: (b - a) . (w x v)
             q = ex * (wy * vz - wz * vy) + ey * (wz * vx - wx * vz) + ez * (wx * vy - wy * vx)
-    return TIE if q >= 0.0 else -TIE
+    return sign * TIE if q >= 0.0 else -sign * TIE
 
 
 @inline_kernel

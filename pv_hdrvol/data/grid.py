@@ -144,23 +144,7 @@ def _image_array(dataset, scalars, preference):
         raise ValueError(f"the image has no points (dimensions {dims})")
     # plain VTK calls: works without PyVista (ParaView's Python) and on pyvista.ImageData
     pdata, cdata = _arrays(ds.GetPointData()), _arrays(ds.GetCellData())
-    pnames, cnames = list(pdata), list(cdata)
-    if scalars is None:
-        active = ds.GetPointData().GetScalars() or ds.GetCellData().GetScalars()
-        if active is not None and active.GetName():
-            scalars = active.GetName()
-        elif len(pnames) + len(cnames) == 1:
-            scalars = (pnames + cnames)[0]
-        else:
-            raise ScalarsError(
-                f"scalars must be given: the dataset has no active scalars and several arrays "
-                f"(point: {pnames}, cell: {cnames})")
-    if not isinstance(scalars, str):
-        raise TypeError(f"scalars must be an array name (str); got {scalars!r}")
-    in_point, in_cell = scalars in pnames, scalars in cnames
-    if not (in_point or in_cell):
-        raise ScalarsError(f"scalars {scalars!r} not found; point arrays: {pnames}, cell arrays: {cnames}")
-    use_cell = in_cell and (preference == "cell" or not in_point)
+    scalars, use_cell = choose_scalars(ds, scalars, preference, "dataset")
     arr = (cdata if use_cell else pdata)[scalars]()
     if arr.ndim != 1:
         raise ScalarsError(f"scalars {scalars!r} must have one component; got shape {arr.shape}")
@@ -178,6 +162,29 @@ def _image_array(dataset, scalars, preference):
     else:
         shape = dims[::-1]
     return arr.reshape(shape), spacing, origin, scalars
+
+
+def choose_scalars(ds, scalars, preference, what="dataset"):
+    """``(name, use_cell)``: the array to render of a VTK dataset: ``scalars``, else the
+    active scalars, else its only array; cell data when the name is only a cell array
+    or ``preference == "cell"``."""
+    pnames, cnames = list(_arrays(ds.GetPointData())), list(_arrays(ds.GetCellData()))
+    if scalars is None:
+        active = ds.GetPointData().GetScalars() or ds.GetCellData().GetScalars()
+        if active is not None and active.GetName():
+            scalars = active.GetName()
+        elif len(pnames) + len(cnames) == 1:
+            scalars = (pnames + cnames)[0]
+        else:
+            raise ScalarsError(f"scalars must be given: the {what} has no active scalars and "
+                               f"{'no arrays' if not pnames + cnames else 'several arrays'} "
+                               f"(point: {pnames}, cell: {cnames})")
+    if not isinstance(scalars, str):
+        raise TypeError(f"scalars must be an array name (str); got {scalars!r}")
+    in_point, in_cell = scalars in pnames, scalars in cnames
+    if not (in_point or in_cell):
+        raise ScalarsError(f"scalars {scalars!r} not found; point arrays: {pnames}, cell arrays: {cnames}")
+    return scalars, in_cell and (preference == "cell" or not in_point)
 
 
 def _arrays(field_data):

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .grid import ScalarsError, _arrays
+from .grid import ScalarsError, _arrays, choose_scalars
 from .._validate import as_choice
 
 #: VTK cell type of a linear tetrahedron
@@ -156,7 +156,7 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
     n_cells = int(dataset.GetNumberOfCells())
     if n_points == 0 or n_cells == 0:
         raise ValueError(f"the mesh has no cells to render ({n_points} points, {n_cells} cells)")
-    name, use_cell = _pick_scalars(dataset, scalars, preference)
+    name, use_cell = choose_scalars(dataset, scalars, preference, "mesh")
     ug = dataset
     types = _cell_types(ug)
     if not np.all(types == VTK_TETRA):
@@ -239,26 +239,6 @@ def tetmesh_from_arrays(points, tets, values, *, association="point", name=""):
     return TetMesh(unit, np.ascontiguousarray(merged), np.ascontiguousarray(per_corner), neighbors, neighbor_faces,
                    boundary, bcell.astype(np.int64), bface.astype(np.int64), center, scale, value_range, name,
                    association)
-
-
-def _pick_scalars(ds, scalars, preference):
-    pnames, cnames = list(_arrays(ds.GetPointData())), list(_arrays(ds.GetCellData()))
-    if scalars is None:
-        active = ds.GetPointData().GetScalars() or ds.GetCellData().GetScalars()
-        if active is not None and active.GetName():
-            scalars = active.GetName()
-        elif len(pnames) + len(cnames) == 1:
-            scalars = (pnames + cnames)[0]
-        else:
-            raise ScalarsError(f"scalars must be given: the mesh has no active scalars and "
-                               f"{'no arrays' if not pnames + cnames else 'several arrays'} "
-                               f"(point: {pnames}, cell: {cnames})")
-    if not isinstance(scalars, str):
-        raise TypeError(f"scalars must be an array name (str); got {scalars!r}")
-    in_point, in_cell = scalars in pnames, scalars in cnames
-    if not (in_point or in_cell):
-        raise ScalarsError(f"scalars {scalars!r} not found; point arrays: {pnames}, cell arrays: {cnames}")
-    return scalars, in_cell and (preference == "cell" or not in_point)
 
 
 def _cell_types(ug):

@@ -157,6 +157,26 @@ def test_tetrahedral_meshes_render_through_the_accessor():
         tets.hdrvol.render(scalars="s", size=SIZE, blending="maximum")
 
 
+def test_tet_mesh_cache_follows_the_grid():
+    """The prepared mesh is reused until the grid changes, and does not keep it alive."""
+    import gc
+
+    from pv_hdrvol.data import tets as T
+
+    mesh = pv.ImageData(dimensions=(4, 3, 3)).triangulate()
+    mesh["s"] = np.linspace(0.0, 1.0, mesh.n_points)
+    first = T.as_tetmesh(mesh)
+    assert T.as_tetmesh(mesh) is first
+    mesh["s"] = np.linspace(1.0, 2.0, mesh.n_points)  # PyVista marks the grid modified
+    second = T.as_tetmesh(mesh)
+    assert second is not first and second.value_range == (1.0, 2.0)
+    key = id(mesh)
+    del mesh
+    gc.collect()
+    entry = T._MESH_CACHE.get(key)
+    assert entry is None or entry[0]() is None  # held weakly
+
+
 def test_repr_and_cache(grid):
     accessor = grid.hdrvol
     assert accessor is grid.hdrvol and isinstance(accessor, HDRVolAccessor)

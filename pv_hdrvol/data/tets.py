@@ -22,6 +22,7 @@ first two; the others are boundary.
 from __future__ import annotations
 
 import warnings
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -101,10 +102,11 @@ def is_unstructured(data):
 
 
 def as_tetmesh(data, scalars=None, preference="point"):
-    """A :class:`TetMesh` from a TetMesh or an unstructured grid, cached on the grid.
+    """A :class:`TetMesh` from a TetMesh or an unstructured grid, cached per grid.
 
     The cache key holds the grid's modification time, the array and its association:
     changing the mesh or its scalars (VTK ``Modified()``, which PyVista calls) rebuilds it.
+    The cache holds the grid weakly and at most four prepared meshes.
     """
     if isinstance(data, TetMesh):
         if scalars is not None:
@@ -115,10 +117,12 @@ def as_tetmesh(data, scalars=None, preference="point"):
                         f"TetMesh; got {type(data).__name__}")
     key = (int(data.GetMTime()), scalars, preference)
     cache = _MESH_CACHE.get(id(data))
-    if cache is not None and cache[0] is data and cache[1] == key:
+    if cache is not None and cache[0]() is data and cache[1] == key:
         return cache[2]
     mesh = tetmesh_from_dataset(data, scalars, preference)
-    _MESH_CACHE[id(data)] = (data, key, mesh)
+    for k in [k for k, v in _MESH_CACHE.items() if v[0]() is None]:
+        del _MESH_CACHE[k]  # grids that are gone
+    _MESH_CACHE[id(data)] = (weakref.ref(data), key, mesh)
     if len(_MESH_CACHE) > 4:  # a few meshes at most: they can be large
         _MESH_CACHE.pop(next(iter(_MESH_CACHE)))
     return mesh

@@ -27,7 +27,7 @@ cell; across more, the integrals come from cumulative tables over the scalar
 (``cumulative_tables``), again exact for the table's piecewise-linear functions, and
 the segment is cut into pieces of optical depth at most ``tau_max``. A piece's
 emission ``int c sigma e^-tau`` takes its colour as linear in optical depth between
-the piece's ends (``_tilt``): exact when extinction or colour is constant along the
+the piece's ends (``_piece``): exact when extinction or colour is constant along the
 piece, off by O(tau^3) times the colour change where both vary.
 """
 from __future__ import annotations
@@ -490,29 +490,6 @@ def _corners(tets, cell, face, a, b, c):
 def _consistency(x, y, z):
     """How far the three products are from sharing a sign (larger: closer)."""
     return max(min(x, y, z), -max(x, y, z))
-
-
-@inline_kernel
-def _face_value(tets, values, cell, a, b, c, ua, ub, uc):
-    """The scalar at the point with weights ``(ua, ub, uc)`` on the face ``(a, b, c)`` of
-    ``cell``, from the cell's own corner values (a field may jump between cells that
-    share merged points). A corner repeated in a degenerate cell counts once."""
-    s = 0.0
-    got_a = False
-    got_b = False
-    got_c = False
-    for k in range(4):
-        vk = tets[cell, k]
-        if vk == a and not got_a:
-            s += ua * values[cell, k]
-            got_a = True
-        elif vk == b and not got_b:
-            s += ub * values[cell, k]
-            got_b = True
-        elif vk == c and not got_c:
-            s += uc * values[cell, k]
-            got_c = True
-    return s
 
 
 @kernel

@@ -102,48 +102,29 @@ def load():
 
 # -- VTK side ---------------------------------------------------------------------------------
 
-class VTKScene:
-    """One offscreen render window with one volume mapper, set up to match our render."""
+class VTKWindow:
+    """One offscreen render window showing ``mapper`` with our transfer function's control
+    points, opacity unit distance and camera (any VTK volume mapper)."""
 
-    def __init__(self, kind, image, tf, camera, size, step, unit_distance):
+    def __init__(self, mapper, tf, camera, size, unit_distance, global_alpha=1.0):
         from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
         from vtkmodules.vtkRenderingCore import (
             vtkColorTransferFunction, vtkRenderer, vtkRenderWindow, vtkVolume, vtkVolumeProperty,
         )
-        import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (object factories)
-        import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
-        from vtkmodules.vtkRenderingVolume import vtkFixedPointVolumeRayCastMapper, vtkGPUVolumeRayCastMapper
 
         ctf = vtkColorTransferFunction()
         for v, c in zip(tf.values, tf.colors):
             ctf.AddRGBPoint(float(v), *map(float, c))
         otf = vtkPiecewiseFunction()
         for v, a in zip(tf.values, tf.opacities):
-            otf.AddPoint(float(v), float(a))
+            otf.AddPoint(float(v), float(a) * global_alpha)
         prop = vtkVolumeProperty()
         prop.SetColor(ctf)
         prop.SetScalarOpacity(otf)
         prop.SetInterpolationTypeToLinear()
         prop.ShadeOff()
-        # ours: alpha is reached over opacity_unit_distance (default: smallest spacing)
+        # ours: alpha is reached over opacity_unit_distance
         prop.SetScalarOpacityUnitDistance(unit_distance)
-
-        spacing = min(image.GetSpacing())
-        sample_distance = step * spacing
-        if kind == "fixed":
-            mapper = vtkFixedPointVolumeRayCastMapper()
-            mapper.SetInteractiveSampleDistance(sample_distance)
-        elif kind == "gpu":
-            mapper = vtkGPUVolumeRayCastMapper()
-            mapper.SetUseJittering(False)
-        else:
-            raise ValueError(f"kind must be 'fixed' or 'gpu'; got {kind!r}")
-        mapper.SetInputData(image)
-        mapper.SetBlendModeToComposite()
-        mapper.SetAutoAdjustSampleDistances(False)  # also switches off interactive adjustment
-        mapper.SetLockSampleDistanceToInputSpacing(False)
-        mapper.SetSampleDistance(sample_distance)
-        mapper.SetImageSampleDistance(1.0)
 
         volume = vtkVolume()
         volume.SetMapper(mapper)
@@ -158,9 +139,8 @@ class VTKScene:
         rw.SetMultiSamples(0)
         rw.SetSize(*size)
         rw.AddRenderer(ren)
-        self.kind, self.mapper, self.renderer, self.window = kind, mapper, ren, rw
+        self.mapper, self.renderer, self.window = mapper, ren, rw
         self.size = size
-        self.sample_distance = sample_distance
 
     def render(self):
         """Seconds of one ``Render()``, waiting for GL to finish."""
@@ -193,6 +173,36 @@ class VTKScene:
 
     def close(self):
         self.window.Finalize()
+
+
+class VTKScene(VTKWindow):
+    """``VTKWindow`` with VTK's fixed-point (``"fixed"``) or GPU (``"gpu"``) image mapper,
+    sampling as ours does (``step`` voxels, no automatic adjustment, no jittering)."""
+
+    def __init__(self, kind, image, tf, camera, size, step, unit_distance):
+        import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (object factories)
+        import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
+        from vtkmodules.vtkRenderingVolume import vtkFixedPointVolumeRayCastMapper, vtkGPUVolumeRayCastMapper
+
+        spacing = min(image.GetSpacing())
+        sample_distance = step * spacing
+        if kind == "fixed":
+            mapper = vtkFixedPointVolumeRayCastMapper()
+            mapper.SetInteractiveSampleDistance(sample_distance)
+        elif kind == "gpu":
+            mapper = vtkGPUVolumeRayCastMapper()
+            mapper.SetUseJittering(False)
+        else:
+            raise ValueError(f"kind must be 'fixed' or 'gpu'; got {kind!r}")
+        mapper.SetInputData(image)
+        mapper.SetBlendModeToComposite()
+        mapper.SetAutoAdjustSampleDistances(False)  # also switches off interactive adjustment
+        mapper.SetLockSampleDistanceToInputSpacing(False)
+        mapper.SetSampleDistance(sample_distance)
+        mapper.SetImageSampleDistance(1.0)
+        super().__init__(mapper, tf, camera, size, unit_distance)
+        self.kind = kind
+        self.sample_distance = sample_distance
 
 
 # -- agreement -------------------------------------------------------------------------------

@@ -45,8 +45,9 @@ if not os.environ.get("DISPLAY"):
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-if str(REPO) not in sys.path:
-    sys.path.insert(0, str(REPO))
+for _path in (REPO, REPO / "benchmarks"):  # the package, and bench_grid's VTKWindow
+    if str(_path) not in sys.path:
+        sys.path.insert(0, str(_path))
 
 #: file, scalars, label
 MESHES = [
@@ -85,77 +86,30 @@ def scene(name, scalars):
     return grid, mesh, tf, camera, mesh.default_unit_distance() * OPAQUE["unit_factor"]
 
 
-class VTKScene:
-    """One offscreen window with one unstructured volume mapper, matched to our render."""
+def vtk_scene(kind, grid, tf, camera, size, unit, global_alpha=1.0):
+    """A ``bench_grid.VTKWindow`` with one of VTK's unstructured volume mappers."""
+    import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (object factories)
+    import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
+    from vtkmodules.vtkRenderingVolume import (
+        vtkProjectedTetrahedraMapper, vtkUnstructuredGridVolumeRayCastMapper, vtkUnstructuredGridVolumeZSweepMapper,
+    )
 
-    def __init__(self, kind, grid, tf, camera, size, unit, global_alpha=1.0):
-        import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (object factories)
-        import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
-        from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
-        from vtkmodules.vtkRenderingCore import (
-            vtkColorTransferFunction, vtkRenderer, vtkRenderWindow, vtkVolume, vtkVolumeProperty,
-        )
-        from vtkmodules.vtkRenderingVolume import (
-            vtkProjectedTetrahedraMapper, vtkUnstructuredGridVolumeRayCastMapper,
-            vtkUnstructuredGridVolumeZSweepMapper,
-        )
+    from bench_grid import VTKWindow
 
-        ctf = vtkColorTransferFunction()
-        for v, c in zip(tf.values, tf.colors):
-            ctf.AddRGBPoint(float(v), *map(float, c))
-        otf = vtkPiecewiseFunction()
-        for v, a in zip(tf.values, tf.opacities):
-            otf.AddPoint(float(v), float(a) * global_alpha)
-        prop = vtkVolumeProperty()
-        prop.SetColor(ctf)
-        prop.SetScalarOpacity(otf)
-        prop.SetInterpolationTypeToLinear()
-        prop.ShadeOff()
-        prop.SetScalarOpacityUnitDistance(unit)
-        mapper = {"raycast": vtkUnstructuredGridVolumeRayCastMapper, "projected": vtkProjectedTetrahedraMapper,
-                  "zsweep": vtkUnstructuredGridVolumeZSweepMapper}[kind]()
-        mapper.SetInputData(grid)
-        if hasattr(mapper, "SetImageSampleDistance"):
-            mapper.SetImageSampleDistance(1.0)  # every pixel, as ours
-        if hasattr(mapper, "SetAutoAdjustSampleDistances"):
-            mapper.SetAutoAdjustSampleDistances(0)
-        volume = vtkVolume()
-        volume.SetMapper(mapper)
-        volume.SetProperty(prop)
-        ren = vtkRenderer()
-        ren.SetBackground(0.0, 0.0, 0.0)
-        ren.AddVolume(volume)
-        ren.SetActiveCamera(camera.to_vtk())
-        ren.ResetCameraClippingRange()
-        win = vtkRenderWindow()
-        win.SetOffScreenRendering(True)
-        win.SetMultiSamples(0)
-        win.SetSize(*size)
-        win.AddRenderer(ren)
-        self.window, self.size = win, size
+    mapper = {"raycast": vtkUnstructuredGridVolumeRayCastMapper, "projected": vtkProjectedTetrahedraMapper,
+              "zsweep": vtkUnstructuredGridVolumeZSweepMapper}[kind]()
+    mapper.SetInputData(grid)
+    if hasattr(mapper, "SetImageSampleDistance"):
+        mapper.SetImageSampleDistance(1.0)  # every pixel, as ours
+    if hasattr(mapper, "SetAutoAdjustSampleDistances"):
+        mapper.SetAutoAdjustSampleDistances(0)
+    return VTKWindow(mapper, tf, camera, size, unit, global_alpha)
 
-    def render(self):
-        t = time.perf_counter()
-        self.window.Render()
-        self.window.WaitForCompletion()
-        return time.perf_counter() - t
 
-    def levels(self):
-        """Distinct luminance levels of the covered pixels of the 8-bit frame buffer."""
-        from vtkmodules.util.numpy_support import vtk_to_numpy
-        from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
-
-        grab = vtkWindowToImageFilter()
-        grab.SetInput(self.window)
-        grab.SetInputBufferTypeToRGB()
-        grab.ReadFrontBufferOff()
-        grab.Update()
-        rgb = vtk_to_numpy(grab.GetOutput().GetPointData().GetScalars()).reshape(-1, 3).astype(np.float64)
-        lum = rgb @ np.array([0.2126, 0.7152, 0.0722])
-        return int(np.unique(lum[lum > 0]).size)
-
-    def close(self):
-        self.window.Finalize()
+def vtk_levels(scene):
+    """Distinct luminance levels of the covered pixels of a window's 8-bit frame buffer."""
+    lum = scene.luminance()[0]
+    return int(np.unique(lum[lum > 0]).size)
 
 
 def our_levels(img):
@@ -176,7 +130,7 @@ def part_peers(sizes, repeat, peers):
             ours = lambda: hv.render(mesh, tf, camera, wh, precision="float32", opacity_unit_distance=unit,  # noqa: E731
                                      progress_bar=False)
             ours()  # warm-up: JIT and the mesh cache
-            scenes = {k: VTKScene(k, grid, tf, camera, wh, unit) for k in peers}
+            scenes = {k: vtk_scene(k, grid, tf, camera, wh, unit) for k in peers}
             for s in scenes.values():
                 s.render()  # warm-up: VTK builds its structures on the first frame
             times = {"ours": []} | {k: [] for k in scenes}
@@ -194,9 +148,9 @@ def part_peers(sizes, repeat, peers):
                               opacity_unit_distance=unit, progress_bar=False)
             levels = {"ours": our_levels(faint)}
             for k in peers:
-                s = VTKScene(k, grid, tf, camera, wh, unit, global_alpha=LOW_OPACITY)
+                s = vtk_scene(k, grid, tf, camera, wh, unit, global_alpha=LOW_OPACITY)
                 s.render()
-                levels[k] = s.levels()
+                levels[k] = vtk_levels(s)
                 s.close()
             row = {"mesh": label, "tets": mesh.n_cells, "size": size, "seconds": med, "levels": levels,
                    "load": (load0, load())}

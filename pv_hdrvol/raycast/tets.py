@@ -17,7 +17,7 @@ from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
 from . import _tet_kernels as TK
-from .grid import _TILE, _check_progress_bar, _lanes, default_transfer_function, run_in_chunks
+from .grid import _TILE, _check_progress_bar, _lanes, _visible, default_transfer_function, run_in_chunks
 
 #: largest optical depth of one integration piece (see _tet_kernels: the emission of a
 #: piece is exact for constant extinction or constant colour, else off by O(tau^3))
@@ -117,7 +117,12 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     knots[0], knots[-1] = tf.vmin, tf.vmax
     table[:, 8] = np.maximum.accumulate(knots)  # monotone despite rounding of the inverse axis
     TK.cumulative_tables(table)
-    active = _active_cells(mesh, tf, sigma)
+    params = TK.TetParams(
+        PRECISION_CODES[prec], SCALE_CODES[tf.scale], float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
+        1.0 - opts.termination if opts.termination > 0 else math.inf, float(opts.depth_threshold),
+        float(mesh.scale), tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64),
+    )
+    active = _active_cells(mesh, sigma, params)
 
     # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
     cam = camera_array(camera, mesh, width, height)
@@ -130,11 +135,6 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
         raise ValueError(f"the camera is inside the mesh: {inside} rays start inside it (their first boundary "
                          f"crossing leaves the mesh); place the camera outside the mesh's boundary")
 
-    params = TK.TetParams(
-        PRECISION_CODES[prec], SCALE_CODES[tf.scale], float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
-        1.0 - opts.termination if opts.termination > 0 else math.inf, float(opts.depth_threshold),
-        float(mesh.scale), tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64),
-    )
     out_dtype = np.float64 if prec == "float64" else np.float32
     n_pix = width * height
     rgba = np.zeros((n_pix, 4), dtype=out_dtype)
@@ -291,24 +291,13 @@ def _face_boxes(mesh, camera, width, height):
     return boxes, np.ascontiguousarray(p)
 
 
-def _active_cells(mesh, tf, sigma):
-    """1 for cells whose corner values can meet a non-zero extinction, else 0 (skipped)."""
-    from ..data.transfer import scale_forward
-
-    lo = np.nanmin(mesh.values, axis=1)
-    hi = np.nanmax(mesh.values, axis=1)
-    n = sigma.size
-    a0, a1 = tf.axis_range
-
-    def pos(v):
-        with np.errstate(invalid="ignore", divide="ignore"):
-            u = (scale_forward(v, tf.scale, tf.linthresh) - a0) / (a1 - a0)
-        return np.clip(np.nan_to_num(u, nan=0.0, neginf=0.0, posinf=1.0), 0, 1) * (n - 1)
-
-    i0 = np.floor(pos(lo)).astype(np.int64)
-    i1 = np.minimum(np.ceil(pos(hi)).astype(np.int64), n - 1)
-    nonzero = np.concatenate([[0], np.cumsum(sigma > 0)])
-    act = (nonzero[i1 + 1] - nonzero[i0]) > 0
-    act &= np.all(np.isfinite(mesh.values), axis=1)
-    return act.astype(np.uint8)
+def _active_cells(mesh, sigma, params):
+    """1 for cells whose corner values can meet a non-zero extinction, else 0 (skipped):
+    the grid's block test (``grid._visible``) on each cell's value range. A cell with a
+    non-finite corner value is empty."""
+    finite = np.all(np.isfinite(mesh.values), axis=1)
+    lo = np.where(finite, mesh.values.min(axis=1), np.nan)
+    hi = np.where(finite, mesh.values.max(axis=1), np.nan)
+    # the tet kernel interpolates the table in every precision (no nearest-entry rule)
+    return _visible(lo, hi, sigma, params._replace(precision=PRECISION_CODES["float64"]))
 

@@ -180,3 +180,57 @@ def test_early_termination_error_is_bounded_by_the_threshold():
         img = hv.render(vol, tf, None, (24, 24), precision="float64", termination=term)
         assert np.abs(img.rgba - exact.rgba).max() <= term  # colours are <= 1
         assert img.metadata["samples"] < exact.metadata["samples"]
+
+
+# -- rays made in the kernel ---------------------------------------------------------------------
+@pytest.mark.parametrize("parallel", [False, True])
+def test_kernel_camera_rays_are_camera_rays_bit_for_bit(parallel):
+    from pv_hdrvol.rays._kernels import camera_ray
+
+    vol = hv.volume_from_array(np.random.default_rng(3).random((9, 8, 7)), spacing=(0.7, 1.3, 2.1),
+                               origin=(-4.0, 2.5, 1e3))
+    cam = hv.Camera.fit(vol, "iso", parallel_projection=parallel)
+    size = (23, 17)
+    # a render with a Camera makes its rays in the kernel; with Rays it reads them
+    by_camera = hv.render(vol, None, cam, size, precision="float64")
+    by_rays = hv.render(vol, None, cam.rays(size), precision="float64")
+    np.testing.assert_array_equal(by_camera.rgba, by_rays.rgba)
+    np.testing.assert_array_equal(by_camera.depth, by_rays.depth)
+    assert by_camera.metadata["samples"] == by_rays.metadata["samples"] > 0
+    # camera_ray was just compiled inside a fused kernel; called alone it must still give
+    # Camera.rays' bits (a helper that inherited the caller's FMA contraction would not)
+    rays = cam.rays(size)
+    ka = cam.kernel_array(size)
+    got = np.array([camera_ray(ka, c, r, size[0], size[1]) for r in range(size[1]) for c in range(size[0])])
+    np.testing.assert_array_equal(got[:, :3], rays.origins)
+    np.testing.assert_array_equal(got[:, 3:], rays.directions)
+
+
+def test_skip_structures_are_reused_per_transfer_function_and_mask():
+    # float64 data rendered in float64: the structures live on this volume (float32
+    # renders of float64 data cache them on a derived float32 copy)
+    vol = hv.volume_from_array(np.linspace(0.0, 1.0, 17**3).reshape(17, 17, 17))
+    cam = hv.Camera.fit(vol, "iso")
+    upper = hv.TransferFunction.ramp(0.5, 1.0, cmap="gray", opacity=(0.0, 0.3))
+    lower = hv.TransferFunction.ramp(0.0, 0.5, cmap="gray", opacity=(0.3, 0.0))
+    first = hv.render(vol, upper, cam, 16, block_size=4, precision="float64")
+    assert len(vol.cache["skip_structures"]) == 1
+    other = hv.render(vol, lower, cam, 16, block_size=4, precision="float64")
+    assert len(vol.cache["skip_structures"]) == 2
+    again = hv.render(vol, upper, cam, 16, block_size=4, precision="float64")
+    assert len(vol.cache["skip_structures"]) == 2  # found, not rebuilt
+    np.testing.assert_array_equal(again.rgba, first.rgba)
+    assert again.metadata["samples"] == first.metadata["samples"] != other.metadata["samples"]
+    # a fresh volume (no cache) renders the same pixels
+    fresh = hv.render(hv.volume_from_array(np.asarray(vol.values)), upper, cam, 16, block_size=4, precision="float64")
+    np.testing.assert_array_equal(fresh.rgba, first.rgba)
+    # a mask is part of the key; the cache keeps the last four structures
+    grid = hv.BlockGrid.of(vol, 4)
+    half = np.zeros(grid.shape, bool)
+    half[:, :, :2] = True
+    masked = hv.render(vol, upper, cam, 16, block_size=4, block_mask=half, precision="float64")
+    assert masked.metadata["samples"] < first.metadata["samples"]
+    for opacity in (0.1, 0.2, 0.4):
+        tf = hv.TransferFunction.ramp(0.5, 1.0, cmap="gray", opacity=(0.0, opacity))
+        hv.render(vol, tf, cam, 16, block_size=4, precision="float64")
+    assert len(vol.cache["skip_structures"]) == 4

@@ -26,7 +26,11 @@ import numba
 import numpy as np
 from numba.extending import overload
 
-from .._jit import JIT_OPTIONS as _JIT, inline_kernel, kernel, parallel_kernel, uindex as _u
+from .._jit import (
+    FUSED_JIT_OPTIONS as _FUSED_JIT, JIT_OPTIONS as _JIT, fused_kernel, fused_parallel_kernel, inline_kernel, kernel,
+    uindex as _u,
+)
+from ..rays._kernels import CAMERA_FIELDS, camera_ray
 
 # precision codes (params.PRECISION_CODES)
 F64, F32, F16, U8 = 0, 1, 2, 3
@@ -153,17 +157,29 @@ def table_position(v, p):
 
 
 @inline_kernel
-def _table_index(v, n, p):
-    """Entry ``i`` and fraction ``f`` of ``v`` in a table of ``n`` rows."""
-    u = table_position(v, p)
-    if p.precision == U8:
-        # 8-bit pipeline: one of 256 entries, no interpolation
-        return int(u * (n - 1) + 0.5), 0.0
-    x = u * (n - 1)
-    i = int(x)
-    if i > n - 2:
-        i = n - 2
-    return i, x - i
+def table_row(table, base, n, u, u8):
+    """Interpolated row ``(r, g, b, a)`` at axis position ``u`` (``table_position``) of
+    the ``n``-row table starting at ``table[base]`` (flat, 4 values per row), and its
+    entry ``i`` and fraction ``f``. ``u8``: the nearest of the rows, no interpolation
+    (the 8-bit pipeline). The lerp is in the table's precision (float32 tables: no
+    conversions). Inlined, so it takes the caller's flags: every compositing loop that
+    must give the same bits is a ``fused_kernel``."""
+    if u8:
+        i = int(u * (n - 1) + 0.5)
+        f = 0.0
+    else:
+        x = u * (n - 1)
+        i = int(x)
+        if i > n - 2:
+            i = n - 2
+        f = x - i
+    q = _u(base + 4 * i)
+    ft = table.dtype.type(f)
+    r = table[q] + ft * (table[q + _u(4)] - table[q])
+    g = table[q + _u(1)] + ft * (table[q + _u(5)] - table[q + _u(1)])
+    b = table[q + _u(2)] + ft * (table[q + _u(6)] - table[q + _u(2)])
+    a = table[q + _u(3)] + ft * (table[q + _u(7)] - table[q + _u(3)])
+    return r, g, b, a, i, f
 
 
 # -- the ray -----------------------------------------------------------------------------
@@ -345,17 +361,17 @@ def _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
     return kn if kn > k else k + 1
 
 
-@kernel
+@fused_kernel
 def _lookup(table, v, n, p):
     """Interpolated table row ``(r, g, b, a)`` of data value ``v``, and its entry and fraction."""
-    i, f = _table_index(v, n, p)
-    q = _u(4 * i)
-    ft = table.dtype.type(f)  # lerp in the table's precision (float32 tables: no conversions)
-    r = table[q] + ft * (table[q + _u(4)] - table[q])
-    g = table[q + _u(1)] + ft * (table[q + _u(5)] - table[q + _u(1)])
-    b = table[q + _u(2)] + ft * (table[q + _u(6)] - table[q + _u(2)])
-    a = table[q + _u(3)] + ft * (table[q + _u(7)] - table[q + _u(3)])
-    return r, g, b, a, i, f
+    return table_row(table, 0, n, table_position(v, p), p.precision == U8)
+
+
+@fused_kernel
+def sigma_at(sigma, i, f):
+    """Extinction between entries ``i`` and ``i + 1`` of ``sigma`` at fraction ``f`` (float64)."""
+    s0 = np.float64(sigma[_u(i)])
+    return s0 + f * (np.float64(sigma[_u(i + 1)]) - s0)
 
 
 # -- compositing: start / accumulate / finish, one implementation per precision -----------
@@ -388,7 +404,7 @@ def _is_f32(marker):
     return isinstance(marker, numba.types.Float) and marker.bitwidth == 32
 
 
-@overload(_start, jit_options=_JIT)
+@overload(_start, jit_options=_FUSED_JIT)
 def _start_impl(marker):
     if _is_f32(marker):
         def start32(marker):
@@ -401,7 +417,7 @@ def _start_impl(marker):
     return start64
 
 
-@overload(_accumulate, jit_options=_JIT)
+@overload(_accumulate, jit_options=_FUSED_JIT)
 def _accumulate_impl(marker, prec, state, a_i, r, g, b):
     if _is_f32(marker):
         def accumulate32(marker, prec, state, a_i, r, g, b):
@@ -434,14 +450,14 @@ def _accumulate_impl(marker, prec, state, a_i, r, g, b):
     return accumulate_emulated
 
 
-@overload(_opacity, jit_options=_JIT)
+@overload(_opacity, jit_options=_FUSED_JIT)
 def _opacity_impl(marker, state):
     def opacity(marker, state):
         return np.float64(state[3])
     return opacity
 
 
-@overload(_finish, jit_options=_JIT)
+@overload(_finish, jit_options=_FUSED_JIT)
 def _finish_impl(marker, state):
     def finish(marker, state):
         return np.float64(state[0]), np.float64(state[1]), np.float64(state[2]), np.float64(state[3])
@@ -500,7 +516,7 @@ def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, 
             samples += 1
             r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
             if a_i > 0.0:
-                sg = sigma[_u(i)] + f * (sigma[_u(i + 1)] - np.float64(sigma[_u(i)]))
+                sg = sigma_at(sigma, i, f)
                 state = _accumulate(marker, prec, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
                 if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
                     depth = tm
@@ -508,12 +524,153 @@ def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, 
     return cr, cg, cb, alpha, depth, samples
 
 
+@fused_kernel
+def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step):
+    """The sampling and compositing loop of ``_march`` for trilinear sampling of
+    ``bricks``, compiled once per precision ``marker``.
+
+    The same samples and arithmetic as ``_march_in`` (sample ``k`` at
+    ``t0 + (k + 1/2) step``, the last segment shortened to the exit), arranged for a
+    short chain of dependent operations per sample, which bounds how many samples the
+    CPU overlaps:
+
+    - sample ``k`` lies at ``b + k s`` (``b``, ``s`` per ray; fused multiply-adds),
+      a function of ``k`` alone, so empty-space leaps change no sample;
+    - its brick offset is the sum of three per-axis entries of ``offs``
+      (``brick_offsets``), three loads instead of a chain of multiplies;
+    - the loop is compiled with fused multiply-adds (``fused_kernel``).
+
+    The labelled loop (``_kernels_ext._composite_ext``) repeats this arithmetic, so a
+    composite label gives the same bits.
+
+    ``offs`` holds the x, then y, then z offsets (``nx + ny + nz`` entries).
+    """
+    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    size = 1 << p.block_shift
+    n_table = table.shape[0] // 4
+    u8 = p.precision == U8
+    rx = 1.0 / dx if dx != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
+    ry = 1.0 / dy if dy != 0.0 else 0.0
+    rz = 1.0 / dz if dz != 0.0 else 0.0
+    n_seg = int(math.ceil((t1 - t0) / step))
+    if n_seg < 1:
+        n_seg = 1
+    # sample k at (bx0, by0, bz0) + k (sx, sy, sz)
+    tb = t0 + 0.5 * step
+    bx0 = ox + tb * dx
+    by0 = oy + tb * dy
+    bz0 = oz + tb * dz
+    sx = step * dx
+    sy = step * dy
+    sz = step * dz
+    oy_off = _u(nx)
+    oz_off = _u(nx + ny)
+    one = _u(1)
+    p1 = _u((1 << BRICK_SHIFT) + 1)
+    p2 = p1 * p1
+    state = _start(marker)
+    depth = math.inf
+    samples = 0
+    stopped = False
+    k = 0
+    kf = 0.0  # k as a float, counted (no conversion per sample)
+    n_full = n_seg - 1
+    while k < n_full:
+        x = min(max(bx0 + kf * sx, 0.0), x_max)
+        y = min(max(by0 + kf * sy, 0.0), y_max)
+        z = min(max(bz0 + kf * sz, 0.0), z_max)
+        xi = int(x)
+        yi = int(y)
+        zi = int(z)
+        ib = min(xi, nx - 2) >> shift
+        jb = min(yi, ny - 2) >> shift
+        kb = min(zi, nz - 2) >> shift
+        radius = leap[_u((kb * by + jb) * bx + ib)]
+        if radius != 0:
+            k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+            kf = float(k)
+            continue
+        fx = x - xi
+        fy = y - yi
+        fz = z - zi
+        # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
+        q = _u(offs[_u(xi)] + offs[oy_off + _u(yi)] + offs[oz_off + _u(zi)])
+        v000 = np.float64(bricks[q])
+        v100 = np.float64(bricks[q + one])
+        v010 = np.float64(bricks[q + p1])
+        v110 = np.float64(bricks[q + p1 + one])
+        v001 = np.float64(bricks[q + p2])
+        v101 = np.float64(bricks[q + p2 + one])
+        v011 = np.float64(bricks[q + p2 + p1])
+        v111 = np.float64(bricks[q + p2 + p1 + one])
+        c00 = v000 + fx * (v100 - v000)
+        c10 = v010 + fx * (v110 - v010)
+        c01 = v001 + fx * (v101 - v001)
+        c11 = v011 + fx * (v111 - v011)
+        c0 = c00 + fy * (c10 - c00)
+        c1 = c01 + fy * (c11 - c01)
+        v = c0 + fz * (c1 - c0)
+        k += 1
+        kf += 1.0
+        if v != v:  # NaN in the stencil: empty
+            continue
+        samples += 1
+        r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
+        if a_i > 0.0:  # as skipped samples: skipping then changes no bit
+            state = _accumulate(marker, p.precision, state, a_i, r, gg, b)
+            alpha = _opacity(marker, state)
+            if depth == math.inf and alpha >= p.depth_alpha:
+                depth = t0 + (k - 0.5) * step
+            if alpha >= p.alpha_stop:
+                stopped = True
+                break
+    if not stopped:
+        # the last segment ends exactly at the exit and is shorter than a step: its
+        # opacity comes from the extinction column (the per-step one may have rounded to 1)
+        ta = t0 + n_full * step
+        tm = 0.5 * (ta + t1)
+        radius, ib, jb, kb, v = _sample(0, bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        if radius == 0 and v == v:
+            samples += 1
+            r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
+            if a_i > 0.0:
+                sg = sigma_at(sigma, i, f)
+                state = _accumulate(marker, p.precision, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
+                if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+                    depth = tm
+    cr, cg, cb, alpha = _finish(marker, state)
+    return cr, cg, cb, alpha, depth, samples
+
+
+def _march_loop(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                step):
+    """``_march_plain`` for the plain sampler, ``_march_in`` for a mip-map sampler (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_march_loop, jit_options=_JIT)
+def _march_loop_impl(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                     step):
+    if isinstance(sampler, numba.types.Integer):
+        def plain(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                  step):
+            return _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step)
+        return plain
+
+    def mipmapped(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                  step):
+        return _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                         step)
+    return mipmapped
+
+
 @kernel
-def _march(sampler, bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step):
+def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
-    ``sampler`` is ``0`` (trilinear in ``bricks``) or a ``mip_sampler`` tuple: a ray
-    with a level of detail samples the mip-map, passed as ``bricks`` (see ``_sample``).
+    ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
+    ``offs``: ``_march_plain``) or a ``mip_sampler`` tuple: a ray with a level of detail
+    samples the mip-map, passed as ``bricks`` (see ``_sample``; ``offs`` unused).
 
     ``grids`` holds the shapes (z, y, x) of the empty-space block grid, then of the
     brick grid. ``leap`` (flat over the block grid) is 0 for a block to sample, else the
@@ -537,7 +694,8 @@ def _march(sampler, bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy,
     float32 arithmetic with compensated (Kahan) sums. ``float16``/``uint8`` apply the
     conventional ``over`` operator in that buffer precision, for comparison.
 
-    Each precision has its own compiled loop (``_march_in`` per marker type).
+    Each precision has its own compiled loop (``_march_plain``, or ``_march_in`` for the
+    mip-map, per marker type).
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
     if not t1 > t0:
@@ -547,17 +705,23 @@ def _march(sampler, bricks, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy,
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
     if p.precision == F64:
-        return _march_in(0.0, sampler, F64, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step)
+        return _march_loop(0.0, sampler, F64, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                           step)
     if p.precision == F32:
-        return _march_in(np.float32(0.0), sampler, F32, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
-                         t1, p, step)
-    return _march_in(0, sampler, p.precision, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step)
+        return _march_loop(np.float32(0.0), sampler, F32, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
+                           t0, t1, p, step)
+    return _march_loop(0, sampler, p.precision, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                       step)
 
 
-@parallel_kernel
-def render_tiles(bricks, table, sigma, leap, grids, dims, origins, directions, width, height, tile, tile_rows, lanes,
-                 lo, hi, p, out_rgba, out_depth, out_samples):
+@fused_parallel_kernel
+def render_tiles(bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, width, height, tile,
+                 tile_rows, lanes, lo, hi, p, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
+
+    Rays come from ``cam`` (``Camera.kernel_array``, then the volume's origin and the
+    reciprocal of its spacing: ``camera_ray`` in voxel coordinates) or, when ``cam`` is
+    empty, from ``origins`` and ``directions`` (one row per pixel, voxel coordinates).
 
     Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
     (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
@@ -567,6 +731,7 @@ def render_tiles(bricks, table, sigma, leap, grids, dims, origins, directions, w
     """
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
+    from_camera = cam.shape[0] > 0
     for lane in numba.prange(lanes):
         for t in range(lane, n_tiles, lanes):
             row0 = tile_rows[t // tiles_x] * tile
@@ -574,16 +739,52 @@ def render_tiles(bricks, table, sigma, leap, grids, dims, origins, directions, w
             for row in range(row0, min(row0 + tile, height)):
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
-                    r, g, b, a, dep, ns = _march(0, bricks, table, sigma, leap, grids, dims,
-                                                 origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                                                 directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                 lo, hi, p, p.step)
+                    if from_camera:
+                        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
+                    else:
+                        ox = origins[pix, 0]
+                        oy = origins[pix, 1]
+                        oz = origins[pix, 2]
+                        dx = directions[pix, 0]
+                        dy = directions[pix, 1]
+                        dz = directions[pix, 2]
+                    r, g, b, a, dep, ns = _march(0, bricks, offs, table, sigma, leap, grids, dims,
+                                                 ox, oy, oz, dx, dy, dz, lo, hi, p, p.step)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b
                     out_rgba[pix, 3] = a
                     out_depth[pix] = dep
                     out_samples[pix] = ns
+
+
+@kernel
+def voxel_ray(cam, col, row, width, height):
+    """``camera_ray`` in voxel coordinates, as ``raycast/grid.py`` converts ``Camera.rays``:
+    ``(o - origin) / spacing`` and ``d / spacing`` (``cam`` ends with the volume's
+    origin and ``1 / spacing``)."""
+    ox, oy, oz, dx, dy, dz = camera_ray(cam, col, row, width, height)
+    c = CAMERA_FIELDS
+    return ((ox - cam[c]) * cam[c + 3], (oy - cam[c + 1]) * cam[c + 4], (oz - cam[c + 2]) * cam[c + 5],
+            dx * cam[c + 3], dy * cam[c + 4], dz * cam[c + 5])
+
+
+@kernel
+def brick_offsets(n, qy, qx, out):
+    """Offsets into the bricks (``make_bricks``) of the points along each axis: a point
+    ``(i, j, k)`` sits at ``out[i] + out[nx + j] + out[nx + ny + k]`` (``n`` = points
+    along x, y, z; ``qy, qx`` bricks along y and x)."""
+    size = 1 << BRICK_SHIFT
+    pitch = size + 1
+    m = size - 1
+    per_brick = pitch * pitch * pitch
+    strides = (1, qx, qx * qy)
+    pos = 0
+    for axis in range(3):
+        local = pitch ** axis
+        for i in range(n[axis]):
+            out[pos + i] = (i >> BRICK_SHIFT) * strides[axis] * per_brick + (i & m) * local
+        pos += n[axis]
 
 
 @kernel

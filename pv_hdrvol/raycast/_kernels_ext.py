@@ -23,10 +23,10 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from .._jit import kernel, parallel_kernel, uindex as _u
+from .._jit import fused_kernel, kernel, parallel_kernel, uindex as _u
 from ._kernels import (
-    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity, _sample as _probe_any,
-    _ray_box, _start, mip_sampler, mip_value, trilinear as _trilinear,
+    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity,
+    _sample as _probe_any, _ray_box, _start, mip_sampler, mip_value, sigma_at, table_row, trilinear as _trilinear,
 )
 
 # blending codes (params.BLENDING_CODES)
@@ -64,7 +64,7 @@ def _lod_value(pyr, pgeo, n_levels, lod, x, y, z):
     return mip_value(pyr, mip_sampler(pgeo, lod, n_levels), x, y, z)
 
 
-@kernel
+@fused_kernel
 def _sample(bricks, leap, g, pyr, pgeo, n_levels, lod, x, y, z):
     """``(radius, ib, jb, kb, v)`` as ``_kernels._sample``; mip-mapped where ``lod > 0``."""
     if lod == 0.0:
@@ -110,7 +110,7 @@ def _position(v, scale, lo, inv_range, linthresh):
     return u
 
 
-@kernel
+@fused_kernel
 def _row(tables, slot, n, axes, v, u8):
     """Interpolated ``(r, g, b, a_step)`` of label slot ``slot``, and entry and fraction.
 
@@ -118,28 +118,13 @@ def _row(tables, slot, n, axes, v, u8):
     ``(scale, lo, 1 / range, linthresh)``. ``u8``: nearest entry, as the 8-bit pipeline.
     """
     u = _position(v, int(axes[slot, 0]), axes[slot, 1], axes[slot, 2], axes[slot, 3])
-    if u8:
-        i = int(u * (n - 1) + 0.5)
-        f = 0.0
-    else:
-        x = u * (n - 1)
-        i = min(int(x), n - 2)
-        f = x - i
-    q = _u(4 * (slot * n + i))
-    ft = tables.dtype.type(f)
-    r = tables[q] + ft * (tables[q + _u(4)] - tables[q])
-    gg = tables[q + _u(1)] + ft * (tables[q + _u(5)] - tables[q + _u(1)])
-    b = tables[q + _u(2)] + ft * (tables[q + _u(6)] - tables[q + _u(2)])
-    a = tables[q + _u(3)] + ft * (tables[q + _u(7)] - tables[q + _u(3)])
-    return r, gg, b, a, i, f
+    return table_row(tables, 4 * slot * n, n, u, u8)
 
 
 @kernel
 def _sigma(sigmas, slot, n, i, f):
     """Interpolated extinction of slot ``slot`` at entry ``i``, fraction ``f`` (float64)."""
-    q = _u(slot * n + i)
-    s0 = np.float64(sigmas[q])
-    return s0 + f * (np.float64(sigmas[q + _u(1)]) - s0)
+    return sigma_at(sigmas, slot * n + i, f)
 
 
 @kernel
@@ -153,7 +138,7 @@ def _gradient_factor(gbricks, g, x, y, z, e):
 
 
 # -- projections ------------------------------------------------------------------------------
-@kernel
+@fused_kernel
 def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e):
     """One ray of a projection. Returns ``(value, r, g, b, alpha, depth, samples)``.
 
@@ -300,13 +285,13 @@ def _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, sl
     return state, depth
 
 
-@kernel
+@fused_kernel
 def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes,
                    ox, oy, oz, dx, dy, dz, t0, t1, p, e):
     """Front-to-back compositing with gradient modulation, labels and mip sampling.
 
     Composite labels (and unlabelled renders) sample segment midpoints exactly as
-    ``_kernels._march_in``. A label with maximum (minimum) blending collects the
+    ``_kernels._march_plain``. A label with maximum (minimum) blending collects the
     extreme of its lattice points ``t0 + k step`` while the ray stays in it; when the
     ray leaves it, the segment is classified by that label's transfer function (its
     opacity over the unit distance) and composited as one sample: the two-level
@@ -330,15 +315,31 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
     seg_t = 0.0
     k = 0
     stopped = False
+    # full segment k has its midpoint at (bx0, by0, bz0) + k (sx, sy, sz), as _kernels._march_plain
+    t_first = t0 + 0.5 * step
+    bx0 = ox + t_first * dx
+    by0 = oy + t_first * dy
+    bz0 = oz + t_first * dz
+    sx = step * dx
+    sy = step * dy
+    sz = step * dz
     while k < n_seg and not stopped:
         ta = t0 + k * step
         last = k == n_seg - 1
-        # the same arithmetic as _kernels._march_in, so a composite ray gives the same bits
+        # the same arithmetic as _kernels._march_plain, so a composite ray gives the same bits
         tb = t1 if last else ta + step
         tm = 0.5 * (ta + t1) if last else t0 + (k + 0.5) * step
+        if last:
+            xm = ox + tm * dx
+            ym = oy + tm * dy
+            zm = oz + tm * dz
+        else:
+            kf = float(k)
+            xm = bx0 + kf * sx
+            ym = by0 + kf * sy
+            zm = bz0 + kf * sz
         # one leap test per segment, at its midpoint (as the plain loop)
-        radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod,
-                                        ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod, xm, ym, zm)
         if radius != 0:
             kn = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
             if seg_slot >= 0:
@@ -378,7 +379,7 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
             continue
         slot = 0
         if e.labelled:
-            slot = np.int64(_label_slot(slots, g, ox + tm * dx, oy + tm * dy, oz + tm * dz))
+            slot = np.int64(_label_slot(slots, g, xm, ym, zm))
             if modes[slot] != COMPOSITE:
                 continue
             if seg_slot >= 0:
@@ -392,7 +393,7 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
             # a shortened last segment, or an extinction scaled by the gradient ramp
             sg = _sigma(sigmas, slot, n_table, i, f)
             if e.gradient:
-                sg *= _gradient_factor(gbricks, g, ox + tm * dx, oy + tm * dy, oz + tm * dz, e)
+                sg *= _gradient_factor(gbricks, g, xm, ym, zm, e)
             a_i = -math.expm1(-sg * (tb - ta))
         if a_i <= 0.0:
             continue
@@ -451,7 +452,7 @@ def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, s
 
 
 @parallel_kernel
-def render_ext(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, slots, modes, tables, sigmas, axes,
+def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, slots, modes, tables, sigmas, axes,
                sigma0, level_tables, level_steps, origins, directions, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth,
                out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
@@ -478,13 +479,14 @@ def render_ext(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, sl
                     lod = lods[pix] if has_lod else 0.0
                     level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
                     if plain_ok and lod == 0.0:
-                        r, gg, b, a, dep, ns = _march(0, bricks, table0, sigma0, leap, grids, dims,
+                        r, gg, b, a, dep, ns = _march(0, bricks, offs, table0, sigma0, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                       lo, hi, p, p.step)
                     elif plain_ok:
                         # the plain loop, sampling two mip levels
-                        r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, level_tables[level],
+                        r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, offs,
+                                                      level_tables[level],
                                                       sigma0, leap_lod[level],
                                                       grids, dims, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],

@@ -39,6 +39,7 @@ import numba
 import numpy as np
 
 from .._jit import inline_kernel, kernel, parallel_kernel
+from ..rays._kernels import CAMERA_FIELDS, camera_ray
 from ._kernels import _accumulate, _finish, _opacity, _start, table_position, F32, F64
 
 
@@ -139,35 +140,17 @@ def _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz):
 
 
 # -- rays ----------------------------------------------------------------------------------
-@inline_kernel
+@kernel
 def pixel_ray(cam, col, row, width, height):
     """The ray of pixel ``(col, row)`` in the mesh's normalised frame, bit for bit as
     ``Camera.rays`` then ``(origin - center) / scale`` compute it.
 
-    ``cam`` (float64, ``camera_array``): position, right, up, forward, half width, half
-    height, parallel (1.0) or not, the mesh's centre and scale."""
-    x = ((col + 0.5) * (2.0 / width) - 1.0) * cam[12]
-    y = (1.0 - (row + 0.5) * (2.0 / height)) * cam[13]
-    gx = x * cam[3] + y * cam[6]
-    gy = x * cam[4] + y * cam[7]
-    gz = x * cam[5] + y * cam[8]
-    if cam[14] != 0.0:
-        ox = cam[0] + gx
-        oy = cam[1] + gy
-        oz = cam[2] + gz
-        dx = cam[9]
-        dy = cam[10]
-        dz = cam[11]
-    else:
-        inv_len = 1.0 / math.sqrt(1.0 + x * x + y * y)
-        ox = cam[0]
-        oy = cam[1]
-        oz = cam[2]
-        dx = (gx + cam[9]) * inv_len
-        dy = (gy + cam[10]) * inv_len
-        dz = (gz + cam[11]) * inv_len
-    scale = cam[18]
-    return (ox - cam[15]) / scale, (oy - cam[16]) / scale, (oz - cam[17]) / scale, dx, dy, dz
+    ``cam`` (float64, ``camera_array``): ``Camera.kernel_array`` (``camera_ray``), then
+    the mesh's centre and scale."""
+    ox, oy, oz, dx, dy, dz = camera_ray(cam, col, row, width, height)
+    scale = cam[CAMERA_FIELDS + 3]
+    return ((ox - cam[CAMERA_FIELDS]) / scale, (oy - cam[CAMERA_FIELDS + 1]) / scale,
+            (oz - cam[CAMERA_FIELDS + 2]) / scale, dx, dy, dz)
 
 
 # -- boundary faces per pixel (entry points and depth layers) --------------------------------

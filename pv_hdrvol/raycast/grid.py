@@ -11,6 +11,7 @@ import numpy as np
 from ..data.grid import GridVolume, volume_from_array, volume_from_dataset
 from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, scale_forward
 from ..image.hdr import HDRImage
+from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays
 from . import _kernels as K
@@ -20,6 +21,8 @@ from . import _kernels_ext as KX
 _TILE = 8
 # progress_bar=None shows a bar for renders expected to take longer than this (seconds).
 _AUTO_BAR_SECONDS = 1.0
+# empty-space structures kept per volume (one per transfer function and block mask)
+_SKIP_CACHE = 4
 
 
 def as_volume(data, scalars=None, preference="point"):
@@ -70,6 +73,9 @@ class Bricks:
         self.shape = _brick_shape(volume.dims)
         self.values = np.empty(int(np.prod(self.shape)) * (size + 1) ** 3, dtype=volume.values.dtype)
         K.make_bricks(volume.values, K.BRICK_SHIFT, *self.shape, self.values)
+        # where point (i, j, k) starts: offsets[i] + offsets[nx + j] + offsets[nx + ny + k]
+        self.offsets = np.empty(sum(volume.dims), dtype=np.int64)
+        K.brick_offsets(np.array(volume.dims, dtype=np.int64), self.shape[1], self.shape[2], self.offsets)
 
     @classmethod
     def of(cls, volume):
@@ -116,7 +122,7 @@ class BlockGrid:
     def visible(self, opacity, params):
         """Blocks that can reach a non-zero opacity entry (uint8 mask, z, y, x).
 
-        Mirrors the kernel's lookup (``_kernels._table_index``) on each block's value
+        Mirrors the kernel's lookup (``_kernels.table_row``) on each block's value
         range: the axis transform is monotone, so the entries a block can touch lie
         between those of its minimum and maximum. Non-linear axes get a margin of 1e-9
         of the axis, because the kernel's ``log10`` may differ from numpy's by an ulp.
@@ -157,6 +163,38 @@ def _active_blocks(minimum, maximum, opts, styles, table, params):
             active |= _visible(minimum, maximum, t, params)
         return active
     return _visible(minimum, maximum, table[:, 3], params)
+
+
+def _skip_structure(volume, blocks, opts, styles, table, params, mask):
+    """``(active, leap)``: the blocks to sample (uint8, z, y, x) and their leap radii
+    (``leap_radius``, flat), cached on the volume for the last few transfer functions.
+
+    A render that changes only the camera (the common case: orbiting, an animation)
+    then skips both. The key holds everything ``_active_blocks`` reads, the opacity
+    column and the mask themselves (compared whole, not hashed); labelled renders are
+    not cached.
+    """
+    def build():
+        active = _active_blocks(blocks.minimum, blocks.maximum, opts, styles, table, params)
+        if mask is not None:
+            active = active & mask
+        return active, leap_radius(active).reshape(-1)  # flat, (z, y, x) order
+
+    if styles is not None:
+        return build()
+    key = (blocks.block_size, opts.blending, opts.skip_empty, params.scale, params.axis_lo, params.axis_inv_range,
+           params.linthresh, params.precision, table.shape[0])
+    opacity = table[:, 3]
+    entries = volume.cache.setdefault("skip_structures", [])
+    for k, op, m, result in entries:
+        if k == key and np.array_equal(op, opacity) and \
+                (m is None if mask is None else (m is not None and np.array_equal(m, mask))):
+            return result
+    result = build()
+    entries.append((key, opacity.copy(), None if mask is None else mask.copy(), result))
+    if len(entries) > _SKIP_CACHE:
+        entries.pop(0)
+    return result
 
 
 def leap_radius(active, cap=255):
@@ -295,11 +333,11 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     elif isinstance(camera, Rays):
         rays = camera
     elif isinstance(camera, Camera):
-        rays = camera.rays(size)
+        rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
     else:
         raise TypeError(f"camera must be a Camera or Rays; got {type(camera).__name__}")
-    width, height = rays.width, rays.height
-    lod = _check_lod(rays)
+    width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+    lod = _check_lod(rays) if rays is not None else None
     if opts.precision == "uint8" and labels is not None:
         raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
                          "transfer function")
@@ -329,8 +367,13 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     a0, a1 = tf.axis_range
     # rays in voxel coordinates with t still in world units (see _kernels._march)
     inv_spacing = 1.0 / volume.spacing
-    origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
-    directions = np.ascontiguousarray(rays.directions * inv_spacing)
+    if rays is None:
+        cam = np.concatenate([camera.kernel_array((width, height)), volume.origin, inv_spacing])
+        origins = directions = np.empty((0, 3))
+    else:
+        cam = np.empty(0)
+        origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
+        directions = np.ascontiguousarray(rays.directions * inv_spacing)
     lo = np.zeros(3)
     hi = np.array(volume.dims, dtype=np.float64) - 1.0
     params = K.GridParams(
@@ -344,7 +387,6 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     dims = np.array(volume.dims, dtype=np.int64)
     styles = _LabelStyles(volume, labels, label_styles, tf, table, sigma, params, opts, step_world, unit) \
         if labels is not None else None
-    active = _active_blocks(blocks.minimum, blocks.maximum, opts, styles, table, params)
     mask = None
     if block_mask is not None:
         mask = np.asarray(block_mask)
@@ -353,8 +395,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         if mask.dtype != np.bool_:
             raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
         mask = mask.astype(np.uint8)
-        active = active & mask
-    leap = leap_radius(active).reshape(-1)  # flat, (z, y, x) order
+    active, leap = _skip_structure(volume, blocks, opts, styles, table, params, mask)
     bricks = Bricks.of(volume)
     grids = np.array(blocks.shape + bricks.shape, dtype=np.int64)
 
@@ -369,6 +410,11 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
         or lod is not None
+    if extended and rays is None:
+        # the extended kernels take rays as arrays
+        rays = camera.rays((width, height))
+        origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
+        directions = np.ascontiguousarray(rays.directions * inv_spacing)
     value = np.full(height * width, np.nan) if opts.blending != "composite" else None
     if extended and not flat:
         kernel_args = _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles,
@@ -379,8 +425,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         if flat:
             pass
         elif not extended:
-            K.render_tiles(bricks.values, table.reshape(-1), sigma, leap, grids, dims, origins, directions, width, height,
-                           _TILE, rows, lanes, lo, hi, params, rgba, depth, samples)
+            K.render_tiles(bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids, dims, cam, origins,
+                           directions, width, height, _TILE, rows, lanes, lo, hi, params, rgba, depth, samples)
         elif value is not None:
             a = kernel_args
             KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
@@ -388,7 +434,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
                                  params, a.e, value, rgba, depth, samples)
         else:
             a = kernel_args
-            KX.render_ext(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.gbricks, a.slots,
+            KX.render_ext(bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods,
+                          a.gbricks, a.slots,
                           a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
                           directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth, samples)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())

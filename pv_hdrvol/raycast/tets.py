@@ -220,12 +220,7 @@ class BoundaryHits:
 def camera_array(camera, mesh, width, height):
     """What ``_tet_kernels.pixel_ray`` needs to make the camera's rays (as ``Camera.rays``)
     in the mesh's normalised frame."""
-    right, up, fwd = camera.basis()
-    half_h = camera.parallel_scale if camera.parallel_projection else math.tan(math.radians(camera.view_angle) / 2)
-    half_w = half_h * width / height
-    return np.concatenate([np.asarray(camera.position, dtype=np.float64), right, up, fwd,
-                           [half_w, half_h, 1.0 if camera.parallel_projection else 0.0], mesh.center,
-                           [mesh.scale]]).astype(np.float64)
+    return np.concatenate([camera.kernel_array((width, height)), mesh.center, [mesh.scale]])
 
 
 def boundary_crossings(mesh, camera, size, cam=None):

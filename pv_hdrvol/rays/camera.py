@@ -143,6 +143,17 @@ class Camera:
             origins = np.broadcast_to(pos, directions.shape).copy()
         return Rays(np.ascontiguousarray(origins), np.ascontiguousarray(directions), w, h)
 
+    def kernel_array(self, size):
+        """The camera as ``rays._kernels.camera_ray`` reads it (float64, 15 values):
+        position, right, up, forward, half width and half height of the view (at unit
+        distance, or of the parallel view), 1.0 for a parallel projection."""
+        w, h = as_size(size)
+        right, up, fwd = self.basis()
+        half_h = self.parallel_scale if self.parallel_projection else math.tan(math.radians(self.view_angle) / 2)
+        half_w = half_h * w / h
+        return np.concatenate([np.asarray(self.position, dtype=np.float64), right, up, fwd,
+                               [half_w, half_h, 1.0 if self.parallel_projection else 0.0]]).astype(np.float64)
+
     def project(self, points, size):
         """Pixel coordinates ``(col, row)`` (continuous, row 0 at the top) of world points."""
         w, h = as_size(size)

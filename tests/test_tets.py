@@ -222,6 +222,27 @@ def test_non_finite_values_make_their_cells_empty():
     assert np.any(img.rgba[..., 3] < full.rgba[..., 3] - 1e-3)
 
 
+def test_active_cells_are_reused_per_transfer_function():
+    pts, tets, values = box_mesh((3, 3, 3), field=lambda p: p[:, 0] / 3.0)
+    mesh = tetmesh_from_arrays(pts, tets, values)
+    cam = oblique_camera((1.5, 1.5, 1.5))
+    upper = hv.TransferFunction.ramp(0.5, 1.0, cmap="gray", opacity=(0.0, 0.3))
+    lower = hv.TransferFunction.ramp(0.0, 0.5, cmap="gray", opacity=(0.3, 0.0))
+    first = hv.render(mesh, upper, cam, (16, 16), precision="float64")
+    other = hv.render(mesh, lower, cam, (16, 16), precision="float64")
+    assert len(mesh.cache["active_cells"]) == 2
+    again = hv.render(mesh, upper, cam, (16, 16), precision="float64")
+    assert len(mesh.cache["active_cells"]) == 2  # found, not rebuilt
+    np.testing.assert_array_equal(again.rgba, first.rgba)
+    assert not np.array_equal(other.rgba, first.rgba)
+    # the same mask as a fresh mesh computes
+    fresh = hv.render(tetmesh_from_arrays(pts, tets, values), upper, cam, (16, 16), precision="float64")
+    np.testing.assert_array_equal(fresh.rgba, first.rgba)
+    for opacity in (0.1, 0.2, 0.4):
+        hv.render(mesh, hv.TransferFunction.ramp(0.5, 1.0, cmap="gray", opacity=(0.0, opacity)), cam, (8, 8))
+    assert len(mesh.cache["active_cells"]) == 4
+
+
 def test_cell_scalars_and_discontinuous_point_values():
     """Cell data: piecewise constant. Duplicated points carrying different values keep
     their jump: the lower and upper halves of a stack integrate their own opacity."""

@@ -19,6 +19,8 @@ from ..rays.camera import Camera
 from . import _tet_kernels as TK
 from .grid import _TILE, _check_progress_bar, _lanes, _visible, default_transfer_function, run_in_chunks
 
+#: extinction columns whose active-cell masks a mesh keeps
+_ACTIVE_CACHE = 4
 #: largest optical depth of one integration piece (see _tet_kernels: the emission of a
 #: piece is exact for constant extinction or constant colour, else off by O(tau^3))
 TAU_MAX = 0.25
@@ -289,10 +291,25 @@ def _face_boxes(mesh, camera, width, height):
 def _active_cells(mesh, sigma, params):
     """1 for cells whose corner values can meet a non-zero extinction, else 0 (skipped):
     the grid's block test (``grid._visible``) on each cell's value range. A cell with a
-    non-finite corner value is empty."""
-    finite = np.all(np.isfinite(mesh.values), axis=1)
-    lo = np.where(finite, mesh.values.min(axis=1), np.nan)
-    hi = np.where(finite, mesh.values.max(axis=1), np.nan)
+    non-finite corner value is empty.
+
+    The value ranges are computed once per mesh, and the mask is kept on the mesh for the
+    last few extinction columns (compared whole), so a render that changes only the
+    camera pays neither."""
+    if "cell_ranges" not in mesh.cache:
+        finite = np.all(np.isfinite(mesh.values), axis=1)
+        mesh.cache["cell_ranges"] = (np.where(finite, mesh.values.min(axis=1), np.nan),
+                                     np.where(finite, mesh.values.max(axis=1), np.nan))
+    lo, hi = mesh.cache["cell_ranges"]
+    key = (params.scale, params.axis_lo, params.axis_inv_range, params.linthresh)
+    entries = mesh.cache.setdefault("active_cells", [])
+    for k, column, active in entries:
+        if k == key and np.array_equal(column, sigma):
+            return active
     # the tet kernel interpolates the table in every precision (no nearest-entry rule)
-    return _visible(lo, hi, sigma, params._replace(precision=PRECISION_CODES["float64"]))
+    active = _visible(lo, hi, sigma, params._replace(precision=PRECISION_CODES["float64"]))
+    entries.append((key, np.array(sigma, copy=True), active))
+    if len(entries) > _ACTIVE_CACHE:
+        entries.pop(0)
+    return active
 

@@ -4,22 +4,34 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
-from .._jit import parallel_kernel
+from .._jit import inline_kernel, parallel_kernel
 
 
 #: exp(-x) is read from a table of EXP_STEPS entries per unit over [0, EXP_RANGE]
 #: (linear interpolation: relative error below 2e-6); weights past EXP_RANGE (e^-40 =
-#: 4e-18) count as 0
+#: 4e-18) count as 0: the table ends in two zeros, and larger arguments read them
 EXP_RANGE = 40.0
 EXP_STEPS = 256
+_EXP_LAST = int(EXP_RANGE * EXP_STEPS)  # the first of the two zero entries
 
 
 def exp_table():
-    """``exp(-i / EXP_STEPS)`` for ``i = 0 .. EXP_RANGE * EXP_STEPS + 1``."""
+    """``exp(-i / EXP_STEPS)`` for ``i = 0 .. EXP_RANGE * EXP_STEPS - 1``, then two zeros."""
     import numpy as np
 
-    return np.exp(-np.arange(int(EXP_RANGE * EXP_STEPS) + 2) / EXP_STEPS)
+    table = np.exp(-np.arange(_EXP_LAST + 2) / EXP_STEPS)
+    table[_EXP_LAST:] = 0.0
+    return table
+
+
+@inline_kernel
+def _exp_neg(table, e):
+    """``exp(-e / EXP_STEPS)`` for ``e >= 0`` from ``table`` (0 past the range), no branch."""
+    e = min(e, float(_EXP_LAST))
+    n = int(e)
+    return table[n] + (e - n) * (table[n + 1] - table[n])
 
 
 @parallel_kernel
@@ -35,9 +47,19 @@ def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, table, out):
     ``exp(-|p - q|^2 inv_2ss - |G(p) - G(q)|^2 inv_2sr)`` (distances in full-resolution
     pixels and in guide units). Where every weight underflows (a reference that matches
     no neighbour), the spatial weights alone are used. ``table``: ``exp_table()``.
+
+    The guide at the low pixels' centres is gathered once into a (h, w, k) array, so a
+    neighbour's k values are adjacent; weights come from ``table`` without a branch.
     """
     h, w, _ = low.shape
     k, H, W = guide.shape
+    at_low = np.empty((h, w, k))
+    for i in numba.prange(h):
+        gy = min(max(int((i + 0.5) * factor - 0.5 + 0.5), 0), H - 1)
+        for j in range(w):
+            gx = min(max(int((j + 0.5) * factor - 0.5 + 0.5), 0), W - 1)
+            for m in range(k):
+                at_low[i, j, m] = guide[m, gy, gx]
     for row in numba.prange(H):
         ci = int(math.floor((row + 0.5) / factor))
         i0 = max(ci - radius, 0)
@@ -53,35 +75,27 @@ def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, table, out):
             total = 0.0
             for i in range(i0, i1 + 1):
                 qy = (i + 0.5) * factor - 0.5
-                gy = min(max(int(qy + 0.5), 0), H - 1)
                 dy2 = (row - qy) * (row - qy)
                 for j in range(j0, j1 + 1):
                     qx = (j + 0.5) * factor - 0.5
-                    gx = min(max(int(qx + 0.5), 0), W - 1)
                     dr = 0.0
                     for m in range(k):
-                        diff = guide[m, row, col] - guide[m, gy, gx]
+                        diff = guide[m, row, col] - at_low[i, j, m]
                         dr += diff * diff
-                    e = ((dy2 + (col - qx) * (col - qx)) * inv_2ss + dr * inv_2sr) * EXP_STEPS
-                    if e < EXP_RANGE * EXP_STEPS:
-                        n = int(e)
-                        wgt = table[n] + (e - n) * (table[n + 1] - table[n])
-                        total += wgt
-                        a0 += wgt * low[i, j, 0]
-                        a1 += wgt * low[i, j, 1]
-                        a2 += wgt * low[i, j, 2]
-                        a3 += wgt * low[i, j, 3]
+                    wgt = _exp_neg(table, ((dy2 + (col - qx) * (col - qx)) * inv_2ss + dr * inv_2sr) * EXP_STEPS)
+                    total += wgt
+                    a0 += wgt * low[i, j, 0]
+                    a1 += wgt * low[i, j, 1]
+                    a2 += wgt * low[i, j, 2]
+                    a3 += wgt * low[i, j, 3]
             if not total > 1e-300:
                 # no neighbour matches the reference: spatial weights alone
-                a0 = 0.0
-                a1 = 0.0
-                a2 = 0.0
-                a3 = 0.0
                 for i in range(i0, i1 + 1):
                     qy = (i + 0.5) * factor - 0.5
                     for j in range(j0, j1 + 1):
                         qx = (j + 0.5) * factor - 0.5
-                        wgt = math.exp(-((row - qy) * (row - qy) + (col - qx) * (col - qx)) * inv_2ss)
+                        wgt = _exp_neg(table, ((row - qy) * (row - qy) + (col - qx) * (col - qx)) * inv_2ss
+                                       * EXP_STEPS)
                         total += wgt
                         a0 += wgt * low[i, j, 0]
                         a1 += wgt * low[i, j, 1]

@@ -109,6 +109,34 @@ def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, table, out):
 
 
 @parallel_kernel
+def normalize_depths(depth, missing, out):
+    """``out = (depth - near) / (far - near)`` over the finite values of ``depth``
+    (``span = 1`` when they are all equal), ``missing`` elsewhere; both flat (the guide
+    of ``DepthLayers.normalized``, in two parallel passes)."""
+    n = depth.shape[0]
+    chunks = 64
+    size = (n + chunks - 1) // chunks
+    lows = np.full(chunks, np.inf)
+    highs = np.full(chunks, -np.inf)
+    for c in numba.prange(chunks):
+        lo = np.inf
+        hi = -np.inf
+        for i in range(c * size, min(n, (c + 1) * size)):
+            v = depth[i]
+            if v - v == 0.0:  # finite
+                lo = min(lo, v)
+                hi = max(hi, v)
+        lows[c] = lo
+        highs[c] = hi
+    near = lows.min()
+    far = highs.max()
+    span = far - near if far > near else 1.0
+    for i in numba.prange(n):
+        v = depth[i]
+        out[i] = (v - near) / span if v - v == 0.0 else missing
+
+
+@parallel_kernel
 def bilinear(low, factor, out):
     """Bilinear upsampling with the same pixel-centre convention (edges clamped)."""
     h, w, nc = low.shape

@@ -102,13 +102,16 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", suppo
         nc = low.shape[2]
         groups = []
         for c0 in range(0, nc, 4):  # the kernel filters four channels at a time
-            part = np.zeros((h, w, 4))
-            part[..., :min(4, nc - c0)] = work[..., c0:c0 + 4]
+            if nc - c0 >= 4:
+                part = np.ascontiguousarray(work[..., c0:c0 + 4])
+            else:
+                part = np.zeros((h, w, 4))
+                part[..., :nc - c0] = work[..., c0:]
             res = np.empty((H, W, 4))
             K.joint_bilateral(part, guide, factor, radius, 1.0 / (2 * sigma_s ** 2), 1.0 / (2 * sigma_range ** 2),
                               _EXP_TABLE, res)
             groups.append(res[..., :min(4, nc - c0)])
-        out = np.concatenate(groups, axis=2)
+        out = groups[0] if len(groups) == 1 else np.concatenate(groups, axis=2)
     out = out.astype(low.dtype)
     depth = None
     if low_depth is not None:

@@ -192,7 +192,7 @@ def _edge_line(ax, ay, bx, by, cx, cy):
 
 @parallel_kernel
 def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, offsets, out_t,
-                  out_face, out_enter, count_only, counts):
+                  out_face, out_enter, count_only, counts, out_layers):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
 
     ``boxes`` (b, 4) int64: each face's pixel bounding box ``col0, col1, row0, row1``
@@ -203,8 +203,11 @@ def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, 
     saves work; it decides nothing). Rows are split into ``bands``, one band per
     thread at a time, so no two threads write one pixel. With ``count_only`` the hits
     are only counted into ``counts``; otherwise they are written from
-    ``offsets[pixel]`` on and sorted by ``t``.
+    ``offsets[pixel]`` on and sorted by ``t``. With ``count_only`` and a non-empty
+    ``out_layers`` (k, pixels), initialised to ``inf``, each pixel also keeps its ``k``
+    nearest ``t`` in order (depth layers in one pass, without the hit lists).
     """
+    k_layers = out_layers.shape[0]
     n_faces = tri.shape[0]
     band_rows = (height + bands - 1) // bands
     for band in numba.prange(bands):
@@ -242,6 +245,13 @@ def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, 
                         continue
                     if count_only:
                         counts[pix] += 1
+                        if k_layers > 0 and t < out_layers[k_layers - 1, pix]:
+                            # insert into the pixel's sorted k nearest
+                            m = k_layers - 1
+                            while m > 0 and out_layers[m - 1, pix] > t:
+                                out_layers[m, pix] = out_layers[m - 1, pix]
+                                m -= 1
+                            out_layers[m, pix] = t
                     else:
                         q = offsets[pix] + counts[pix]
                         out_t[q] = t
@@ -624,14 +634,3 @@ def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, 
                     out_cells[pix] = nc
                     out_pieces[pix] = npc
                     out_guard[pix] = guard
-
-
-@parallel_kernel
-def first_layers(offsets, ts, scale, out):
-    """``out[k, pixel]`` = the pixel's k-th crossing distance times ``scale`` (``inf`` past its count)."""
-    k = out.shape[0]
-    for pix in numba.prange(out.shape[1]):
-        lo = offsets[pix]
-        n = offsets[pix + 1] - lo
-        for layer in range(k):
-            out[layer, pix] = ts[lo + layer] * scale if layer < n else math.inf

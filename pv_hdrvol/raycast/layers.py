@@ -55,14 +55,11 @@ class DepthLayers:
         """The layers as a float64 guide: depths scaled to [0, 1] over the finite range,
         ``missing`` (default 2, far from every surface) where a pixel has no such layer;
         (rows, cols, k), or (k, rows, cols) with ``layer_first``."""
-        d = self.depth
-        finite = np.isfinite(d)
-        out = np.full(d.shape, float(missing))
-        if finite.any():
-            near, far = float(d[finite].min()), float(d[finite].max())
-            span = far - near if far > near else 1.0
-            np.subtract(d, near, out=out, where=finite)
-            np.divide(out, span, out=out, where=finite)
+        from ..image._upsample_kernels import normalize_depths
+
+        d = np.ascontiguousarray(self.depth, dtype=np.float64)
+        out = np.empty(d.shape)
+        normalize_depths(d.reshape(-1), float(missing), out.reshape(-1))
         return out if layer_first else np.ascontiguousarray(np.moveaxis(out, 0, -1))
 
     def __repr__(self):
@@ -100,8 +97,7 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
     max_layers = as_int("max_layers", max_layers, low=1)
     t0 = time.perf_counter()
     if is_unstructured(data):
-        from ._tet_kernels import first_layers
-        from .tets import boundary_crossings
+        from .tets import boundary_layers
 
         if isovalue is not None or tf is not None:
             raise ValueError("isovalue= and tf= pick a reference for image volumes; a mesh's reference is its "
@@ -112,11 +108,9 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a Camera; got {type(camera).__name__}")
         width, height = as_size(size)
-        hits = boundary_crossings(mesh, camera, (width, height))
-        counts = np.diff(hits.offsets)
+        counts, t = boundary_layers(mesh, camera, (width, height), max_layers)
         k = max(1, min(max_layers, int(counts.max()) if counts.size else 0))
-        depth = np.empty((k, width * height))
-        first_layers(hits.offsets, hits.t, float(mesh.scale), depth)
+        depth = t[:k] * float(mesh.scale)
         return DepthLayers(depth.reshape(k, height, width), counts.reshape(height, width),
                            time.perf_counter() - t0, f"boundary of {mesh.n_cells} tets")
     from .. import render

@@ -225,9 +225,8 @@ def camera_array(camera, mesh, width, height):
     return np.concatenate([camera.kernel_array((width, height)), mesh.center, [mesh.scale]])
 
 
-def boundary_crossings(mesh, camera, size, cam=None):
-    """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``)."""
-    width, height = size
+def _boundary_setup(mesh, camera, width, height, cam):
+    """What ``_tet_kernels.boundary_hits`` reads besides its outputs."""
     if cam is None:
         cam = camera_array(camera, mesh, width, height)
     tri = mesh.boundary
@@ -235,16 +234,22 @@ def boundary_crossings(mesh, camera, size, cam=None):
     a, b, c = (pts[tri[:, i]] for i in range(3))
     normals = np.ascontiguousarray(np.cross(b - a, c - a))
     boxes, proj = _face_boxes(mesh, camera, width, height)
+    bands = min(max(4 * _lanes(), 1), height)
+    return pts, tri, normals, boxes, proj, cam, bands
+
+
+def boundary_crossings(mesh, camera, size, cam=None):
+    """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``)."""
+    width, height = size
+    pts, tri, normals, boxes, proj, cam, bands = _boundary_setup(mesh, camera, width, height, cam)
     n_pix = width * height
     counts = np.zeros(n_pix, dtype=np.int64)
-    bands = max(4 * _lanes(), 1)
-    bands = min(bands, height)
     empty_f = np.empty(0)
     empty_i = np.empty(0, dtype=np.int64)
     empty_b = np.empty(0, dtype=np.bool_)
     offsets0 = np.zeros(n_pix + 1, dtype=np.int64)
     TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets0, empty_f, empty_i,
-                     empty_b, True, counts)
+                     empty_b, True, counts, _NO_LAYERS)
     offsets = np.zeros(n_pix + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     total = int(offsets[-1])
@@ -253,8 +258,26 @@ def boundary_crossings(mesh, camera, size, cam=None):
     entering = np.empty(total, dtype=np.bool_)
     counts[:] = 0
     TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets, t, face, entering,
-                     False, counts)
+                     False, counts, _NO_LAYERS)
     return BoundaryHits(offsets, t, face, entering, width, height)
+
+
+def boundary_layers(mesh, camera, size, k):
+    """``(counts, t)``: per pixel the number of boundary crossings (``width * height``)
+    and the ``k`` nearest crossing distances in order (``(k, width * height)``, the
+    mesh's normalised units, ``inf`` past the count), in one pass and without the lists
+    of :func:`boundary_crossings`."""
+    width, height = size
+    pts, tri, normals, boxes, proj, cam, bands = _boundary_setup(mesh, camera, width, height, None)
+    n_pix = width * height
+    counts = np.zeros(n_pix, dtype=np.int64)
+    layers = np.full((k, n_pix), np.inf)
+    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, np.zeros(1, dtype=np.int64),
+                     np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_), True, counts, layers)
+    return counts, layers
+
+
+_NO_LAYERS = np.empty((0, 0))
 
 
 def _face_boxes(mesh, camera, width, height):

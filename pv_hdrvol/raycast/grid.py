@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 import time
 from typing import NamedTuple
@@ -170,9 +171,9 @@ def _skip_structure(volume, blocks, opts, styles, table, params, mask):
     (``leap_radius``, flat), cached on the volume for the last few transfer functions.
 
     A render that changes only the camera (the common case: orbiting, an animation)
-    then skips both. The key holds everything ``_active_blocks`` reads, the opacity
-    column and the mask themselves (compared whole, not hashed); labelled renders are
-    not cached.
+    then skips both. The key holds everything ``_active_blocks`` reads, with the opacity
+    column and the mask as BLAKE2 digests of their bytes (a table may have 2**24
+    entries: the cache keeps no copy); labelled renders are not cached.
     """
     def build():
         active = _active_blocks(blocks.minimum, blocks.maximum, opts, styles, table, params)
@@ -183,18 +184,31 @@ def _skip_structure(volume, blocks, opts, styles, table, params, mask):
     if styles is not None:
         return build()
     key = (blocks.block_size, opts.blending, opts.skip_empty, params.scale, params.axis_lo, params.axis_inv_range,
-           params.linthresh, params.precision, table.shape[0])
-    opacity = table[:, 3]
-    entries = volume.cache.setdefault("skip_structures", [])
-    for k, op, m, result in entries:
-        if k == key and np.array_equal(op, opacity) and \
-                (m is None if mask is None else (m is not None and np.array_equal(m, mask))):
-            return result
-    result = build()
-    entries.append((key, opacity.copy(), None if mask is None else mask.copy(), result))
-    if len(entries) > _SKIP_CACHE:
+           params.linthresh, params.precision, table.shape[0], content_digest(table[:, 3]),
+           None if mask is None else content_digest(mask))
+    return cached(volume.cache, "skip_structures", key, build, _SKIP_CACHE)
+
+
+def content_digest(array):
+    """A 128-bit BLAKE2 digest of an array's dtype, shape and bytes (cache keys)."""
+    a = np.ascontiguousarray(array)
+    h = hashlib.blake2b(digest_size=16)
+    h.update(f"{a.dtype.str}{a.shape}".encode())
+    h.update(memoryview(a).cast("B"))
+    return h.digest()
+
+
+def cached(cache, name, key, build, size):
+    """``build()``, kept in ``cache[name]`` (a list of ``(key, value)``, the last ``size``)."""
+    entries = cache.setdefault(name, [])
+    for k, value in entries:
+        if k == key:
+            return value
+    value = build()
+    entries.append((key, value))
+    if len(entries) > size:
         entries.pop(0)
-    return result
+    return value
 
 
 def leap_radius(active, cap=255):

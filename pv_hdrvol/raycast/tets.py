@@ -17,7 +17,9 @@ from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
 from . import _tet_kernels as TK
-from .grid import _TILE, _check_progress_bar, _lanes, _visible, default_transfer_function, run_in_chunks
+from .grid import (
+    _TILE, _check_progress_bar, _lanes, _visible, cached, content_digest, default_transfer_function, run_in_chunks,
+)
 
 #: extinction columns whose active-cell masks a mesh keeps
 _ACTIVE_CACHE = 4
@@ -317,22 +319,16 @@ def _active_cells(mesh, sigma, params):
     non-finite corner value is empty.
 
     The value ranges are computed once per mesh, and the mask is kept on the mesh for the
-    last few extinction columns (compared whole), so a render that changes only the
+    last few extinction columns (``grid.cached``), so a render that changes only the
     camera pays neither."""
     if "cell_ranges" not in mesh.cache:
         finite = np.all(np.isfinite(mesh.values), axis=1)
         mesh.cache["cell_ranges"] = (np.where(finite, mesh.values.min(axis=1), np.nan),
                                      np.where(finite, mesh.values.max(axis=1), np.nan))
     lo, hi = mesh.cache["cell_ranges"]
-    key = (params.scale, params.axis_lo, params.axis_inv_range, params.linthresh)
-    entries = mesh.cache.setdefault("active_cells", [])
-    for k, column, active in entries:
-        if k == key and np.array_equal(column, sigma):
-            return active
+    key = (params.scale, params.axis_lo, params.axis_inv_range, params.linthresh, content_digest(sigma))
     # the tet kernel interpolates the table in every precision (no nearest-entry rule)
-    active = _visible(lo, hi, sigma, params._replace(precision=PRECISION_CODES["float64"]))
-    entries.append((key, np.array(sigma, copy=True), active))
-    if len(entries) > _ACTIVE_CACHE:
-        entries.pop(0)
-    return active
+    return cached(mesh.cache, "active_cells", key,
+                  lambda: _visible(lo, hi, sigma, params._replace(precision=PRECISION_CODES["float64"])),
+                  _ACTIVE_CACHE)
 

@@ -16,6 +16,8 @@ and composite front to back.
 
 Indices known to be non-negative are cast to uint64 (``_u``) so numba emits no
 negative-index wraparound, which cost a compare and a conditional move per load.
+The per-sample loops are ``fused_kernel``s (multiply-adds as FMAs); see ``_jit.py``
+for why every kernel states its fastmath flags.
 """
 from __future__ import annotations
 
@@ -466,8 +468,9 @@ def _finish_impl(marker, state):
 
 @kernel
 def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step):
-    """The sampling and compositing loop of ``_march``, compiled once per ``marker`` and
-    ``sampler`` type (``_sample``).
+    """The sampling and compositing loop of ``_march`` for a mip-map ``sampler``
+    (``_sample``; rays with a level of detail), compiled once per ``marker`` and
+    sampler type. The plain sampler has its own loop, ``_march_plain``.
 
     Full segments take their opacity from the table; the last, shorter one from the
     extinction ``sigma``.

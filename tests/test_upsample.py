@@ -142,3 +142,17 @@ def test_render_with_upsampling_is_the_three_steps():
 def test_bad_input(call, error, message):
     with pytest.raises(error, match=message):
         call()
+
+
+def test_vanishing_range_sigma_keeps_equal_guides_and_drops_the_rest():
+    # sigma_range = 1e-200 squares to 0: the weights must not become 0 * inf = NaN
+    rng = np.random.default_rng(0)
+    low = rng.random((8, 8, 4))
+    guide = np.zeros((32, 32, 2))
+    guide[:, 16:] = 1.0  # two flat regions, a step between low columns 3 and 4
+    tiny = hv.upsample(low, guide, 4, sigma_range=1e-200)
+    small = hv.upsample(low, guide, 4, sigma_range=1e-6)
+    assert np.all(np.isfinite(tiny))
+    np.testing.assert_array_equal(tiny, small)
+    # the output left of the step averages only low pixels left of it
+    assert tiny[:, :16].max() <= low[:, :4].max() and tiny[:, :16].min() >= low[:, :4].min()

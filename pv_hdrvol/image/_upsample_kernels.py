@@ -28,8 +28,10 @@ def exp_table():
 
 @inline_kernel
 def _exp_neg(table, e):
-    """``exp(-e / EXP_STEPS)`` for ``e >= 0`` from ``table`` (0 past the range), no branch."""
-    e = min(e, float(_EXP_LAST))
+    """``exp(-e / EXP_STEPS)`` for ``e >= 0`` from ``table`` (0 past the range and for NaN,
+    e.g. ``0 * inf`` from a vanishing ``sigma_range``), without a branch (a select)."""
+    if not e < _EXP_LAST:
+        e = float(_EXP_LAST)
     n = int(e)
     return table[n] + (e - n) * (table[n + 1] - table[n])
 

@@ -20,6 +20,12 @@ METHODS = ("joint_bilateral", "bilinear", "nearest")
 _EXP_TABLE = K.exp_table()
 
 
+def _inverse_two_squares(sigma):
+    """``1 / (2 sigma^2)``, capped at 1e300 so that a tiny sigma (whose square underflows)
+    still weighs equal guides fully and any difference as nothing (never ``0 * inf``)."""
+    return min(0.5 / (sigma * sigma), 1e300) if sigma * sigma > 0.0 else 1e300
+
+
 def upsample(image, layers=None, factor=None, *, method="joint_bilateral", support=None, sigma_range=0.01):
     """Upsample a low-resolution :class:`HDRImage` (or array) to the layers' resolution.
 
@@ -108,8 +114,8 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", suppo
                 part = np.zeros((h, w, 4))
                 part[..., :nc - c0] = work[..., c0:]
             res = np.empty((H, W, 4))
-            K.joint_bilateral(part, guide, factor, radius, 1.0 / (2 * sigma_s ** 2), 1.0 / (2 * sigma_range ** 2),
-                              _EXP_TABLE, res)
+            K.joint_bilateral(part, guide, factor, radius, _inverse_two_squares(sigma_s),
+                              _inverse_two_squares(sigma_range), _EXP_TABLE, res)
             groups.append(res[..., :min(4, nc - c0)])
         out = groups[0] if len(groups) == 1 else np.concatenate(groups, axis=2)
     out = out.astype(low.dtype)

@@ -527,6 +527,15 @@ def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, 
     return cr, cg, cb, alpha, depth, samples
 
 
+@inline_kernel
+def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
+    """``(bx, by, bz, sx, sy, sz)``: the midpoint of full segment ``k`` lies at
+    ``(bx, by, bz) + k (sx, sy, sz)``. Inlined into both compositing loops
+    (``_march_plain``, ``_kernels_ext._composite_ext``), so they place samples alike."""
+    tb = t0 + 0.5 * step
+    return ox + tb * dx, oy + tb * dy, oz + tb * dz, step * dx, step * dy, step * dz
+
+
 @fused_kernel
 def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step):
     """The sampling and compositing loop of ``_march`` for trilinear sampling of
@@ -558,14 +567,7 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
     n_seg = int(math.ceil((t1 - t0) / step))
     if n_seg < 1:
         n_seg = 1
-    # sample k at (bx0, by0, bz0) + k (sx, sy, sz)
-    tb = t0 + 0.5 * step
-    bx0 = ox + tb * dx
-    by0 = oy + tb * dy
-    bz0 = oz + tb * dz
-    sx = step * dx
-    sy = step * dy
-    sz = step * dz
+    bx0, by0, bz0, sx, sy, sz = midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step)
     oy_off = _u(nx)
     oz_off = _u(nx + ny)
     one = _u(1)
@@ -596,6 +598,8 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
         fx = x - xi
         fy = y - yi
         fz = z - zi
+        # the stencil of _sample's plain sampler, written out for the same reason; it must
+        # stay the same expression (the labelled loop samples through _sample).
         # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
         q = _u(offs[_u(xi)] + offs[oy_off + _u(yi)] + offs[oz_off + _u(zi)])
         v000 = np.float64(bricks[q])

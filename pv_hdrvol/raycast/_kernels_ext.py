@@ -26,7 +26,8 @@ import numpy as np
 from .._jit import fused_kernel, kernel, parallel_kernel, uindex as _u
 from ._kernels import (
     BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity,
-    _sample as _probe_any, _ray_box, _start, mip_sampler, mip_value, sigma_at, table_row, trilinear as _trilinear,
+    _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, sigma_at, table_row,
+    trilinear as _trilinear,
 )
 
 # blending codes (params.BLENDING_CODES)
@@ -316,13 +317,7 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
     k = 0
     stopped = False
     # full segment k has its midpoint at (bx0, by0, bz0) + k (sx, sy, sz), as _kernels._march_plain
-    t_first = t0 + 0.5 * step
-    bx0 = ox + t_first * dx
-    by0 = oy + t_first * dy
-    bz0 = oz + t_first * dz
-    sx = step * dx
-    sy = step * dy
-    sz = step * dz
+    bx0, by0, bz0, sx, sy, sz = midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step)
     while k < n_seg and not stopped:
         ta = t0 + k * step
         last = k == n_seg - 1

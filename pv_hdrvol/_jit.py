@@ -31,8 +31,8 @@ def fused_kernel(fn):
     ``contract``, the only fast-math flag used): one rounding instead of two, and shorter
     dependency chains in per-sample loops. Nothing is reordered or assumed finite.
 
-    Every kernel states ``fastmath`` explicitly: numba lets a callee that does not
-    inherit the caller's flags, so a helper called from a fused kernel would otherwise
+    Every kernel states ``fastmath`` explicitly: numba lets a callee that does not state
+    a flag inherit the caller's, so a helper called from a fused kernel would otherwise
     be compiled (and cached) fused, and give other bits when called from elsewhere.
     Code inlined at numba IR level (``inline_kernel``, inline overloads) takes the
     caller's flags."""

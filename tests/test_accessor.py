@@ -199,3 +199,32 @@ def test_second_render_reuses_the_prepared_volume_until_the_dataset_changes():
     changed = grid.hdrvol.render(tf=tf, size=(8, 8), precision="float64")
     assert grid.hdrvol._volumes.get(grid, None, "point") is not volume
     assert not changed.rgba.any()
+
+
+def test_a_dataset_keeps_its_prepared_volume_until_its_data_change():
+    import gc
+
+    from pv_hdrvol.data import grid as data_grid
+    from pv_hdrvol.raycast.grid import as_volume
+
+    grid = pv.ImageData(dimensions=(12, 11, 10), spacing=(1.0, 0.5, 2.0))
+    grid["v"] = np.linspace(0.0, 1.0, grid.n_points)
+    first = as_volume(grid)
+    assert as_volume(grid) is first  # bricks and block grids on it are reused
+    before = grid["v"].copy()
+    grid["v"][:5] = 7.0  # an in-place edit that calls no Modified(): still seen
+    edited = as_volume(grid)
+    assert edited is not first and edited.value_range == (float(grid["v"][5]), 7.0)
+    grid.spacing = (1.0, 1.0, 1.0)
+    assert as_volume(grid) is not edited
+    # the render of a cached volume equals a fresh one
+    again = hv.render(grid, None, None, 16, precision="float64")
+    fresh = hv.render(hv.volume_from_dataset(grid), None, None, 16, precision="float64")
+    np.testing.assert_array_equal(again.rgba, fresh.rgba)
+    np.testing.assert_array_equal(grid["v"][5:], before[5:])  # the caller's data are untouched
+    # the cache holds datasets weakly, and forgets a dataset that is gone
+    key = id(grid)
+    assert key in data_grid._VOLUME_CACHE
+    del grid, first, edited
+    gc.collect()
+    assert key not in data_grid._VOLUME_CACHE

@@ -9,7 +9,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..data.grid import GridVolume, volume_from_array, volume_from_dataset
+from ..data.grid import GridVolume, cached_volume_from_dataset, volume_from_array
 from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, scale_forward
 from ..image.hdr import HDRImage
 from .._validate import as_size
@@ -34,7 +34,7 @@ def as_volume(data, scalars=None, preference="point"):
         if scalars is not None:
             raise ValueError("scalars names an array of a dataset; a numpy volume has none")
         return volume_from_array(data)
-    return volume_from_dataset(data, scalars=scalars, preference=preference)
+    return cached_volume_from_dataset(data, scalars=scalars, preference=preference)
 
 
 def default_transfer_function(volume):

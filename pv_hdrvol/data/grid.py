@@ -123,7 +123,7 @@ def cached_volume_from_dataset(dataset, scalars=None, preference="point"):
     key = (int(dataset.GetMTime()), scalars, preference, name, arr.__array_interface__["data"][0], arr.shape,
            arr.dtype.str, tuple(spacing.tolist()), tuple(origin.tolist()))
     data = np.ascontiguousarray(arr)
-    digest = hashlib.sha1(memoryview(data).cast("B")).digest()
+    digest = hashlib.sha1(memoryview(data).cast("B"), usedforsecurity=False).digest()
     entry = _VOLUME_CACHE.get(id(dataset))
     if entry is not None and entry[0]() is dataset and entry[1] == key and entry[2] == digest:
         return entry[3]

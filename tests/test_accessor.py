@@ -170,6 +170,15 @@ def test_tet_mesh_cache_follows_the_grid():
     mesh["s"] = np.linspace(1.0, 2.0, mesh.n_points)  # PyVista marks the grid modified
     second = T.as_tetmesh(mesh)
     assert second is not first and second.value_range == (1.0, 2.0)
+    mtime = mesh.GetMTime()
+    mesh["s"].view(np.ndarray)[:] = 3.0  # an in-place edit that calls no Modified()
+    assert mesh.GetMTime() == mtime
+    third = T.as_tetmesh(mesh)
+    assert third is not second and third.value_range == (3.0, 3.0)
+    mesh.points.view(np.ndarray)[0] += 0.25  # moved points, in place
+    assert mesh.GetMTime() == mtime
+    assert T.as_tetmesh(mesh) is not third
+    assert T.as_tetmesh(mesh) is T.as_tetmesh(mesh)
     key = id(mesh)
     del mesh
     gc.collect()
@@ -212,7 +221,9 @@ def test_a_dataset_keeps_its_prepared_volume_until_its_data_change():
     first = as_volume(grid)
     assert as_volume(grid) is first  # bricks and block grids on it are reused
     before = grid["v"].copy()
-    grid["v"][:5] = 7.0  # an in-place edit that calls no Modified(): still seen
+    mtime = grid.GetMTime()
+    grid["v"].view(np.ndarray)[:5] = 7.0  # an in-place edit that calls no Modified(): still seen
+    assert grid.GetMTime() == mtime
     edited = as_volume(grid)
     assert edited is not first and edited.value_range == (float(grid["v"][5]), 7.0)
     grid.spacing = (1.0, 1.0, 1.0)

@@ -21,6 +21,7 @@ first two; the others are boundary.
 """
 from __future__ import annotations
 
+import hashlib
 import warnings
 import weakref
 from dataclasses import dataclass, field
@@ -104,8 +105,9 @@ def is_unstructured(data):
 def as_tetmesh(data, scalars=None, preference="point"):
     """A :class:`TetMesh` from a TetMesh or an unstructured grid, cached per grid.
 
-    The cache key holds the grid's modification time, the array and its association:
-    changing the mesh or its scalars (VTK ``Modified()``, which PyVista calls) rebuilds it.
+    The cache key holds the grid's modification time, the array and its association,
+    and a SHA-1 of the point coordinates and the scalars: changing the mesh or its
+    scalars rebuilds it, also by an in-place numpy edit that did not call ``Modified()``.
     The cache holds the grid weakly and at most four prepared meshes.
     """
     if isinstance(data, TetMesh):
@@ -115,7 +117,7 @@ def as_tetmesh(data, scalars=None, preference="point"):
     if not is_unstructured(data):
         raise TypeError(f"expected an unstructured grid (pyvista.UnstructuredGrid / vtkUnstructuredGrid) or a "
                         f"TetMesh; got {type(data).__name__}")
-    key = (int(data.GetMTime()), scalars, preference)
+    key = (int(data.GetMTime()), scalars, preference, _content_digest(data, scalars, preference))
     cache = _MESH_CACHE.get(id(data))
     if cache is not None and cache[0]() is data and cache[1] == key:
         return cache[2]
@@ -129,6 +131,25 @@ def as_tetmesh(data, scalars=None, preference="point"):
 
 
 _MESH_CACHE: dict = {}
+
+
+def _content_digest(dataset, scalars, preference):
+    """SHA-1 of a grid's point coordinates and of the scalars a render would use (an
+    in-place numpy edit changes no modification time). Scalars that cannot be chosen
+    are left out: building the mesh then raises the clear error."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    h = hashlib.sha1(usedforsecurity=False)
+    points = dataset.GetPoints()
+    if points is not None:
+        h.update(memoryview(np.ascontiguousarray(vtk_to_numpy(points.GetData()))).cast("B"))
+    try:
+        name, use_cell = choose_scalars(dataset, scalars, preference, "mesh")
+        field_data = dataset.GetCellData() if use_cell else dataset.GetPointData()
+        h.update(memoryview(np.ascontiguousarray(_arrays(field_data)[name]())).cast("B"))
+    except (ScalarsError, KeyError):
+        pass
+    return h.digest()
 
 
 def tetmesh_from_dataset(dataset, scalars=None, preference="point"):

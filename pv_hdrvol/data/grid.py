@@ -108,41 +108,66 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     return GridVolume(arr, origin, spacing, vr, has_nan, name)
 
 
+def content_digest(*arrays):
+    """SHA-1 of the arrays' dtypes, shapes and bytes: a cache key that sees in-place edits
+    (not for security; about 2 GB/s)."""
+    h = hashlib.sha1(usedforsecurity=False)
+    for array in arrays:
+        a = np.ascontiguousarray(array)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(memoryview(a).cast("B"))
+    return h.digest()
+
+
+class DatasetCache(dict):
+    """What was prepared from VTK datasets, one entry ``id -> (weak ref, key, value)`` per
+    dataset: an entry goes when its dataset does, and at most ``size`` are kept (each
+    may hold a copy of a large array)."""
+
+    def __init__(self, size):
+        super().__init__()
+        self.size = size
+
+    def lookup(self, dataset, key):
+        """The value stored for ``dataset`` under ``key``, else None."""
+        entry = self.get(id(dataset))
+        return entry[2] if entry is not None and entry[0]() is dataset and entry[1] == key else None
+
+    def store(self, dataset, key, value):
+        """Keep ``value`` for ``dataset`` under ``key`` (replacing its older one); returns it."""
+        self.pop(id(dataset), None)
+        self[id(dataset)] = (weakref.ref(dataset, self._forget), key, value)
+        if len(self) > self.size:
+            self.pop(next(iter(self)))
+        return value
+
+    def _forget(self, ref):
+        for k, entry in list(self.items()):
+            if entry[0] is ref:
+                del self[k]
+
+
 def cached_volume_from_dataset(dataset, scalars=None, preference="point"):
     """:func:`volume_from_dataset`, cached per dataset with what the renderer derives from
     it (bricks, block grids, skip structures), so repeated renders of one
     ``pyvista.ImageData`` skip that work.
 
-    The cache holds the dataset weakly (its entry goes with it) and at most four volumes. It is used only while
-    the dataset's modification time, the array (its memory, shape and dtype), spacing
-    and origin are unchanged *and* the array's bytes have the same SHA-1 as before: an
-    in-place numpy edit that did not call ``Modified()`` is still seen. The hash reads
-    the array once (about 2 GB/s), a fraction of what rebuilding costs.
+    The cache holds the dataset weakly and at most four volumes (:class:`DatasetCache`).
+    It is used only while the dataset's modification time, the array (its memory, shape
+    and dtype), spacing and origin are unchanged *and* the array's :func:`content_digest`
+    is the same: an in-place numpy edit that did not call ``Modified()`` is still seen.
+    The hash reads the array once, a fraction of what rebuilding costs.
     """
     arr, spacing, origin, name = _image_array(dataset, scalars, preference)
-    key = (int(dataset.GetMTime()), scalars, preference, name, arr.__array_interface__["data"][0], arr.shape,
-           arr.dtype.str, tuple(spacing.tolist()), tuple(origin.tolist()))
-    data = np.ascontiguousarray(arr)
-    digest = hashlib.sha1(memoryview(data).cast("B"), usedforsecurity=False).digest()
-    entry = _VOLUME_CACHE.get(id(dataset))
-    if entry is not None and entry[0]() is dataset and entry[1] == key and entry[2] == digest:
-        return entry[3]
-    volume = volume_from_array(arr, spacing, origin, name=name)
-    _VOLUME_CACHE.pop(id(dataset), None)
-    _VOLUME_CACHE[id(dataset)] = (weakref.ref(dataset, _forget_volume), key, digest, volume)
-    if len(_VOLUME_CACHE) > 4:  # a few volumes at most: each holds a bricked copy
-        _VOLUME_CACHE.pop(next(iter(_VOLUME_CACHE)))
+    key = (int(dataset.GetMTime()), scalars, preference, name, arr.__array_interface__["data"][0],
+           tuple(spacing.tolist()), tuple(origin.tolist()), content_digest(arr))
+    volume = _VOLUME_CACHE.lookup(dataset, key)
+    if volume is None:
+        volume = _VOLUME_CACHE.store(dataset, key, volume_from_array(arr, spacing, origin, name=name))
     return volume
 
 
-_VOLUME_CACHE: dict = {}
-
-
-def _forget_volume(ref):
-    """Drop the cached volume of a dataset that is gone (its bricks with it)."""
-    for k, entry in list(_VOLUME_CACHE.items()):
-        if entry[0] is ref:
-            del _VOLUME_CACHE[k]
+_VOLUME_CACHE = DatasetCache(4)
 
 
 def volume_from_dataset(dataset, scalars=None, preference="point"):

@@ -21,14 +21,12 @@ first two; the others are boundary.
 """
 from __future__ import annotations
 
-import hashlib
 import warnings
-import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .grid import ScalarsError, _arrays, choose_scalars
+from .grid import DatasetCache, ScalarsError, _arrays, choose_scalars, content_digest
 from .._validate import as_choice
 
 #: VTK cell type of a linear tetrahedron
@@ -108,7 +106,7 @@ def as_tetmesh(data, scalars=None, preference="point"):
     The cache key holds the grid's modification time, the array and its association,
     and a SHA-1 of the point coordinates and the scalars: changing the mesh or its
     scalars rebuilds it, also by an in-place numpy edit that did not call ``Modified()``.
-    The cache holds the grid weakly and at most four prepared meshes.
+    The cache holds the grid weakly and at most four prepared meshes (``DatasetCache``).
     """
     if isinstance(data, TetMesh):
         if scalars is not None:
@@ -118,38 +116,33 @@ def as_tetmesh(data, scalars=None, preference="point"):
         raise TypeError(f"expected an unstructured grid (pyvista.UnstructuredGrid / vtkUnstructuredGrid) or a "
                         f"TetMesh; got {type(data).__name__}")
     key = (int(data.GetMTime()), scalars, preference, _content_digest(data, scalars, preference))
-    cache = _MESH_CACHE.get(id(data))
-    if cache is not None and cache[0]() is data and cache[1] == key:
-        return cache[2]
-    mesh = tetmesh_from_dataset(data, scalars, preference)
-    for k in [k for k, v in _MESH_CACHE.items() if v[0]() is None]:
-        del _MESH_CACHE[k]  # grids that are gone
-    _MESH_CACHE[id(data)] = (weakref.ref(data), key, mesh)
-    if len(_MESH_CACHE) > 4:  # a few meshes at most: they can be large
-        _MESH_CACHE.pop(next(iter(_MESH_CACHE)))
+    mesh = _MESH_CACHE.lookup(data, key)
+    if mesh is None:
+        mesh = _MESH_CACHE.store(data, key, tetmesh_from_dataset(data, scalars, preference))
     return mesh
 
 
-_MESH_CACHE: dict = {}
+_MESH_CACHE = DatasetCache(4)  # a few meshes at most: they can be large
 
 
 def _content_digest(dataset, scalars, preference):
-    """SHA-1 of a grid's point coordinates and of the scalars a render would use (an
-    in-place numpy edit changes no modification time). Scalars that cannot be chosen
-    are left out: building the mesh then raises the clear error."""
+    """:func:`~pv_hdrvol.data.grid.content_digest` of a grid's point coordinates and of the
+    scalars a render would use (an in-place numpy edit changes no modification time).
+    Scalars that cannot be chosen are left out: building the mesh then raises the clear
+    error."""
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
-    h = hashlib.sha1(usedforsecurity=False)
+    arrays = []
     points = dataset.GetPoints()
     if points is not None:
-        h.update(memoryview(np.ascontiguousarray(vtk_to_numpy(points.GetData()))).cast("B"))
+        arrays.append(vtk_to_numpy(points.GetData()))
     try:
         name, use_cell = choose_scalars(dataset, scalars, preference, "mesh")
         field_data = dataset.GetCellData() if use_cell else dataset.GetPointData()
-        h.update(memoryview(np.ascontiguousarray(_arrays(field_data)[name]())).cast("B"))
+        arrays.append(_arrays(field_data)[name]())
     except (ScalarsError, KeyError):
         pass
-    return h.digest()
+    return content_digest(*arrays)
 
 
 def tetmesh_from_dataset(dataset, scalars=None, preference="point"):

@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
 import time
 from typing import NamedTuple
 
 import numpy as np
 
-from ..data.grid import GridVolume, cached_volume_from_dataset, volume_from_array
+from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, volume_from_array
 from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, scale_forward
 from ..image.hdr import HDRImage
 from .._validate import as_size
@@ -172,8 +171,8 @@ def _skip_structure(volume, blocks, opts, styles, table, params, mask):
 
     A render that changes only the camera (the common case: orbiting, an animation)
     then skips both. The key holds everything ``_active_blocks`` reads, with the opacity
-    column and the mask as BLAKE2 digests of their bytes (a table may have 2**24
-    entries: the cache keeps no copy); labelled renders are not cached.
+    column and the mask as ``content_digest``s (a table may have 2**24 entries: the cache
+    keeps no copy); labelled renders are not cached.
     """
     def build():
         active = _active_blocks(blocks.minimum, blocks.maximum, opts, styles, table, params)
@@ -187,15 +186,6 @@ def _skip_structure(volume, blocks, opts, styles, table, params, mask):
            params.linthresh, params.precision, table.shape[0], content_digest(table[:, 3]),
            None if mask is None else content_digest(mask))
     return cached(volume.cache, "skip_structures", key, build, _SKIP_CACHE)
-
-
-def content_digest(array):
-    """A 128-bit BLAKE2 digest of an array's dtype, shape and bytes (cache keys)."""
-    a = np.ascontiguousarray(array)
-    h = hashlib.blake2b(digest_size=16)
-    h.update(f"{a.dtype.str}{a.shape}".encode())
-    h.update(memoryview(a).cast("B"))
-    return h.digest()
 
 
 def cached(cache, name, key, build, size):

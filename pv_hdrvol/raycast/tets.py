@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 
+from ..data.grid import content_digest
 from ..data.tets import as_tetmesh
 from ..data.transfer import SCALE_CODES, TransferFunction, _scale_inverse
 from ..image.hdr import HDRImage
@@ -17,9 +18,7 @@ from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
 from . import _tet_kernels as TK
-from .grid import (
-    _TILE, _check_progress_bar, _lanes, _visible, cached, content_digest, default_transfer_function, run_in_chunks,
-)
+from .grid import _TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function, run_in_chunks
 
 #: extinction columns whose active-cell masks a mesh keeps
 _ACTIVE_CACHE = 4

@@ -77,9 +77,11 @@ def upsampling(size=512, factor=8):
     low = hv.render(mesh, tf, cam, size // factor, precision="float64", progress_bar=False)
     layers = hv.depth_layers(mesh, cam, size)
     results = [("full render", full)]
-    for method in ("nearest", "bilinear", "joint_bilateral"):
-        results.append((method.replace("_", " "), hv.upsample(low, layers, factor, method=method)))
-    fig, axes = plt.subplots(2, 4, figsize=(13, 6.6))
+    for method in ("nearest", "bilinear"):
+        results.append((method, hv.upsample(low, layers, factor, method=method)))
+    results.append(("joint bilateral, layers (paper)", hv.upsample(low, layers, factor, guide="layers")))
+    results.append(("joint bilateral, thickness", hv.upsample(low, layers, factor, guide="thickness")))
+    fig, axes = plt.subplots(2, 5, figsize=(16, 6.6))
     ref = full.tonemap("reinhard")
     for col, (title, img) in enumerate(results):
         mapped = img.tonemap("reinhard", fitted=ref.fitted)
@@ -91,12 +93,8 @@ def upsampling(size=512, factor=8):
             axes[1, col].imshow(err, cmap="inferno", vmin=0, vmax=0.25)
             axes[1, col].set_title("|displayed - full| (0 to 0.25)", fontsize=8)
         else:
-            guide = layers.normalized()
-            guide = np.where(guide > 1, 0.0, guide)  # no such layer: black
-            rgb = np.zeros(guide.shape[:2] + (3,))
-            rgb[..., :min(3, guide.shape[2])] = guide[..., :3]
-            axes[1, col].imshow(rgb)
-            axes[1, col].set_title("reference: depth layers 1-3 as RGB", fontsize=8)
+            axes[1, col].imshow(layers.normalized_thickness(), cmap="gray")
+            axes[1, col].set_title("reference: ray length inside the mesh", fontsize=8)
         axes[0, col].set_title(title, fontsize=8)
     for ax in axes.ravel():
         ax.set_axis_off()

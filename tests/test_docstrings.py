@@ -14,6 +14,7 @@ MODULES = [
     "pv_hdrvol.image.detail",
     "pv_hdrvol.image.views",
     "pv_hdrvol.image.sequence",
+    "pv_hdrvol.image.upsample",
     "pv_hdrvol.datasets",
 ]
 

@@ -111,6 +111,80 @@ def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, table, out):
 
 
 @parallel_kernel
+def joint_bilinear(low, guide, factor, inv_2sr, table, out):
+    """Joint bilateral upsampling with bilinear spatial weights: output pixel ``p`` averages
+    the four low-resolution pixels around it (the ones bilinear interpolation reads, with
+    the same pixel-centre convention as ``bilinear``), each weighted by its bilinear
+    weight times ``exp(-|G(p) - G(q)|^2 inv_2sr)``.
+
+    With a flat guide this is exactly bilinear interpolation; where the guide changes it
+    leans towards the neighbours whose guide matches. ``low`` (h, w, 4), ``guide``
+    (k, H, W), ``out`` (H, W, 4); the guide at a low pixel is that of the full-resolution
+    pixel nearest its centre (as ``joint_bilateral``). Where every range weight
+    underflows, bilinear weights alone are used. ``table``: ``exp_table()``.
+    """
+    h, w, _ = low.shape
+    k, H, W = guide.shape
+    at_low = np.empty((h, w, k))
+    for i in numba.prange(h):
+        gy = min(max(int((i + 0.5) * factor - 0.5 + 0.5), 0), H - 1)
+        for j in range(w):
+            gx = min(max(int((j + 0.5) * factor - 0.5 + 0.5), 0), W - 1)
+            for m in range(k):
+                at_low[i, j, m] = guide[m, gy, gx]
+    for row in numba.prange(H):
+        y = min(max((row + 0.5) / factor - 0.5, 0.0), h - 1.0)
+        i0 = min(int(y), max(h - 2, 0))
+        fy = y - i0
+        i1 = min(i0 + 1, h - 1)
+        for col in range(W):
+            x = min(max((col + 0.5) / factor - 0.5, 0.0), w - 1.0)
+            j0 = min(int(x), max(w - 2, 0))
+            fx = x - j0
+            j1 = min(j0 + 1, w - 1)
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            a3 = 0.0
+            total = 0.0
+            for corner in range(4):
+                i = i1 if corner >= 2 else i0
+                j = j1 if corner & 1 else j0
+                ws = (fy if corner >= 2 else 1.0 - fy) * (fx if corner & 1 else 1.0 - fx)
+                dr = 0.0
+                for m in range(k):
+                    diff = guide[m, row, col] - at_low[i, j, m]
+                    dr += diff * diff
+                wgt = ws * _exp_neg(table, dr * inv_2sr * EXP_STEPS)
+                total += wgt
+                a0 += wgt * low[i, j, 0]
+                a1 += wgt * low[i, j, 1]
+                a2 += wgt * low[i, j, 2]
+                a3 += wgt * low[i, j, 3]
+            if not total > 1e-300:
+                # no neighbour matches the reference: bilinear weights alone
+                a0 = 0.0
+                a1 = 0.0
+                a2 = 0.0
+                a3 = 0.0
+                total = 0.0
+                for corner in range(4):
+                    i = i1 if corner >= 2 else i0
+                    j = j1 if corner & 1 else j0
+                    ws = (fy if corner >= 2 else 1.0 - fy) * (fx if corner & 1 else 1.0 - fx)
+                    total += ws
+                    a0 += ws * low[i, j, 0]
+                    a1 += ws * low[i, j, 1]
+                    a2 += ws * low[i, j, 2]
+                    a3 += ws * low[i, j, 3]
+            inv = 1.0 / total
+            out[row, col, 0] = a0 * inv
+            out[row, col, 1] = a1 * inv
+            out[row, col, 2] = a2 * inv
+            out[row, col, 3] = a3 * inv
+
+
+@parallel_kernel
 def normalize_depths(depth, missing, out):
     """``out = (depth - near) / (far - near)`` over the finite values of ``depth``
     (``span = 1`` when they are all equal), ``missing`` elsewhere; both flat (the guide

@@ -2,9 +2,10 @@
 
 Callahan & Silva, "Accelerating unstructured volume rendering with joint bilateral
 upsampling" (JGT 2009): render small, then upsample with a joint bilateral filter
-whose range term compares full-resolution reference depth layers (the mesh boundary
-peeled front to back, :func:`~pv_hdrvol.depth_layers`), so edges of the mesh stay sharp
-while its interior is interpolated smoothly.
+whose range term compares a full-resolution reference (:func:`~pv_hdrvol.depth_layers`:
+the mesh boundary peeled front to back, as the paper, or the length of each ray inside
+the mesh, this package's default), so edges of the mesh stay sharp while its interior
+is interpolated smoothly.
 """
 from __future__ import annotations
 
@@ -17,6 +18,8 @@ from . import _upsample_kernels as K
 from .hdr import HDRImage
 
 METHODS = ("joint_bilateral", "bilinear", "nearest")
+GUIDES = ("thickness", "layers")
+SPATIAL = ("bilinear", "gaussian")
 _EXP_TABLE = K.exp_table()
 
 
@@ -26,7 +29,8 @@ def _inverse_two_squares(sigma):
     return min(0.5 / (sigma * sigma), 1e300) if sigma * sigma > 0.0 else 1e300
 
 
-def upsample(image, layers=None, factor=None, *, method="joint_bilateral", support=None, sigma_range=0.01):
+def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide=None, spatial=None, support=None,
+             sigma_range=None):
     """Upsample a low-resolution :class:`HDRImage` (or array) to the layers' resolution.
 
     Parameters
@@ -34,28 +38,67 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", suppo
     image : HDRImage or ndarray (h, w, c)
         Linear premultiplied RGBA (any channels are filtered alike).
     layers : DepthLayers or ndarray (H, W, k), optional
-        The full-resolution guide (``DepthLayers.normalized()`` is used for
-        DepthLayers). Required for ``"joint_bilateral"``.
+        The full-resolution reference (:func:`~pv_hdrvol.depth_layers`), or a guide
+        given as an array (its values are compared as they are). Required for
+        ``"joint_bilateral"``.
     factor : float, optional
         Full-resolution pixels per low-resolution pixel; default ``H / h`` from the
         layers. ``1`` with layers of the image's own size is the denoising use (the
         paper's Fig. 5).
     method : {"joint_bilateral", "bilinear", "nearest"}
+    guide : {"thickness", "layers"}, optional
+        What the range term compares, for :class:`DepthLayers`:
+
+        - ``"thickness"``: the length of the pixel's ray inside the mesh
+          (:attr:`DepthLayers.thickness`), scaled to [0, 1] by its largest value.
+          The default where the layers have it (a mesh's boundary).
+        - ``"layers"``: the vector of normalised depth layers, the paper's guide
+          (missing layers count as 2, far from every surface). The default for the
+          reference depth of an image volume.
+
+        A volume rendering with a transparent transfer function varies with how much
+        of the mesh a ray crosses, which the thickness measures: it goes to 0
+        continuously where a silhouette fades out, and jumps where the ray enters or
+        leaves a part of the mesh. The depth layers jump at every silhouette, also
+        where the picture does not.
+    spatial : {"bilinear", "gaussian"}, optional
+        The spatial weights. ``"bilinear"``: the four low-resolution pixels around the
+        output pixel with their bilinear weights, so a flat guide gives exactly bilinear
+        interpolation (the default with ``guide="thickness"``). ``"gaussian"``: the
+        paper's Gaussian of support ``support`` (the default otherwise).
+        ``guide="layers", spatial="gaussian"`` is Callahan & Silva's filter as
+        published; docs/tetrahedra.md measures both against bilinear interpolation.
     support : float, optional
-        The spatial filter's support Omega in full-resolution pixels; its Gaussian has
-        sigma = Omega / 2. Default: ``factor`` (one low-resolution pixel), at least 2.
-    sigma_range : float
-        Sigma of the range Gaussian on the distance between guide vectors, in units of
-        the normalised depth range (default 0.01, as the paper).
+        ``spatial="gaussian"``: the support Omega in full-resolution pixels; the
+        Gaussian has sigma = Omega / 2. Default: ``factor`` (one low-resolution pixel),
+        at least 2.
+    sigma_range : float, optional
+        Sigma of the range Gaussian on the distance between guide values, in the
+        guide's units: default 0.2 (of the largest thickness) for ``"thickness"``,
+        0.01 (of the depth range, as the paper) for ``"layers"`` and for array guides.
 
     Returns
     -------
     HDRImage or ndarray
         At the guide's size, in the input's float type: an HDRImage for an HDRImage
-        (depth upsampled by nearest neighbour, metadata noting the method), else an
-        array.
+        (depth upsampled by nearest neighbour, metadata noting the method and guide),
+        else an array.
+
+    Examples
+    --------
+    >>> import numpy as np, pv_hdrvol as hv
+    >>> low = np.arange(4.0).reshape(2, 2, 1)
+    >>> hv.upsample(low, factor=2, method="bilinear")[..., 0]
+    array([[0.  , 0.25, 0.75, 1.  ],
+           [0.5 , 0.75, 1.25, 1.5 ],
+           [1.5 , 1.75, 2.25, 2.5 ],
+           [2.  , 2.25, 2.75, 3.  ]])
     """
     as_choice("method", method, METHODS)
+    if guide is not None:
+        as_choice("guide", guide, GUIDES)
+    if spatial is not None:
+        as_choice("spatial", spatial, SPATIAL)
     src_meta = {}
     if isinstance(image, HDRImage):
         low = image.rgba
@@ -69,28 +112,33 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", suppo
     if not np.issubdtype(low.dtype, np.floating):
         raise TypeError(f"image must hold floats; got dtype {low.dtype}")
     h, w = low.shape[:2]
-    guide = None
+    ref = None  # the guide, (k, rows, cols)
+    used = None  # which guide: "thickness", "layers" or "array"
     if layers is not None:
         if hasattr(layers, "normalized"):
-            guide = layers.normalized(layer_first=True)
+            used = guide or ("thickness" if getattr(layers, "thickness", None) is not None else "layers")
+            ref = layers.normalized_thickness()[None] if used == "thickness" else layers.normalized(layer_first=True)
         else:
-            guide = np.asarray(layers, dtype=np.float64)
-            if guide.ndim == 2:
-                guide = guide[..., None]
-            if guide.ndim != 3:
-                raise ValueError(f"layers must be DepthLayers or an array (rows, cols, k); got shape {guide.shape}")
-            if not np.all(np.isfinite(guide)):
+            if guide is not None:
+                raise ValueError(f"guide={guide!r} chooses from DepthLayers; an array of layers is the guide itself")
+            used = "array"
+            ref = np.asarray(layers, dtype=np.float64)
+            if ref.ndim == 2:
+                ref = ref[..., None]
+            if ref.ndim != 3:
+                raise ValueError(f"layers must be DepthLayers or an array (rows, cols, k); got shape {ref.shape}")
+            if not np.all(np.isfinite(ref)):
                 raise ValueError("layers must be finite (DepthLayers.normalized() encodes missing layers as 2)")
-            guide = np.moveaxis(guide, -1, 0)
-        guide = np.ascontiguousarray(guide, dtype=np.float64)  # (k, rows, cols)
+            ref = np.moveaxis(ref, -1, 0)
+        ref = np.ascontiguousarray(ref, dtype=np.float64)
     elif method == "joint_bilateral":
         raise ValueError("method='joint_bilateral' needs the full-resolution layers")
     if factor is None:
-        if guide is None:
+        if ref is None:
             raise ValueError("factor must be given when there are no layers")
-        factor = guide.shape[1] / h
+        factor = ref.shape[1] / h
     factor = as_real("factor", factor, low=0.0, low_open=True)
-    H, W = (guide.shape[1], guide.shape[2]) if guide is not None else (int(round(h * factor)), int(round(w * factor)))
+    H, W = (ref.shape[1], ref.shape[2]) if ref is not None else (int(round(h * factor)), int(round(w * factor)))
     if abs(H - h * factor) > 0.5 or abs(W - w * factor) > 0.5:
         raise ValueError(f"layers of {W}x{H} pixels are not the image's {w}x{h} times factor {factor:g}")
     work = np.ascontiguousarray(low, dtype=np.float64)
@@ -101,21 +149,32 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", suppo
         out = np.empty((H, W, low.shape[2]))
         K.bilinear(work, factor, out)
     else:
-        omega = as_real("support", support, low=0.0, low_open=True) if support is not None else max(factor, 2.0)
-        sigma_s = omega / 2.0
+        if spatial is None:
+            spatial = "bilinear" if used == "thickness" else "gaussian"
+        if sigma_range is None:
+            sigma_range = 0.2 if used == "thickness" else 0.01
         sigma_range = as_real("sigma_range", sigma_range, low=0.0, low_open=True)
-        radius = max(1, int(math.ceil(2.0 * sigma_s / factor)))
+        inv_2sr = _inverse_two_squares(sigma_range)
+        if spatial == "gaussian":
+            omega = as_real("support", support, low=0.0, low_open=True) if support is not None else max(factor, 2.0)
+            sigma_s = omega / 2.0
+            radius = max(1, int(math.ceil(2.0 * sigma_s / factor)))
+        elif support is not None:
+            raise ValueError(f"support={support!r} sets the width of spatial='gaussian'; spatial='bilinear' reads "
+                             "the four nearest low-resolution pixels")
         nc = low.shape[2]
         groups = []
-        for c0 in range(0, nc, 4):  # the kernel filters four channels at a time
+        for c0 in range(0, nc, 4):  # the kernels filter four channels at a time
             if nc - c0 >= 4:
                 part = np.ascontiguousarray(work[..., c0:c0 + 4])
             else:
                 part = np.zeros((h, w, 4))
                 part[..., :nc - c0] = work[..., c0:]
             res = np.empty((H, W, 4))
-            K.joint_bilateral(part, guide, factor, radius, _inverse_two_squares(sigma_s),
-                              _inverse_two_squares(sigma_range), _EXP_TABLE, res)
+            if spatial == "gaussian":
+                K.joint_bilateral(part, ref, factor, radius, _inverse_two_squares(sigma_s), inv_2sr, _EXP_TABLE, res)
+            else:
+                K.joint_bilinear(part, ref, factor, inv_2sr, _EXP_TABLE, res)
             groups.append(res[..., :min(4, nc - c0)])
         out = groups[0] if len(groups) == 1 else np.concatenate(groups, axis=2)
     out = out.astype(low.dtype)
@@ -128,5 +187,7 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", suppo
         return out
     meta = dict(src_meta)
     meta["upsampled"] = {"method": method, "factor": factor, "from": [w, h]}
+    if method == "joint_bilateral":
+        meta["upsampled"].update(guide=used, spatial=spatial, sigma_range=sigma_range)
     return HDRImage(out, depth, metadata=meta)
 

@@ -192,7 +192,7 @@ def _edge_line(ax, ay, bx, by, cx, cy):
 
 @parallel_kernel
 def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, offsets, out_t,
-                  out_face, out_enter, count_only, counts, out_layers):
+                  out_face, out_enter, count_only, counts, out_layers, out_thickness):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
 
     ``boxes`` (b, 4) int64: each face's pixel bounding box ``col0, col1, row0, row1``
@@ -205,9 +205,13 @@ def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, 
     are only counted into ``counts``; otherwise they are written from
     ``offsets[pixel]`` on and sorted by ``t``. With ``count_only`` and a non-empty
     ``out_layers`` (k, pixels), initialised to ``inf``, each pixel also keeps its ``k``
-    nearest ``t`` in order (depth layers in one pass, without the hit lists).
+    nearest ``t`` in order (depth layers in one pass, without the hit lists). With
+    ``count_only`` and a non-empty ``out_thickness`` (pixels), initialised to 0, each
+    pixel also sums its exits' ``t`` minus its entries' ``t``: the length of its ray
+    inside the mesh, which needs no sorting.
     """
     k_layers = out_layers.shape[0]
+    thickness = out_thickness.shape[0] > 0
     n_faces = tri.shape[0]
     band_rows = (height + bands - 1) // bands
     for band in numba.prange(bands):
@@ -245,6 +249,8 @@ def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, 
                         continue
                     if count_only:
                         counts[pix] += 1
+                        if thickness:
+                            out_thickness[pix] += -t if enter else t
                         if k_layers > 0 and t < out_layers[k_layers - 1, pix]:
                             # insert into the pixel's sorted k nearest
                             m = k_layers - 1

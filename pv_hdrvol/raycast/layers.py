@@ -21,20 +21,25 @@ from ..rays.camera import Camera
 
 class DepthLayers:
     """Per pixel, the first ``k`` depths (world distance along the ray; ``inf`` where a
-    pixel has fewer).
+    pixel has fewer) and, for a mesh, the length of the ray inside it.
 
     Attributes
     ----------
     depth : ndarray (k, rows, cols) float64
     counts : ndarray (rows, cols) int
         How many layers each pixel has in all (may exceed ``k``).
+    thickness : ndarray (rows, cols) float64 or None
+        Meshes: the world length of each pixel's ray inside the mesh, from all its
+        boundary crossings (exits minus entries), not only the ``k`` kept; 0 where
+        the ray misses. ``None`` for the reference depth of an image volume.
     seconds : float
         Time taken to compute them.
     """
 
-    def __init__(self, depth, counts, seconds=0.0, source=""):
+    def __init__(self, depth, counts, seconds=0.0, source="", thickness=None):
         self.depth = depth
         self.counts = counts
+        self.thickness = thickness
         self.seconds = seconds
         self.source = source
 
@@ -61,6 +66,15 @@ class DepthLayers:
         out = np.empty(d.shape)
         normalize_depths(d.reshape(-1), float(missing), out.reshape(-1))
         return out if layer_first else np.ascontiguousarray(np.moveaxis(out, 0, -1))
+
+    def normalized_thickness(self):
+        """:attr:`thickness` divided by its largest value (1 where it is all 0), float64
+        (rows, cols): the guide of ``upsample(guide="thickness")``."""
+        if self.thickness is None:
+            raise ValueError(f"these layers have no thickness (they are the {self.source}); only a mesh's "
+                             "boundary layers do")
+        top = float(self.thickness.max()) if self.thickness.size else 0.0
+        return self.thickness / top if top > 0.0 else np.array(self.thickness, dtype=np.float64)
 
     def __repr__(self):
         rows, cols = self.shape
@@ -93,6 +107,7 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
     Returns
     -------
     DepthLayers
+        For a mesh also with :attr:`DepthLayers.thickness`, found in the same pass.
     """
     max_layers = as_int("max_layers", max_layers, low=1)
     t0 = time.perf_counter()
@@ -108,11 +123,12 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a Camera; got {type(camera).__name__}")
         width, height = as_size(size)
-        counts, t = boundary_layers(mesh, camera, (width, height), max_layers)
+        counts, t, thickness = boundary_layers(mesh, camera, (width, height), max_layers)
         k = max(1, min(max_layers, int(counts.max()) if counts.size else 0))
         depth = t[:k] * float(mesh.scale)
         return DepthLayers(depth.reshape(k, height, width), counts.reshape(height, width),
-                           time.perf_counter() - t0, f"boundary of {mesh.n_cells} tets")
+                           time.perf_counter() - t0, f"boundary of {mesh.n_cells} tets",
+                           thickness=(thickness * float(mesh.scale)).reshape(height, width))
     from .. import render
     from ..data.transfer import TransferFunction
     from .grid import as_volume

@@ -250,7 +250,7 @@ def boundary_crossings(mesh, camera, size, cam=None):
     empty_b = np.empty(0, dtype=np.bool_)
     offsets0 = np.zeros(n_pix + 1, dtype=np.int64)
     TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets0, empty_f, empty_i,
-                     empty_b, True, counts, _NO_LAYERS)
+                     empty_b, True, counts, _NO_LAYERS, empty_f)
     offsets = np.zeros(n_pix + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     total = int(offsets[-1])
@@ -259,23 +259,29 @@ def boundary_crossings(mesh, camera, size, cam=None):
     entering = np.empty(total, dtype=np.bool_)
     counts[:] = 0
     TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets, t, face, entering,
-                     False, counts, _NO_LAYERS)
+                     False, counts, _NO_LAYERS, empty_f)
     return BoundaryHits(offsets, t, face, entering, width, height)
 
 
 def boundary_layers(mesh, camera, size, k):
-    """``(counts, t)``: per pixel the number of boundary crossings (``width * height``)
-    and the ``k`` nearest crossing distances in order (``(k, width * height)``, the
-    mesh's normalised units, ``inf`` past the count), in one pass and without the lists
-    of :func:`boundary_crossings`."""
+    """``(counts, t, thickness)``: per pixel the number of boundary crossings
+    (``width * height``), the ``k`` nearest crossing distances in order
+    (``(k, width * height)``, ``inf`` past the count) and the length of the ray inside
+    the mesh (the sum of its exit distances minus its entry distances, at least 0), in
+    the mesh's normalised units; in one pass and without the lists of
+    :func:`boundary_crossings`."""
     width, height = size
     pts, tri, normals, boxes, proj, cam, bands = _boundary_setup(mesh, camera, width, height, None)
     n_pix = width * height
     counts = np.zeros(n_pix, dtype=np.int64)
     layers = np.full((k, n_pix), np.inf)
+    thickness = np.zeros(n_pix)
     TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, np.zeros(1, dtype=np.int64),
-                     np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_), True, counts, layers)
-    return counts, layers
+                     np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_), True, counts, layers,
+                     thickness)
+    # differences of distances: rounding may leave -1e-16 where a ray grazes the boundary
+    np.maximum(thickness, 0.0, out=thickness)
+    return counts, layers, thickness
 
 
 _NO_LAYERS = np.empty((0, 0))

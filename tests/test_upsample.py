@@ -92,8 +92,9 @@ def test_thickness_guide_beats_bilinear_where_the_layers_lose():
     # guide="layers" is the paper's filter: the normalised layers as an array, Gaussian, sigma 0.01
     np.testing.assert_array_equal(by_layers.rgba, hv.upsample(low, layers.normalized(), 4).rgba)
     # guide="thickness" the normalised thickness as an array, bilinear weights, sigma 0.2
-    np.testing.assert_array_equal(thick.rgba, hv.upsample(low, layers.normalized_thickness(), 4,
-                                                          spatial="bilinear", sigma_range=0.2).rgba)
+    # (the kernel compares raw thicknesses with sigma scaled alike: equal to rounding)
+    np.testing.assert_allclose(thick.rgba, hv.upsample(low, layers.normalized_thickness(), 4,
+                                                       spatial="bilinear", sigma_range=0.2).rgba, rtol=0, atol=1e-12)
 
 
 def test_bilinear_spatial_weights_with_a_flat_guide_are_bilinear_upsampling():
@@ -198,6 +199,10 @@ def test_render_with_upsampling_is_the_three_steps():
      r"guide='layers' chooses from DepthLayers; an array of layers is the guide itself"),
     (lambda: hv.DepthLayers(np.zeros((1, 2, 2)), np.ones((2, 2)), source="isosurface 0.5").normalized_thickness(),
      ValueError, r"these layers have no thickness \(they are the isosurface 0.5\); only a mesh's boundary layers do"),
+    (lambda: hv.upsample(np.zeros((2, 2, 4)), hv.DepthLayers(np.zeros((1, 4, 4)), np.ones((4, 4)), source="isosurface 1"),
+                         guide="thickness"), ValueError,
+     r"guide='thickness' needs the boundary layers of a mesh; these layers have no thickness \(they are the "
+     r"isosurface 1\)"),
 ])
 def test_bad_input(call, error, message):
     with pytest.raises(error, match=message):

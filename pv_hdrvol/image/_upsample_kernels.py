@@ -6,7 +6,7 @@ import math
 import numba
 import numpy as np
 
-from .._jit import inline_kernel, parallel_kernel
+from .._jit import inline_kernel, kernel, parallel_kernel
 
 
 #: exp(-x) is read from a table of EXP_STEPS entries per unit over [0, EXP_RANGE]
@@ -110,6 +110,28 @@ def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, table, out):
             out[row, col, 3] = a3 * inv
 
 
+@inline_kernel
+def _guide_distance(guide, row, col, at_low, i, j):
+    """Squared distance between the guide at output pixel ``(row, col)`` and at low pixel ``(i, j)``."""
+    d = 0.0
+    for m in range(guide.shape[0]):
+        diff = guide[m, row, col] - at_low[i, j, m]
+        d += diff * diff
+    return d
+
+
+@kernel
+def _bilinear_taps(n_out, n_low, factor, lo, hi, frac):
+    """For each of ``n_out`` output positions along an axis, the two low-resolution
+    pixels bilinear interpolation reads and the fraction between them (as ``bilinear``)."""
+    for q in range(n_out):
+        x = min(max((q + 0.5) / factor - 0.5, 0.0), n_low - 1.0)
+        j0 = min(int(x), max(n_low - 2, 0))
+        lo[q] = j0
+        hi[q] = min(j0 + 1, n_low - 1)
+        frac[q] = x - j0
+
+
 @parallel_kernel
 def joint_bilinear(low, guide, factor, inv_2sr, table, out):
     """Joint bilateral upsampling with bilinear spatial weights: output pixel ``p`` averages
@@ -117,11 +139,11 @@ def joint_bilinear(low, guide, factor, inv_2sr, table, out):
     the same pixel-centre convention as ``bilinear``), each weighted by its bilinear
     weight times ``exp(-|G(p) - G(q)|^2 inv_2sr)``.
 
-    With a flat guide this is exactly bilinear interpolation; where the guide changes it
-    leans towards the neighbours whose guide matches. ``low`` (h, w, 4), ``guide``
-    (k, H, W), ``out`` (H, W, 4); the guide at a low pixel is that of the full-resolution
-    pixel nearest its centre (as ``joint_bilateral``). Where every range weight
-    underflows, bilinear weights alone are used. ``table``: ``exp_table()``.
+    With a flat guide this is bilinear interpolation; where the guide changes it leans
+    towards the neighbours whose guide matches. ``low`` (h, w, 4), ``guide`` (k, H, W),
+    ``out`` (H, W, 4) of any float type; the guide at a low pixel is that of the
+    full-resolution pixel nearest its centre (as ``joint_bilateral``). Where every range
+    weight underflows, bilinear weights alone are used. ``table``: ``exp_table()``.
     """
     h, w, _ = low.shape
     k, H, W = guide.shape
@@ -132,56 +154,43 @@ def joint_bilinear(low, guide, factor, inv_2sr, table, out):
             gx = min(max(int((j + 0.5) * factor - 0.5 + 0.5), 0), W - 1)
             for m in range(k):
                 at_low[i, j, m] = guide[m, gy, gx]
+    r0 = np.empty(H, dtype=np.int64)
+    r1 = np.empty(H, dtype=np.int64)
+    fr = np.empty(H)
+    _bilinear_taps(H, h, factor, r0, r1, fr)
+    c0 = np.empty(W, dtype=np.int64)
+    c1 = np.empty(W, dtype=np.int64)
+    fc = np.empty(W)
+    _bilinear_taps(W, w, factor, c0, c1, fc)
+    scale = inv_2sr * EXP_STEPS
     for row in numba.prange(H):
-        y = min(max((row + 0.5) / factor - 0.5, 0.0), h - 1.0)
-        i0 = min(int(y), max(h - 2, 0))
-        fy = y - i0
-        i1 = min(i0 + 1, h - 1)
+        i0 = r0[row]
+        i1 = r1[row]
+        fy = fr[row]
         for col in range(W):
-            x = min(max((col + 0.5) / factor - 0.5, 0.0), w - 1.0)
-            j0 = min(int(x), max(w - 2, 0))
-            fx = x - j0
-            j1 = min(j0 + 1, w - 1)
-            a0 = 0.0
-            a1 = 0.0
-            a2 = 0.0
-            a3 = 0.0
-            total = 0.0
-            for corner in range(4):
-                i = i1 if corner >= 2 else i0
-                j = j1 if corner & 1 else j0
-                ws = (fy if corner >= 2 else 1.0 - fy) * (fx if corner & 1 else 1.0 - fx)
-                dr = 0.0
-                for m in range(k):
-                    diff = guide[m, row, col] - at_low[i, j, m]
-                    dr += diff * diff
-                wgt = ws * _exp_neg(table, dr * inv_2sr * EXP_STEPS)
-                total += wgt
-                a0 += wgt * low[i, j, 0]
-                a1 += wgt * low[i, j, 1]
-                a2 += wgt * low[i, j, 2]
-                a3 += wgt * low[i, j, 3]
+            j0 = c0[col]
+            j1 = c1[col]
+            fx = fc[col]
+            s00 = (1.0 - fy) * (1.0 - fx)
+            s01 = (1.0 - fy) * fx
+            s10 = fy * (1.0 - fx)
+            s11 = fy * fx
+            w00 = s00 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i0, j0) * scale)
+            w01 = s01 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i0, j1) * scale)
+            w10 = s10 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i1, j0) * scale)
+            w11 = s11 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i1, j1) * scale)
+            total = w00 + w01 + w10 + w11
             if not total > 1e-300:
                 # no neighbour matches the reference: bilinear weights alone
-                a0 = 0.0
-                a1 = 0.0
-                a2 = 0.0
-                a3 = 0.0
-                total = 0.0
-                for corner in range(4):
-                    i = i1 if corner >= 2 else i0
-                    j = j1 if corner & 1 else j0
-                    ws = (fy if corner >= 2 else 1.0 - fy) * (fx if corner & 1 else 1.0 - fx)
-                    total += ws
-                    a0 += ws * low[i, j, 0]
-                    a1 += ws * low[i, j, 1]
-                    a2 += ws * low[i, j, 2]
-                    a3 += ws * low[i, j, 3]
+                w00 = s00
+                w01 = s01
+                w10 = s10
+                w11 = s11
+                total = s00 + s01 + s10 + s11
             inv = 1.0 / total
-            out[row, col, 0] = a0 * inv
-            out[row, col, 1] = a1 * inv
-            out[row, col, 2] = a2 * inv
-            out[row, col, 3] = a3 * inv
+            for c in range(4):
+                out[row, col, c] = (w00 * low[i0, j0, c] + w01 * low[i0, j1, c] + w10 * low[i1, j0, c]
+                                    + w11 * low[i1, j1, c]) * inv
 
 
 @parallel_kernel

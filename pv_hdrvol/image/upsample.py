@@ -114,10 +114,20 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
     h, w = low.shape[:2]
     ref = None  # the guide, (k, rows, cols)
     used = None  # which guide: "thickness", "layers" or "array"
+    guide_scale = 1.0  # the guide's unit: sigma_range is in units of it
     if layers is not None:
         if hasattr(layers, "normalized"):
             used = guide or ("thickness" if getattr(layers, "thickness", None) is not None else "layers")
-            ref = layers.normalized_thickness()[None] if used == "thickness" else layers.normalized(layer_first=True)
+            if used == "thickness":
+                if getattr(layers, "thickness", None) is None:
+                    raise ValueError(f"guide='thickness' needs the boundary layers of a mesh; these layers have no "
+                                     f"thickness (they are the {layers.source})")
+                # the thickness as it is: its scale to [0, 1] goes into the range sigma below
+                ref = np.asarray(layers.thickness, dtype=np.float64)[None]
+                top = float(ref.max()) if ref.size else 0.0
+                guide_scale = top if top > 0.0 else 1.0
+            else:
+                ref = layers.normalized(layer_first=True)
         else:
             if guide is not None:
                 raise ValueError(f"guide={guide!r} chooses from DepthLayers; an array of layers is the guide itself")
@@ -154,7 +164,7 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
         if sigma_range is None:
             sigma_range = 0.2 if used == "thickness" else 0.01
         sigma_range = as_real("sigma_range", sigma_range, low=0.0, low_open=True)
-        inv_2sr = _inverse_two_squares(sigma_range)
+        inv_2sr = _inverse_two_squares(sigma_range * guide_scale)
         if spatial == "gaussian":
             omega = as_real("support", support, low=0.0, low_open=True) if support is not None else max(factor, 2.0)
             sigma_s = omega / 2.0
@@ -170,19 +180,23 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
             else:
                 part = np.zeros((h, w, 4))
                 part[..., :nc - c0] = work[..., c0:]
-            res = np.empty((H, W, 4))
             if spatial == "gaussian":
+                res = np.empty((H, W, 4))
                 K.joint_bilateral(part, ref, factor, radius, _inverse_two_squares(sigma_s), inv_2sr, _EXP_TABLE, res)
             else:
+                res = np.empty((H, W, 4), dtype=low.dtype)  # written once, in the output's type
                 K.joint_bilinear(part, ref, factor, inv_2sr, _EXP_TABLE, res)
             groups.append(res[..., :min(4, nc - c0)])
         out = groups[0] if len(groups) == 1 else np.concatenate(groups, axis=2)
-    out = out.astype(low.dtype)
+    out = out.astype(low.dtype, copy=False)
     depth = None
     if low_depth is not None:
-        rows = np.minimum(((np.arange(H) + 0.5) / factor).astype(np.int64), h - 1)
-        cols = np.minimum(((np.arange(W) + 0.5) / factor).astype(np.int64), w - 1)
-        depth = low_depth[rows[:, None], cols[None, :]]
+        if factor == int(factor) and (H, W) == (h * int(factor), w * int(factor)):
+            depth = np.repeat(np.repeat(low_depth, int(factor), axis=0), int(factor), axis=1)
+        else:
+            rows = np.minimum(((np.arange(H) + 0.5) / factor).astype(np.int64), h - 1)
+            cols = np.minimum(((np.arange(W) + 0.5) / factor).astype(np.int64), w - 1)
+            depth = low_depth[rows[:, None], cols[None, :]]
     if not isinstance(image, HDRImage):
         return out
     meta = dict(src_meta)

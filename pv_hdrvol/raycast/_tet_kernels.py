@@ -191,8 +191,8 @@ def _edge_line(ax, ay, bx, by, cx, cy):
 
 
 @parallel_kernel
-def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, offsets, out_t,
-                  out_face, out_enter, count_only, counts, out_layers, out_thickness):
+def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets, out_t,
+                  out_face, out_enter, count_only, counts, out_layers):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
 
     ``boxes`` (b, 4) int64: each face's pixel bounding box ``col0, col1, row0, row1``
@@ -201,74 +201,71 @@ def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, 
     a pixel whose centre is over 0.01 pixel outside the projected triangle is not
     tested further, every other one gets the exact Plücker test (the projection only
     saves work; it decides nothing). Rows are split into ``bands``, one band per
-    thread at a time, so no two threads write one pixel. With ``count_only`` the hits
+    thread at a time, so no two threads write one pixel; lane ``l`` takes bands
+    ``l, l + lanes, ...`` and the lanes are split among the threads, so each thread's
+    rows are spread over the image (a mesh seldom fills it evenly). With ``count_only`` the hits
     are only counted into ``counts``; otherwise they are written from
     ``offsets[pixel]`` on and sorted by ``t``. With ``count_only`` and a non-empty
     ``out_layers`` (k, pixels), initialised to ``inf``, each pixel also keeps its ``k``
-    nearest ``t`` in order (depth layers in one pass, without the hit lists). With
-    ``count_only`` and a non-empty ``out_thickness`` (pixels), initialised to 0, each
-    pixel also sums its exits' ``t`` minus its entries' ``t``: the length of its ray
-    inside the mesh, which needs no sorting.
+    nearest ``t`` in order (depth layers in one pass, without the hit lists).
     """
     k_layers = out_layers.shape[0]
-    thickness = out_thickness.shape[0] > 0
     n_faces = tri.shape[0]
     band_rows = (height + bands - 1) // bands
-    for band in numba.prange(bands):
-        r0 = band * band_rows
-        r1 = min(height, r0 + band_rows) - 1
-        for f in range(n_faces):
-            row0 = max(boxes[f, 2], r0)
-            row1 = min(boxes[f, 3], r1)
-            if row1 < row0:
-                continue
-            ax = proj[f, 0, 0]
-            ay = proj[f, 0, 1]
-            bx = proj[f, 1, 0]
-            by = proj[f, 1, 1]
-            cx = proj[f, 2, 0]
-            cy = proj[f, 2, 1]
-            # a face seen edge-on (or partly behind the camera) skips the 2-D test
-            area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-            flat = not abs(area) > 1e-6
-            n0x, n0y, k0 = _edge_line(ax, ay, bx, by, cx, cy)
-            n1x, n1y, k1 = _edge_line(bx, by, cx, cy, ax, ay)
-            n2x, n2y, k2 = _edge_line(cx, cy, ax, ay, bx, by)
-            for row in range(row0, row1 + 1):
-                py = row + 0.5
-                for col in range(boxes[f, 0], boxes[f, 1] + 1):
-                    if not flat:
-                        px = col + 0.5
-                        if (n0x * px + n0y * py + k0 < -0.01 or n1x * px + n1y * py + k1 < -0.01
-                                or n2x * px + n2y * py + k2 < -0.01):
+    for lane in numba.prange(lanes):
+        for band in range(lane, bands, lanes):
+            r0 = band * band_rows
+            r1 = min(height, r0 + band_rows) - 1
+            for f in range(n_faces):
+                row0 = max(boxes[f, 2], r0)
+                row1 = min(boxes[f, 3], r1)
+                if row1 < row0:
+                    continue
+                ax = proj[f, 0, 0]
+                ay = proj[f, 0, 1]
+                bx = proj[f, 1, 0]
+                by = proj[f, 1, 1]
+                cx = proj[f, 2, 0]
+                cy = proj[f, 2, 1]
+                # a face seen edge-on (or partly behind the camera) skips the 2-D test
+                area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+                flat = not abs(area) > 1e-6
+                n0x, n0y, k0 = _edge_line(ax, ay, bx, by, cx, cy)
+                n1x, n1y, k1 = _edge_line(bx, by, cx, cy, ax, ay)
+                n2x, n2y, k2 = _edge_line(cx, cy, ax, ay, bx, by)
+                for row in range(row0, row1 + 1):
+                    py = row + 0.5
+                    for col in range(boxes[f, 0], boxes[f, 1] + 1):
+                        if not flat:
+                            px = col + 0.5
+                            if (n0x * px + n0y * py + k0 < -0.01 or n1x * px + n1y * py + k1 < -0.01
+                                    or n2x * px + n2y * py + k2 < -0.01):
+                                continue
+                        pix = row * width + col
+                        ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
+                        t, enter = _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz)
+                        if not t >= 0.0:
                             continue
-                    pix = row * width + col
-                    ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
-                    t, enter = _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz)
-                    if not t >= 0.0:
-                        continue
-                    if count_only:
-                        counts[pix] += 1
-                        if thickness:
-                            out_thickness[pix] += -t if enter else t
-                        if k_layers > 0 and t < out_layers[k_layers - 1, pix]:
-                            # insert into the pixel's sorted k nearest
-                            m = k_layers - 1
-                            while m > 0 and out_layers[m - 1, pix] > t:
-                                out_layers[m, pix] = out_layers[m - 1, pix]
-                                m -= 1
-                            out_layers[m, pix] = t
-                    else:
-                        q = offsets[pix] + counts[pix]
-                        out_t[q] = t
-                        out_face[q] = f
-                        out_enter[q] = enter
-                        counts[pix] += 1
-        if not count_only:
-            for row in range(r0, r1 + 1):
-                for col in range(width):
-                    pix = row * width + col
-                    _sort_hits(out_t, out_face, out_enter, offsets[pix], offsets[pix + 1])
+                        if count_only:
+                            counts[pix] += 1
+                            if k_layers > 0 and t < out_layers[k_layers - 1, pix]:
+                                # insert into the pixel's sorted k nearest
+                                m = k_layers - 1
+                                while m > 0 and out_layers[m - 1, pix] > t:
+                                    out_layers[m, pix] = out_layers[m - 1, pix]
+                                    m -= 1
+                                out_layers[m, pix] = t
+                        else:
+                            q = offsets[pix] + counts[pix]
+                            out_t[q] = t
+                            out_face[q] = f
+                            out_enter[q] = enter
+                            counts[pix] += 1
+            if not count_only:
+                for row in range(r0, r1 + 1):
+                    for col in range(width):
+                        pix = row * width + col
+                        _sort_hits(out_t, out_face, out_enter, offsets[pix], offsets[pix + 1])
 
 
 @kernel

@@ -125,10 +125,9 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
         width, height = as_size(size)
         counts, t, thickness = boundary_layers(mesh, camera, (width, height), max_layers)
         k = max(1, min(max_layers, int(counts.max()) if counts.size else 0))
-        depth = t[:k] * float(mesh.scale)
-        return DepthLayers(depth.reshape(k, height, width), counts.reshape(height, width),
+        return DepthLayers(t[:k].reshape(k, height, width), counts.reshape(height, width),
                            time.perf_counter() - t0, f"boundary of {mesh.n_cells} tets",
-                           thickness=(thickness * float(mesh.scale)).reshape(height, width))
+                           thickness=thickness.reshape(height, width))
     from .. import render
     from ..data.transfer import TransferFunction
     from .grid import as_volume

@@ -17,6 +17,7 @@ from ..image.hdr import HDRImage
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
+from . import _layer_kernels as LK
 from . import _tet_kernels as TK
 from .grid import _TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function, run_in_chunks
 
@@ -232,25 +233,24 @@ def _boundary_setup(mesh, camera, width, height, cam):
         cam = camera_array(camera, mesh, width, height)
     tri = mesh.boundary
     pts = mesh.points
-    a, b, c = (pts[tri[:, i]] for i in range(3))
-    normals = np.ascontiguousarray(np.cross(b - a, c - a))
-    boxes, proj = _face_boxes(mesh, camera, width, height)
-    bands = min(max(4 * _lanes(), 1), height)
-    return pts, tri, normals, boxes, proj, cam, bands
+    normals = _boundary_normals(mesh)
+    boxes, proj = _face_boxes(mesh, cam, width, height)
+    return pts, tri, normals, boxes, proj, cam
 
 
 def boundary_crossings(mesh, camera, size, cam=None):
     """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``)."""
     width, height = size
-    pts, tri, normals, boxes, proj, cam, bands = _boundary_setup(mesh, camera, width, height, cam)
+    pts, tri, normals, boxes, proj, cam = _boundary_setup(mesh, camera, width, height, cam)
+    bands, lanes = _bands(height)
     n_pix = width * height
     counts = np.zeros(n_pix, dtype=np.int64)
     empty_f = np.empty(0)
     empty_i = np.empty(0, dtype=np.int64)
     empty_b = np.empty(0, dtype=np.bool_)
     offsets0 = np.zeros(n_pix + 1, dtype=np.int64)
-    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets0, empty_f, empty_i,
-                     empty_b, True, counts, _NO_LAYERS, empty_f)
+    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets0, empty_f, empty_i,
+                     empty_b, True, counts, _NO_LAYERS)
     offsets = np.zeros(n_pix + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     total = int(offsets[-1])
@@ -258,8 +258,8 @@ def boundary_crossings(mesh, camera, size, cam=None):
     face = np.empty(total, dtype=np.int64)
     entering = np.empty(total, dtype=np.bool_)
     counts[:] = 0
-    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, offsets, t, face, entering,
-                     False, counts, _NO_LAYERS, empty_f)
+    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets, t, face, entering,
+                     False, counts, _NO_LAYERS)
     return BoundaryHits(offsets, t, face, entering, width, height)
 
 
@@ -268,54 +268,62 @@ def boundary_layers(mesh, camera, size, k):
     (``width * height``), the ``k`` nearest crossing distances in order
     (``(k, width * height)``, ``inf`` past the count) and the length of the ray inside
     the mesh (the sum of its exit distances minus its entry distances, at least 0), in
-    the mesh's normalised units; in one pass and without the lists of
-    :func:`boundary_crossings`."""
+    world units; in one pass and without the lists of :func:`boundary_crossings`.
+
+    The faces are rasterised with edge functions (``_layer_kernels``): the same
+    decisions as the ray caster's Plücker tests except for rays that pass within
+    rounding of an edge, and as watertight."""
     width, height = size
-    pts, tri, normals, boxes, proj, cam, bands = _boundary_setup(mesh, camera, width, height, None)
+    cam = camera_array(camera, mesh, width, height)
+    tri = mesh.boundary
+    normals = _boundary_normals(mesh)
+    boxes, _ = _face_boxes(mesh, cam, width, height)
+    faces = np.empty((len(tri), LK.FACE_FIELDS))
+    LK.face_setup(mesh.points, tri, normals, cam, faces)
     n_pix = width * height
-    counts = np.zeros(n_pix, dtype=np.int64)
-    layers = np.full((k, n_pix), np.inf)
-    thickness = np.zeros(n_pix)
-    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, np.zeros(1, dtype=np.int64),
-                     np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_), True, counts, layers,
-                     thickness)
-    # differences of distances: rounding may leave -1e-16 where a ray grazes the boundary
-    np.maximum(thickness, 0.0, out=thickness)
+    counts = np.empty(n_pix, dtype=np.int64)
+    layers = np.empty((k, n_pix))
+    thickness = np.empty(n_pix)
+    bands, lanes = _bands(height)
+    LK.rasterize_layers(faces, boxes, normals, cam, width, height, bands, lanes, float(mesh.scale), counts, layers,
+                        thickness)
     return counts, layers, thickness
+
+
+def _bands(height):
+    """``(bands, lanes)`` of the boundary kernels: bands of at least 16 rows (each band
+    visits every face's box, so more bands cost more on a small image), at most 32 per
+    thread, and one lane per thread, so each thread takes every n-th band."""
+    import numba
+
+    threads = numba.get_num_threads()
+    bands = max(1, min(32 * threads, height // 16))
+    return bands, min(threads, bands)
+
+
+def _boundary_normals(mesh):
+    """Outward (unnormalised) normals of the boundary faces, kept on the mesh."""
+    if "boundary_normals" not in mesh.cache:
+        pts, tri = mesh.points, mesh.boundary
+        a, b, c = (pts[tri[:, i]] for i in range(3))
+        mesh.cache["boundary_normals"] = np.ascontiguousarray(np.cross(b - a, c - a))
+    return mesh.cache["boundary_normals"]
 
 
 _NO_LAYERS = np.empty((0, 0))
 
 
-def _face_boxes(mesh, camera, width, height):
+def _face_boxes(mesh, cam, width, height):
     """``(boxes, corners)``: pixel bounding boxes ``(col0, col1, row0, row1)`` of the boundary
-    faces and their corners' pixel coordinates (b, 3, 2). The boxes hold the pixels
-    whose centres lie in the face's projected bounding box, widened by 1e-3 pixel
-    against rounding (the exact test is the Plücker one). A face with a corner behind
-    a perspective camera gets the whole image."""
-    world = mesh.world_points()
-    used = np.unique(mesh.boundary)
-    pix = np.full((len(world), 2), np.nan)
-    pix[used] = camera.project(world[used], (width, height))
-    if not camera.parallel_projection:
-        right, up, fwd = camera.basis()
-        z = (world[used] - np.asarray(camera.position)) @ fwd
-        pix[used[z <= 0]] = np.nan
-    p = pix[mesh.boundary]  # (b, 3, 2)
-    with np.errstate(invalid="ignore"):
-        lo = np.ceil(p.min(axis=1) - 0.5 - 1e-3)  # centres at index + 0.5
-        hi = np.floor(p.max(axis=1) - 0.5 + 1e-3)
-    behind = np.any(np.isnan(p), axis=(1, 2))
-    lo[behind] = 0
-    hi[behind, 0], hi[behind, 1] = width - 1, height - 1
-    lo = np.clip(lo, 0, None)
-    hi = np.minimum(hi, [width - 1, height - 1])
-    boxes = np.empty((len(p), 4), dtype=np.int64)
-    boxes[:, 0] = lo[:, 0]
-    boxes[:, 1] = hi[:, 0]
-    boxes[:, 2] = lo[:, 1]
-    boxes[:, 3] = hi[:, 1]
-    return boxes, np.ascontiguousarray(p)
+    faces and their corners' pixel coordinates (b, 3, 2) (``_layer_kernels.face_boxes``:
+    the pixels whose centres lie in the face's projected bounding box, widened by 1e-3
+    pixel against rounding; the exact test is the Plücker one. A face with a corner
+    behind a perspective camera gets the whole image). ``cam``: ``camera_array``."""
+    tri = mesh.boundary
+    boxes = np.empty((len(tri), 4), dtype=np.int64)
+    proj = np.empty((len(tri), 3, 2))
+    LK.face_boxes(mesh.points, tri, cam, width, height, boxes, proj)
+    return boxes, proj
 
 
 def _active_cells(mesh, sigma, params):

@@ -59,6 +59,8 @@ MESHES = [
 ]
 PEERS = ("raycast", "projected", "zsweep")
 LOW_OPACITY = 0.02
+#: range sigmas of the thickness guide measured by --part upsample (the default is 0.2)
+SIGMAS = (0.05, 0.1, 0.2, 0.4)
 
 
 def data_dir():
@@ -196,8 +198,12 @@ def part_upsample(target, lows, repeat):
                       for m in ("nearest", "bilinear", "joint_bilateral")}
             # the paper's filter as published: the depth layers, a Gaussian of one low pixel
             errors["joint_bilateral_layers"] = rmse(hv.upsample(small, layers, f, guide="layers").rgba, full.rgba)
+            # the range sigma of the thickness guide, with either spatial kernel
+            sweep = {f"{spatial} {sigma}": rmse(hv.upsample(small, layers, f, spatial=spatial,
+                                                            sigma_range=sigma).rgba, full.rgba)
+                     for spatial in ("bilinear", "gaussian") for sigma in SIGMAS}
             row = {"mesh": label, "tets": mesh.n_cells, "target": target, "low": low, "full_seconds": t_full,
-                   "seconds": med, "speedup": t_full / med["total"], "rmse": errors,
+                   "seconds": med, "speedup": t_full / med["total"], "rmse": errors, "sweep": sweep,
                    "layers_needed": layers.layers_needed, "load": load()}
             rows.append(row)
             print(json.dumps(row), flush=True)
@@ -253,6 +259,13 @@ def markdown(peers, ups, taus=()):
                          f"{e['nearest']:.2e} | {e['bilinear']:.2e} | {e['joint_bilateral']:.2e} | "
                          f"{e['joint_bilateral'] / e['bilinear']:.2f} | {e['joint_bilateral_layers']:.2e} | "
                          f"{e['joint_bilateral_layers'] / e['bilinear']:.2f} | {r['load']} |")
+        if "sweep" in ups[0]:
+            keys = list(ups[0]["sweep"])
+            lines += ["", "RMSE / bilinear's of the thickness guide by spatial kernel and sigma_range:", "",
+                      "| mesh | low | " + " | ".join(keys) + " |", "|---|--:|" + "--:|" * len(keys)]
+            for r in ups:
+                lines.append(f"| {r['mesh']} | {r['low']}² | "
+                             + " | ".join(f"{r['sweep'][k] / r['rmse']['bilinear']:.3f}" for k in keys) + " |")
     if taus:
         lines += ["", "| mesh | tau_max | march s | pieces / cell | max error | RMSE | load |",
                   "|---|--:|--:|--:|--:|--:|--:|"]

@@ -6,7 +6,7 @@ import math
 import numba
 import numpy as np
 
-from .._jit import inline_kernel, kernel, parallel_kernel
+from .._jit import inline_kernel, kernel, parallel_kernel, uindex as _u
 
 
 #: exp(-x) is read from a table of EXP_STEPS entries per unit over [0, EXP_RANGE]
@@ -33,7 +33,8 @@ def _exp_neg(table, e):
     if not e < _EXP_LAST:
         e = float(_EXP_LAST)
     n = int(e)
-    return table[n] + (e - n) * (table[n + 1] - table[n])
+    q = _u(n)
+    return table[q] + (e - n) * (table[q + _u(1)] - table[q])
 
 
 @parallel_kernel
@@ -110,25 +111,16 @@ def joint_bilateral(low, guide, factor, radius, inv_2ss, inv_2sr, table, out):
             out[row, col, 3] = a3 * inv
 
 
-@inline_kernel
-def _guide_distance(guide, row, col, at_low, i, j):
-    """Squared distance between the guide at output pixel ``(row, col)`` and at low pixel ``(i, j)``."""
-    d = 0.0
-    for m in range(guide.shape[0]):
-        diff = guide[m, row, col] - at_low[i, j, m]
-        d += diff * diff
-    return d
-
-
 @kernel
-def _bilinear_taps(n_out, n_low, factor, lo, hi, frac):
+def _bilinear_taps(n_out, n_low, factor, stride, lo, hi, frac):
     """For each of ``n_out`` output positions along an axis, the two low-resolution
-    pixels bilinear interpolation reads and the fraction between them (as ``bilinear``)."""
+    pixels bilinear interpolation reads (times ``stride``) and the fraction between them
+    (as ``bilinear``)."""
     for q in range(n_out):
         x = min(max((q + 0.5) / factor - 0.5, 0.0), n_low - 1.0)
         j0 = min(int(x), max(n_low - 2, 0))
-        lo[q] = j0
-        hi[q] = min(j0 + 1, n_low - 1)
+        lo[q] = j0 * stride
+        hi[q] = min(j0 + 1, n_low - 1) * stride
         frac[q] = x - j0
 
 
@@ -141,44 +133,75 @@ def joint_bilinear(low, guide, factor, inv_2sr, table, out):
 
     With a flat guide this is bilinear interpolation; where the guide changes it leans
     towards the neighbours whose guide matches. ``low`` (h, w, 4), ``guide`` (k, H, W),
-    ``out`` (H, W, 4) of any float type; the guide at a low pixel is that of the
-    full-resolution pixel nearest its centre (as ``joint_bilateral``). Where every range
-    weight underflows, bilinear weights alone are used. ``table``: ``exp_table()``.
+    ``out`` (H, W, 4) of any float type, all C-contiguous; the guide at a low pixel is
+    that of the full-resolution pixel nearest its centre (as ``joint_bilateral``). Where
+    every range weight underflows, bilinear weights alone are used. ``table``:
+    ``exp_table()``. Arrays are read flat with unsigned offsets from per-row and
+    per-column tables (no index arithmetic or wraparound checks per tap).
     """
     h, w, _ = low.shape
     k, H, W = guide.shape
-    at_low = np.empty((h, w, k))
+    lo = low.reshape(-1)
+    g = guide.reshape(-1)
+    res = out.reshape(-1)
+    at_low = np.empty(h * w * k)
     for i in numba.prange(h):
         gy = min(max(int((i + 0.5) * factor - 0.5 + 0.5), 0), H - 1)
         for j in range(w):
             gx = min(max(int((j + 0.5) * factor - 0.5 + 0.5), 0), W - 1)
             for m in range(k):
-                at_low[i, j, m] = guide[m, gy, gx]
-    r0 = np.empty(H, dtype=np.int64)
-    r1 = np.empty(H, dtype=np.int64)
+                at_low[(i * w + j) * k + m] = guide[m, gy, gx]
+    r0 = np.empty(H, dtype=np.uint64)
+    r1 = np.empty(H, dtype=np.uint64)
     fr = np.empty(H)
-    _bilinear_taps(H, h, factor, r0, r1, fr)
-    c0 = np.empty(W, dtype=np.int64)
-    c1 = np.empty(W, dtype=np.int64)
+    _bilinear_taps(H, h, factor, w, r0, r1, fr)  # low pixel index of the row
+    c0 = np.empty(W, dtype=np.uint64)
+    c1 = np.empty(W, dtype=np.uint64)
     fc = np.empty(W)
-    _bilinear_taps(W, w, factor, c0, c1, fc)
+    _bilinear_taps(W, w, factor, 1, c0, c1, fc)
     scale = inv_2sr * EXP_STEPS
+    plane = _u(H * W)
+    kk = _u(k)
+    four = _u(4)
     for row in numba.prange(H):
-        i0 = r0[row]
-        i1 = r1[row]
         fy = fr[row]
         for col in range(W):
-            j0 = c0[col]
-            j1 = c1[col]
             fx = fc[col]
+            q00 = r0[row] + c0[col]
+            q01 = r0[row] + c1[col]
+            q10 = r1[row] + c0[col]
+            q11 = r1[row] + c1[col]
+            p = _u(row * W + col)
+            d00 = 0.0
+            d01 = 0.0
+            d10 = 0.0
+            d11 = 0.0
+            for m in range(k):
+                gp = g[_u(m) * plane + p]
+                e = gp - at_low[q00 * kk + _u(m)]
+                d00 += e * e
+                e = gp - at_low[q01 * kk + _u(m)]
+                d01 += e * e
+                e = gp - at_low[q10 * kk + _u(m)]
+                d10 += e * e
+                e = gp - at_low[q11 * kk + _u(m)]
+                d11 += e * e
             s00 = (1.0 - fy) * (1.0 - fx)
             s01 = (1.0 - fy) * fx
             s10 = fy * (1.0 - fx)
             s11 = fy * fx
-            w00 = s00 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i0, j0) * scale)
-            w01 = s01 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i0, j1) * scale)
-            w10 = s10 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i1, j0) * scale)
-            w11 = s11 * _exp_neg(table, _guide_distance(guide, row, col, at_low, i1, j1) * scale)
+            if d00 + d01 + d10 + d11 == 0.0:
+                # a flat guide (the background, most often): the weights are the spatial ones,
+                # as exp(-0) = table[0] = 1 would give
+                w00 = s00
+                w01 = s01
+                w10 = s10
+                w11 = s11
+            else:
+                w00 = s00 * _exp_neg(table, d00 * scale)
+                w01 = s01 * _exp_neg(table, d01 * scale)
+                w10 = s10 * _exp_neg(table, d10 * scale)
+                w11 = s11 * _exp_neg(table, d11 * scale)
             total = w00 + w01 + w10 + w11
             if not total > 1e-300:
                 # no neighbour matches the reference: bilinear weights alone
@@ -188,9 +211,11 @@ def joint_bilinear(low, guide, factor, inv_2sr, table, out):
                 w11 = s11
                 total = s00 + s01 + s10 + s11
             inv = 1.0 / total
+            o = p * four
             for c in range(4):
-                out[row, col, c] = (w00 * low[i0, j0, c] + w01 * low[i0, j1, c] + w10 * low[i1, j0, c]
-                                    + w11 * low[i1, j1, c]) * inv
+                uc = _u(c)
+                res[o + uc] = (w00 * lo[q00 * four + uc] + w01 * lo[q01 * four + uc] + w10 * lo[q10 * four + uc]
+                               + w11 * lo[q11 * four + uc]) * inv
 
 
 @parallel_kernel

@@ -207,16 +207,25 @@ def rasterize_layers(faces, boxes, normals, cam, width, height, bands, lanes, le
                     layers[m, pix] = math.inf
             _rasterize_band(faces, boxes, normals, cam, width, perspective, xs, ys, r0, r1, counts, layers,
                             thickness)
-            for pix in range(p0, p1):
-                # differences of distances: rounding may leave -1e-16 where a ray grazes the boundary
-                thickness[pix] = max(thickness[pix], 0.0) * length_scale
-                for m in range(layers.shape[0]):
-                    layers[m, pix] *= length_scale
+            for row in range(r0, r1 + 1):
+                y = ys[row]
+                for col in range(width):
+                    pix = row * width + col
+                    if counts[pix] == 0:
+                        continue
+                    # the band kernel's distances are along D; perspective rays have |D| > 1
+                    x = xs[col]
+                    f = length_scale * math.sqrt(1.0 + x * x + y * y) if perspective else length_scale
+                    # differences of distances: rounding may leave -1e-16 where a ray grazes the boundary
+                    thickness[pix] = max(thickness[pix], 0.0) * f
+                    for m in range(layers.shape[0]):
+                        layers[m, pix] *= f
 
 
 @kernel
 def _rasterize_band(faces, boxes, normals, cam, width, perspective, xs, ys, r0, r1, counts, layers, thickness):
-    """``rasterize_layers`` for the rows ``r0 .. r1``."""
+    """``rasterize_layers`` for the rows ``r0 .. r1``: distances along ``D`` (perspective:
+    not yet times ``|D|``), in the mesh's normalised units."""
     k = layers.shape[0]
     for f in range(faces.shape[0]):
         row0 = max(boxes[f, 2], r0)
@@ -240,8 +249,9 @@ def _rasterize_band(faces, boxes, normals, cam, width, perspective, xs, ys, r0, 
                 if not ((s0 > 0.0 and s1 > 0.0 and s2 > 0.0) or (s0 < 0.0 and s1 < 0.0 and s2 < 0.0)):
                     continue
                 if perspective:
+                    # in units of |D| (rasterize_layers multiplies by it once per pixel)
                     nd = nr * x + nu * y + nf
-                    t = p * math.sqrt(1.0 + x * x + y * y) / nd
+                    t = p / nd
                 else:
                     nd = nf
                     t = (p + q * x + r * y) / nd

@@ -196,7 +196,8 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     low = render_tets(mesh, tf, camera, (width // factor, height // factor), options, tau_max=tau_max,
                       progress=progress, progress_bar=progress_bar, **option_kwargs)
     t1 = time.perf_counter()
-    layers = depth_layers(mesh, camera, (width, height))
+    # the thickness guides the filter; of the layers themselves only the first is kept
+    layers = depth_layers(mesh, camera, (width, height), max_layers=1)
     t2 = time.perf_counter()
     out = upsample(low, layers, factor)
     t3 = time.perf_counter()

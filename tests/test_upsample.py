@@ -65,6 +65,35 @@ def test_thickness_is_the_length_of_the_ray_inside_the_mesh(parallel):
     assert layers.thickness.max() > 1.0 and np.count_nonzero(layers.thickness == 0.0) > 100
 
 
+def test_faces_behind_a_perspective_camera_are_not_layers():
+    """The camera between the two boxes, looking down: the upper box lies behind it (its
+    faces get the whole image as their box, and no crossing at t >= 0), the lower one
+    gives two layers and its exact ray-box length."""
+    cam = hv.Camera((1.0, 1.0, 1.5), (1.0, 1.0, 0.0), (0.0, 1.0, 0.0), view_angle=140.0)
+    layers = hv.depth_layers(two_boxes(), cam, (24, 20))
+    rays = cam.rays((24, 20))
+    length = slab_length(rays.origins, rays.directions, (0.0, 0.0, 0.0), (2.0, 2.0, 1.0)).reshape(20, 24)
+    hit = length > 0
+    assert 0 < hit.sum() < hit.size
+    assert np.all(layers.counts[hit] == 2) and np.all(layers.counts[~hit] == 0)
+    np.testing.assert_allclose(layers.thickness, length, rtol=0, atol=1e-12)
+    # the first layer is the top face z = 1, 0.5 below the camera along the axis
+    cos = -rays.directions[:, 2].reshape(20, 24)
+    top = hit & (layers.depth[0] * cos < 0.5 + 1e-9)
+    np.testing.assert_allclose((layers.depth[0] * cos)[top], 0.5, rtol=0, atol=1e-12)
+
+
+def test_the_reference_of_a_volume_guides_by_its_layers():
+    volume = hv.volume_from_array(np.linspace(0.0, 1.0, 4 * 4 * 4).reshape(4, 4, 4))
+    cam = hv.Camera((1.5, 1.5, 8.0), (1.5, 1.5, 0.0), (0.0, 1.0, 0.0), parallel_projection=True, parallel_scale=2.0)
+    layers = hv.depth_layers(volume, cam, (8, 8), isovalue=0.5)
+    assert layers.thickness is None
+    low = hv.HDRImage(np.random.default_rng(2).random((4, 4, 4)).astype(np.float32))
+    img = hv.upsample(low, layers, 2)
+    assert img.metadata["upsampled"]["guide"] == "layers" and img.metadata["upsampled"]["spatial"] == "gaussian"
+    np.testing.assert_array_equal(img.rgba, hv.upsample(low, layers.normalized(), 2).rgba)
+
+
 def test_thickness_guide_beats_bilinear_where_the_layers_lose():
     """A transparent box seen obliquely: the picture is 1 - exp(-sigma L), continuous down
     to the silhouette, where the layers jump. Guided by the thickness, the joint bilateral

@@ -75,8 +75,8 @@ def _view_coordinate(q, n, half):
 @parallel_kernel
 def face_boxes(points, tri, cam, width, height, boxes, proj):
     """Per boundary face, its corners' pixel coordinates ``proj[f]`` ((3, 2): column,
-    row, continuous, row 0 at the top, as ``Camera.project``; NaN for a corner behind a
-    perspective camera) and ``boxes[f]``: the pixels ``col0, col1, row0, row1`` whose
+    row, continuous, row 0 at the top, as ``Camera.project``; all NaN for a face with a
+    corner behind a perspective camera) and ``boxes[f]``: the pixels ``col0, col1, row0, row1`` whose
     centres lie in the projected bounding box widened by 1e-3 pixel against rounding,
     clipped to the image (empty when ``col1 < col0``); the whole image for a face
     reaching behind the camera. The box only limits the search; the exact tests decide.

@@ -67,6 +67,14 @@ def _edge(points, u, v, cam, ox, oy, oz, scale):
 
 
 @inline_kernel
+def _eye(cam):
+    """The camera position in the mesh's normalised frame, and the mesh's scale (``cam``:
+    ``tets.camera_array``)."""
+    scale = cam[18]
+    return (cam[0] - cam[15]) / scale, (cam[1] - cam[16]) / scale, (cam[2] - cam[17]) / scale, scale
+
+
+@inline_kernel
 def _view_coordinate(q, n, half):
     """``camera_ray``'s view-plane coordinate of pixel column (or row) ``q`` of ``n``."""
     return ((q + 0.5) * (2.0 / n) - 1.0) * half
@@ -84,10 +92,7 @@ def face_boxes(points, tri, cam, width, height, boxes, proj):
     ``cam`` is ``tets.camera_array`` (``Camera.kernel_array``, then the mesh's centre
     and scale); the points are in the mesh's normalised frame.
     """
-    scale = cam[18]
-    ox = (cam[0] - cam[15]) / scale
-    oy = (cam[1] - cam[16]) / scale
-    oz = (cam[2] - cam[17]) / scale
+    ox, oy, oz, scale = _eye(cam)
     perspective = cam[14] == 0.0
     for f in numba.prange(tri.shape[0]):
         behind = False
@@ -138,10 +143,7 @@ def face_setup(points, tri, normals, cam, faces):
     perspective ray meets it at ``t = P |D| / (n . D)`` with ``D = x R + y U + F`` and
     ``|D| = sqrt(1 + x^2 + y^2)``; a parallel one at ``t = (P + Q x + R y) / (n . F)``.
     """
-    scale = cam[18]
-    ox = (cam[0] - cam[15]) / scale
-    oy = (cam[1] - cam[16]) / scale
-    oz = (cam[2] - cam[17]) / scale
+    ox, oy, oz, scale = _eye(cam)
     perspective = cam[14] == 0.0
     for f in numba.prange(tri.shape[0]):
         for e in range(3):

@@ -192,7 +192,7 @@ def _edge_line(ax, ay, bx, by, cx, cy):
 
 @parallel_kernel
 def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets, out_t,
-                  out_face, out_enter, count_only, counts, out_layers):
+                  out_face, out_enter, count_only, counts):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
 
     ``boxes`` (b, 4) int64: each face's pixel bounding box ``col0, col1, row0, row1``
@@ -203,13 +203,11 @@ def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, 
     saves work; it decides nothing). Rows are split into ``bands``, one band per
     thread at a time, so no two threads write one pixel; lane ``l`` takes bands
     ``l, l + lanes, ...`` and the lanes are split among the threads, so each thread's
-    rows are spread over the image (a mesh seldom fills it evenly). With ``count_only`` the hits
-    are only counted into ``counts``; otherwise they are written from
-    ``offsets[pixel]`` on and sorted by ``t``. With ``count_only`` and a non-empty
-    ``out_layers`` (k, pixels), initialised to ``inf``, each pixel also keeps its ``k``
-    nearest ``t`` in order (depth layers in one pass, without the hit lists).
+    rows are spread over the image (a mesh seldom fills it evenly). With ``count_only``
+    the hits are only counted into ``counts``; otherwise they are written from
+    ``offsets[pixel]`` on and sorted by ``t``. (The depth layers of upsampling come
+    from ``_layer_kernels.rasterize_layers``.)
     """
-    k_layers = out_layers.shape[0]
     n_faces = tri.shape[0]
     band_rows = (height + bands - 1) // bands
     for lane in numba.prange(lanes):
@@ -248,13 +246,6 @@ def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, 
                             continue
                         if count_only:
                             counts[pix] += 1
-                            if k_layers > 0 and t < out_layers[k_layers - 1, pix]:
-                                # insert into the pixel's sorted k nearest
-                                m = k_layers - 1
-                                while m > 0 and out_layers[m - 1, pix] > t:
-                                    out_layers[m, pix] = out_layers[m - 1, pix]
-                                    m -= 1
-                                out_layers[m, pix] = t
                         else:
                             q = offsets[pix] + counts[pix]
                             out_t[q] = t

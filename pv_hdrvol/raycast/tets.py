@@ -251,7 +251,7 @@ def boundary_crossings(mesh, camera, size, cam=None):
     empty_b = np.empty(0, dtype=np.bool_)
     offsets0 = np.zeros(n_pix + 1, dtype=np.int64)
     TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets0, empty_f, empty_i,
-                     empty_b, True, counts, _NO_LAYERS)
+                     empty_b, True, counts)
     offsets = np.zeros(n_pix + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     total = int(offsets[-1])
@@ -260,7 +260,7 @@ def boundary_crossings(mesh, camera, size, cam=None):
     entering = np.empty(total, dtype=np.bool_)
     counts[:] = 0
     TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets, t, face, entering,
-                     False, counts, _NO_LAYERS)
+                     False, counts)
     return BoundaryHits(offsets, t, face, entering, width, height)
 
 
@@ -309,9 +309,6 @@ def _boundary_normals(mesh):
         a, b, c = (pts[tri[:, i]] for i in range(3))
         mesh.cache["boundary_normals"] = np.ascontiguousarray(np.cross(b - a, c - a))
     return mesh.cache["boundary_normals"]
-
-
-_NO_LAYERS = np.empty((0, 0))
 
 
 def _face_boxes(mesh, cam, width, height):

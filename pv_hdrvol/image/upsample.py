@@ -63,8 +63,8 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
         where the picture does not.
     spatial : {"bilinear", "gaussian"}, optional
         The spatial weights. ``"bilinear"``: the four low-resolution pixels around the
-        output pixel with their bilinear weights, so a flat guide gives exactly bilinear
-        interpolation (the default with ``guide="thickness"``). ``"gaussian"``: the
+        output pixel with their bilinear weights, so a flat guide gives bilinear
+        interpolation (to rounding; the default with ``guide="thickness"``). ``"gaussian"``: the
         paper's Gaussian of support ``support`` (the default otherwise).
         ``guide="layers", spatial="gaussian"`` is Callahan & Silva's filter as
         published; docs/tetrahedra.md measures both against bilinear interpolation.

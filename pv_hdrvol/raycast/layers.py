@@ -2,8 +2,9 @@
 
 For a tetrahedral mesh, the layers are the depths at which each pixel's ray crosses
 the mesh boundary, front to back (depth peeling of the boundary faces: entry and exit
-surfaces of non-convex meshes), found with the same Plücker tests the ray caster
-uses. For an image volume, the reference is the depth of an isosurface (the first
+surfaces of non-convex meshes), and the thickness is the length of the ray inside the
+mesh; the boundary faces are rasterised with edge functions that are the ray caster's
+Plücker tests up to a positive factor (``_layer_kernels``). For an image volume, the reference is the depth of an isosurface (the first
 point along the ray where the value reaches ``isovalue``) or, given a transfer
 function, where the accumulated opacity first reaches a threshold (Callahan & Silva's
 suggestion for structured volumes).
@@ -68,7 +69,7 @@ class DepthLayers:
         return out if layer_first else np.ascontiguousarray(np.moveaxis(out, 0, -1))
 
     def normalized_thickness(self):
-        """:attr:`thickness` divided by its largest value (1 where it is all 0), float64
+        """:attr:`thickness` divided by its largest value (all zeros stay zeros), float64
         (rows, cols): the guide of ``upsample(guide="thickness")``."""
         if self.thickness is None:
             raise ValueError(f"these layers have no thickness (they are the {self.source}); only a mesh's "

@@ -248,19 +248,26 @@ def normalize_depths(depth, missing, out):
 
 @parallel_kernel
 def bilinear(low, factor, out):
-    """Bilinear upsampling with the same pixel-centre convention (edges clamped)."""
+    """Bilinear upsampling with the same pixel-centre convention (edges clamped); the
+    taps of each row and column come from ``_bilinear_taps``, computed once."""
     h, w, nc = low.shape
     H, W, _ = out.shape
+    r0 = np.empty(H, dtype=np.int64)
+    r1 = np.empty(H, dtype=np.int64)
+    fr = np.empty(H)
+    _bilinear_taps(H, h, factor, 1, r0, r1, fr)
+    c0 = np.empty(W, dtype=np.int64)
+    c1 = np.empty(W, dtype=np.int64)
+    fc = np.empty(W)
+    _bilinear_taps(W, w, factor, 1, c0, c1, fc)
     for row in numba.prange(H):
-        y = min(max((row + 0.5) / factor - 0.5, 0.0), h - 1.0)
-        i0 = min(int(y), max(h - 2, 0))
-        fy = y - i0
-        i1 = min(i0 + 1, h - 1)
+        i0 = r0[row]
+        i1 = r1[row]
+        fy = fr[row]
         for col in range(W):
-            x = min(max((col + 0.5) / factor - 0.5, 0.0), w - 1.0)
-            j0 = min(int(x), max(w - 2, 0))
-            fx = x - j0
-            j1 = min(j0 + 1, w - 1)
+            j0 = c0[col]
+            j1 = c1[col]
+            fx = fc[col]
             for c in range(nc):
                 top = low[i0, j0, c] + fx * (low[i0, j1, c] - low[i0, j0, c])
                 bottom = low[i1, j0, c] + fx * (low[i1, j1, c] - low[i1, j0, c])

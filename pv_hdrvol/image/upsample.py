@@ -117,13 +117,14 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
     guide_scale = 1.0  # the guide's unit: sigma_range is in units of it
     if layers is not None:
         if hasattr(layers, "normalized"):
-            used = guide or ("thickness" if getattr(layers, "thickness", None) is not None else "layers")
+            thickness = getattr(layers, "thickness", None)
+            used = guide or ("thickness" if thickness is not None else "layers")
             if used == "thickness":
-                if getattr(layers, "thickness", None) is None:
+                if thickness is None:
                     raise ValueError(f"guide='thickness' needs the boundary layers of a mesh; these layers have no "
                                      f"thickness (they are the {layers.source})")
                 # the thickness as it is: its scale to [0, 1] goes into the range sigma below
-                ref = np.asarray(layers.thickness, dtype=np.float64)[None]
+                ref = np.asarray(thickness, dtype=np.float64)[None]
                 top = float(ref.max()) if ref.size else 0.0
                 guide_scale = top if top > 0.0 else 1.0
             else:

@@ -24,8 +24,8 @@ import numpy as np
 
 from .._jit import inline_kernel, kernel, parallel_kernel
 
-#: per face: 3 edges x (A, B, C), then the plane (P, Q, R: see ``face_setup``)
-FACE_FIELDS = 12
+#: per face: 3 edges x (A, B, C), the plane (P, Q, R) and n . R, n . U, n . F (``face_setup``)
+FACE_FIELDS = 15
 
 
 @inline_kernel
@@ -139,8 +139,9 @@ def face_setup(points, tri, normals, cam, faces):
     """Per boundary face, ``faces[f]``: the three edges' ``(A, B, C)`` and the plane.
 
     ``cam`` is ``tets.camera_array``; points and the eye are in the mesh's normalised
-    frame. The plane (``faces[f, 9:12] = (P, Q, R)``, ``n`` the face's normal): a
-    perspective ray meets it at ``t = P |D| / (n . D)`` with ``D = x R + y U + F`` and
+    frame. The plane (``faces[f, 9:12] = (P, Q, R)``, ``faces[f, 12:15] = (n . R, n . U,
+    n . F)``, ``n`` the face's normal): a perspective ray meets it at
+    ``t = P |D| / (n . D)`` with ``D = x R + y U + F``, ``n . D = x n.R + y n.U + n.F`` and
     ``|D| = sqrt(1 + x^2 + y^2)``; a parallel one at ``t = (P + Q x + R y) / (n . F)``.
     """
     ox, oy, oz, scale = _eye(cam)
@@ -154,12 +155,13 @@ def face_setup(points, tri, normals, cam, faces):
         a = tri[f, 0]
         nx, ny, nz = normals[f, 0], normals[f, 1], normals[f, 2]
         faces[f, 9] = nx * (points[a, 0] - ox) + ny * (points[a, 1] - oy) + nz * (points[a, 2] - oz)
-        if perspective:
-            faces[f, 10] = 0.0
-            faces[f, 11] = 0.0
-        else:
-            faces[f, 10] = -_dot(nx, ny, nz, cam[3], cam[4], cam[5]) / scale
-            faces[f, 11] = -_dot(nx, ny, nz, cam[6], cam[7], cam[8]) / scale
+        nr = _dot(nx, ny, nz, cam[3], cam[4], cam[5])
+        nu = _dot(nx, ny, nz, cam[6], cam[7], cam[8])
+        faces[f, 10] = 0.0 if perspective else -nr / scale
+        faces[f, 11] = 0.0 if perspective else -nu / scale
+        faces[f, 12] = nr
+        faces[f, 13] = nu
+        faces[f, 14] = _dot(nx, ny, nz, cam[9], cam[10], cam[11])
 
 
 @inline_kernel
@@ -173,8 +175,7 @@ def _side(value, A, B):
 
 
 @parallel_kernel
-def rasterize_layers(faces, boxes, normals, cam, width, height, bands, lanes, length_scale, counts, layers,
-                     thickness):
+def rasterize_layers(faces, boxes, cam, width, height, bands, lanes, length_scale, counts, layers, thickness):
     """Per pixel: the number of boundary faces its ray crosses at ``t >= 0`` (``counts``),
     the ``k`` nearest ``t`` in order (``layers`` (k, pixels), ``inf`` past the count)
     and the sum of exits' minus entries' ``t``, at least 0 (``thickness``), all three
@@ -207,8 +208,7 @@ def rasterize_layers(faces, boxes, normals, cam, width, height, bands, lanes, le
                 thickness[pix] = 0.0
                 for m in range(layers.shape[0]):
                     layers[m, pix] = math.inf
-            _rasterize_band(faces, boxes, normals, cam, width, perspective, xs, ys, r0, r1, counts, layers,
-                            thickness)
+            _rasterize_band(faces, boxes, width, perspective, xs, ys, r0, r1, counts, layers, thickness)
             for row in range(r0, r1 + 1):
                 y = ys[row]
                 for col in range(width):
@@ -225,7 +225,7 @@ def rasterize_layers(faces, boxes, normals, cam, width, height, bands, lanes, le
 
 
 @kernel
-def _rasterize_band(faces, boxes, normals, cam, width, perspective, xs, ys, r0, r1, counts, layers, thickness):
+def _rasterize_band(faces, boxes, width, perspective, xs, ys, r0, r1, counts, layers, thickness):
     """``rasterize_layers`` for the rows ``r0 .. r1``: distances along ``D`` (perspective:
     not yet times ``|D|``), in the mesh's normalised units."""
     k = layers.shape[0]
@@ -238,9 +238,7 @@ def _rasterize_band(faces, boxes, normals, cam, width, perspective, xs, ys, r0, 
         a1, b1, c1 = faces[f, 3], faces[f, 4], faces[f, 5]
         a2, b2, c2 = faces[f, 6], faces[f, 7], faces[f, 8]
         p, q, r = faces[f, 9], faces[f, 10], faces[f, 11]
-        nr = _dot(normals[f, 0], normals[f, 1], normals[f, 2], cam[3], cam[4], cam[5])
-        nu = _dot(normals[f, 0], normals[f, 1], normals[f, 2], cam[6], cam[7], cam[8])
-        nf = _dot(normals[f, 0], normals[f, 1], normals[f, 2], cam[9], cam[10], cam[11])
+        nr, nu, nf = faces[f, 12], faces[f, 13], faces[f, 14]
         for row in range(row0, row1 + 1):
             y = ys[row]
             for col in range(boxes[f, 0], boxes[f, 1] + 1):

@@ -287,8 +287,7 @@ def boundary_layers(mesh, camera, size, k):
     layers = np.empty((k, n_pix))
     thickness = np.empty(n_pix)
     bands, lanes = _bands(height)
-    LK.rasterize_layers(faces, boxes, normals, cam, width, height, bands, lanes, float(mesh.scale), counts, layers,
-                        thickness)
+    LK.rasterize_layers(faces, boxes, cam, width, height, bands, lanes, float(mesh.scale), counts, layers, thickness)
     return counts, layers, thickness
 
 

@@ -11,9 +11,11 @@ pixel and agree on which of them the ray crosses: no pixel is lost or counted tw
 along a shared edge. An exact zero takes the sign of ``A`` (then of ``B``), opposite
 for the two faces too (a tie rule like a rasteriser's top-left rule).
 
-The ray caster itself finds its entry faces with the full Plücker test
-(``_tet_kernels.boundary_hits``); these kernels serve the reference layers of
-upsampling, where per pixel per face two multiply-adds per edge replace it.
+The same rasteriser serves the ray caster (``rasterize_hits``: each pixel's crossings,
+its entry and re-entry faces) and the reference layers of upsampling
+(``rasterize_layers``: the nearest ``k`` crossings and the thickness), so the two cover
+the same pixels. Per pixel and face it costs two multiply-adds per edge, where a
+Plücker test from the points costs three products of cross products.
 """
 from __future__ import annotations
 
@@ -23,9 +25,16 @@ import numba
 import numpy as np
 
 from .._jit import inline_kernel, kernel, parallel_kernel
+from ._tet_kernels import _face_point, _pi, _same_sign, pixel_ray
 
-#: per face: 3 edges x (A, B, C), the plane (P, Q, R) and n . R, n . U, n . F (``face_setup``)
-FACE_FIELDS = 15
+#: per face: 3 edges x (A, B, C), the plane (P, Q, R), n . R, n . U, n . F, and the
+#: 3 edges' rounding scales (``face_setup``)
+FACE_FIELDS = 18
+#: relative size of an edge function below which its sign is left to the Plücker test
+#: (the rounding of either is about 1e-15 of the same scale)
+UNSURE = 1e-9
+#: what ``_rasterize_band`` fills: depth layers and thickness, crossing counts, crossing lists
+LAYERS, COUNT, HITS = 0, 1, 2
 
 
 @inline_kernel
@@ -162,20 +171,29 @@ def face_setup(points, tri, normals, cam, faces):
         faces[f, 12] = nr
         faces[f, 13] = nu
         faces[f, 14] = _dot(nx, ny, nz, cam[9], cam[10], cam[11])
+        for e in range(3):
+            faces[f, 15 + e] = _edge_scale(points, tri[f, e], tri[f, (e + 1) % 3], ox, oy, oz,
+                                           0.0 if perspective else 1.0 / scale)
 
 
 @inline_kernel
-def _side(value, A, B):
-    """The sign of an edge function, an exact 0 taking the sign of ``A`` (then ``B``)."""
-    if value != 0.0:
-        return value
-    if A != 0.0:
-        return A
-    return B
+def _edge_scale(points, u, v, ox, oy, oz, spread):
+    """The scale of the terms of the edge ``u -> v``'s function and Plücker product,
+    ``|a| |b| + |b - a| (|o| + spread)`` (the same for both directions): the rounding of
+    either is a few 1e-16 of it times ``1 + |x| + |y|``. ``spread``: how far a parallel
+    camera's ray origins move per unit of ``x`` or ``y`` (0 for perspective)."""
+    if u > v:
+        u, v = v, u
+    ax, ay, az = points[u, 0], points[u, 1], points[u, 2]
+    bx, by, bz = points[v, 0], points[v, 1], points[v, 2]
+    na = math.sqrt(_dot(ax, ay, az, ax, ay, az))
+    nb = math.sqrt(_dot(bx, by, bz, bx, by, bz))
+    ex, ey, ez = bx - ax, by - ay, bz - az
+    return na * nb + math.sqrt(_dot(ex, ey, ez, ex, ey, ez)) * (math.sqrt(_dot(ox, oy, oz, ox, oy, oz)) + spread)
 
 
 @parallel_kernel
-def rasterize_layers(faces, boxes, cam, width, height, bands, lanes, length_scale, counts, layers, thickness):
+def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, length_scale, counts, layers, thickness):
     """Per pixel: the number of boundary faces its ray crosses at ``t >= 0`` (``counts``),
     the ``k`` nearest ``t`` in order (``layers`` (k, pixels), ``inf`` past the count)
     and the sum of exits' minus entries' ``t``, at least 0 (``thickness``), all three
@@ -196,6 +214,9 @@ def rasterize_layers(faces, boxes, cam, width, height, bands, lanes, length_scal
     ys = np.empty(height)
     for row in range(height):
         ys[row] = -_view_coordinate(row, height, half_h)  # (1 - (row + 1/2) 2 / h) half_h
+    no_offsets = np.empty(0, dtype=np.int64)  # the crossing lists: not made here
+    no_t = np.empty(0)
+    no_enter = np.empty(0, dtype=np.bool_)
     band_rows = (height + bands - 1) // bands
     for lane in numba.prange(lanes):
         for band in range(lane, bands, lanes):
@@ -208,7 +229,8 @@ def rasterize_layers(faces, boxes, cam, width, height, bands, lanes, length_scal
                 thickness[pix] = 0.0
                 for m in range(layers.shape[0]):
                     layers[m, pix] = math.inf
-            _rasterize_band(faces, boxes, width, perspective, xs, ys, r0, r1, counts, layers, thickness)
+            _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, perspective, xs, ys, r0, r1,
+                            LAYERS, counts, layers, thickness, no_offsets, no_t, no_offsets, no_enter)
             for row in range(r0, r1 + 1):
                 y = ys[row]
                 for col in range(width):
@@ -224,42 +246,170 @@ def rasterize_layers(faces, boxes, cam, width, height, bands, lanes, length_scal
                         layers[m, pix] *= f
 
 
+@parallel_kernel
+def rasterize_hits(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, count_only, offsets, counts, out_t, out_face,
+                   out_enter):
+    """Per pixel, the boundary faces its ray crosses at ``t >= 0``: the ray caster's
+    entry and re-entry faces, decided by the same edge functions as the layers.
+
+    With ``count_only``, only ``counts`` (filled here). Otherwise the crossings of
+    pixel ``i`` are written from ``offsets[i]`` on (``offsets`` from the counts of a
+    ``count_only`` call, so they fit exactly), ``counts`` recounted: ``out_t`` the
+    distance in the mesh's normalised units (``pixel_ray``'s ``t``), ``out_face`` the
+    face, ``out_enter`` whether the ray goes into the mesh there (``n . d < 0``);
+    sorted by ``t``, then face. Bands and lanes as ``rasterize_layers``.
+    """
+    perspective = cam[14] == 0.0
+    half_w = cam[12]
+    half_h = cam[13]
+    xs = np.empty(width)
+    for col in range(width):
+        xs[col] = _view_coordinate(col, width, half_w)
+    ys = np.empty(height)
+    for row in range(height):
+        ys[row] = -_view_coordinate(row, height, half_h)
+    no_layers = np.empty((0, 0))
+    no_thickness = np.empty(0)
+    mode = COUNT if count_only else HITS
+    band_rows = (height + bands - 1) // bands
+    for lane in numba.prange(lanes):
+        for band in range(lane, bands, lanes):
+            r0 = band * band_rows
+            r1 = min(height, (band + 1) * band_rows) - 1
+            for pix in range(r0 * width, (r1 + 1) * width):
+                counts[pix] = 0
+            _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, perspective, xs, ys, r0, r1,
+                            mode, counts, no_layers, no_thickness, offsets, out_t, out_face, out_enter)
+            if count_only:
+                continue
+            for row in range(r0, r1 + 1):
+                y = ys[row]
+                for col in range(width):
+                    pix = row * width + col
+                    lo = offsets[pix]
+                    hi = lo + counts[pix]
+                    if hi == lo:
+                        continue
+                    if perspective:  # the band kernel's distances are along D, |D| > 1
+                        x = xs[col]
+                        f = math.sqrt(1.0 + x * x + y * y)
+                        for q in range(lo, hi):
+                            out_t[q] *= f
+                    _sort_hits(out_t, out_face, out_enter, lo, hi)
+
+
 @kernel
-def _rasterize_band(faces, boxes, width, perspective, xs, ys, r0, r1, counts, layers, thickness):
-    """``rasterize_layers`` for the rows ``r0 .. r1``: distances along ``D`` (perspective:
-    not yet times ``|D|``), in the mesh's normalised units."""
+def _sort_hits(ts, faces, enter, lo, hi):
+    """Insertion sort of ``ts[lo:hi]`` (with ``faces`` and ``enter``) by ``t``, then face."""
+    for i in range(lo + 1, hi):
+        t = ts[i]
+        f = faces[i]
+        e = enter[i]
+        j = i - 1
+        while j >= lo and (ts[j] > t or (ts[j] == t and faces[j] > f)):
+            ts[j + 1] = ts[j]
+            faces[j + 1] = faces[j]
+            enter[j + 1] = enter[j]
+            j -= 1
+        ts[j + 1] = t
+        faces[j + 1] = f
+        enter[j + 1] = e
+
+
+@kernel
+def _plucker_hit(points, tri, normals, f, cam, col, row, width, height):
+    """``(t, entering)`` of pixel ``(col, row)``'s ray through boundary face ``f`` by the
+    ray caster's own Plücker test (``_tet_kernels._pi``, with its tie rule for exact
+    zeros); ``t`` along the unit direction, ``nan`` on a miss."""
+    ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
+    mx = oy * dz - oz * dy
+    my = oz * dx - ox * dz
+    mz = ox * dy - oy * dx
+    a = tri[f, 0]
+    b = tri[f, 1]
+    c = tri[f, 2]
+    wab = _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    wbc = _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    wca = _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    if not _same_sign(wab, wbc, wca):
+        return math.nan, False
+    t, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
+    return t, dx * normals[f, 0] + dy * normals[f, 1] + dz * normals[f, 2] < 0.0
+
+
+@kernel
+def _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, perspective, xs, ys, r0, r1, mode,
+                    counts, layers, thickness, offsets, out_t, out_face, out_enter):
+    """The faces' pixels in rows ``r0 .. r1``, for ``mode``: ``LAYERS`` (``counts``,
+    the ``k`` nearest distances ``layers`` and ``thickness``, as ``rasterize_layers``),
+    ``COUNT`` (``counts``) or ``HITS`` (each crossing at ``offsets[pix] + counts[pix]``
+    of ``out_t``, ``out_face``, ``out_enter``, as ``rasterize_hits``). Distances along
+    ``D`` (perspective: not yet times ``|D|``), in the mesh's normalised units; the
+    arrays a mode does not use are not touched.
+
+    A pixel is decided by the signs of the three edge functions where each is larger
+    than ``UNSURE`` times its rounding scale, or where two of them have surely
+    opposite signs; otherwise (a ray within rounding of an edge or a vertex) by the
+    ray caster's Plücker test, with its tie rule for exact zeros. Both faces of an
+    edge see the same edge function, negated, and the same scale, so they agree on
+    when to ask the Plücker test too, which also gives them exactly opposite numbers.
+    """
     k = layers.shape[0]
     for f in range(faces.shape[0]):
         row0 = max(boxes[f, 2], r0)
         row1 = min(boxes[f, 3], r1)
-        if row1 < row0 or boxes[f, 1] < boxes[f, 0]:
+        col0 = boxes[f, 0]
+        col1 = boxes[f, 1]
+        if row1 < row0 or col1 < col0:
             continue
         a0, b0, c0 = faces[f, 0], faces[f, 1], faces[f, 2]
         a1, b1, c1 = faces[f, 3], faces[f, 4], faces[f, 5]
         a2, b2, c2 = faces[f, 6], faces[f, 7], faces[f, 8]
         p, q, r = faces[f, 9], faces[f, 10], faces[f, 11]
         nr, nu, nf = faces[f, 12], faces[f, 13], faces[f, 14]
+        # the edge functions' rounding, bounded over the face's box
+        X = max(abs(xs[col0]), abs(xs[col1]))
+        Y = max(abs(ys[row0]), abs(ys[row1]))
+        spread = 1.0 + X + Y
+        e0 = UNSURE * (faces[f, 15] * spread + abs(a0) * X + abs(b0) * Y + abs(c0))
+        e1 = UNSURE * (faces[f, 16] * spread + abs(a1) * X + abs(b1) * Y + abs(c1))
+        e2 = UNSURE * (faces[f, 17] * spread + abs(a2) * X + abs(b2) * Y + abs(c2))
         for row in range(row0, row1 + 1):
             y = ys[row]
-            for col in range(boxes[f, 0], boxes[f, 1] + 1):
+            for col in range(col0, col1 + 1):
                 x = xs[col]
-                s0 = _side(a0 * x + b0 * y + c0, a0, b0)
-                s1 = _side(a1 * x + b1 * y + c1, a1, b1)
-                s2 = _side(a2 * x + b2 * y + c2, a2, b2)
-                if not ((s0 > 0.0 and s1 > 0.0 and s2 > 0.0) or (s0 < 0.0 and s1 < 0.0 and s2 < 0.0)):
+                v0 = a0 * x + b0 * y + c0
+                v1 = a1 * x + b1 * y + c1
+                v2 = a2 * x + b2 * y + c2
+                above = (v0 > e0) + (v1 > e1) + (v2 > e2)
+                below = (v0 < -e0) + (v1 < -e1) + (v2 < -e2)
+                if above == 3 or below == 3:
+                    if perspective:
+                        # in units of |D| (multiplied by it once per pixel afterwards)
+                        nd = nr * x + nu * y + nf
+                        t = p / nd
+                    else:
+                        nd = nf
+                        t = (p + q * x + r * y) / nd
+                    enter = nd < 0.0
+                elif above > 0 and below > 0:
                     continue
-                if perspective:
-                    # in units of |D| (rasterize_layers multiplies by it once per pixel)
-                    nd = nr * x + nu * y + nf
-                    t = p / nd
                 else:
-                    nd = nf
-                    t = (p + q * x + r * y) / nd
+                    t, enter = _plucker_hit(points, tri, normals, f, cam, col, row, width, height)
+                    if perspective:
+                        t /= math.sqrt(1.0 + x * x + y * y)
                 if not (t >= 0.0 and t < math.inf):
                     continue
                 pix = row * width + col
+                if mode == HITS:
+                    h = offsets[pix] + counts[pix]
+                    out_t[h] = t
+                    out_face[h] = f
+                    out_enter[h] = enter
                 counts[pix] += 1
-                thickness[pix] += -t if nd < 0.0 else t
+                if mode != LAYERS:
+                    continue
+                thickness[pix] += -t if enter else t
                 if k > 0 and t < layers[k - 1, pix]:
                     m = k - 1
                     while m > 0 and layers[m - 1, pix] > t:

@@ -14,10 +14,12 @@ their shared edges and always agree on where a ray leaves one and enters the oth
 ray leaks through a crack between cells, whatever the rounding, and zero-volume cells
 need no special case (they are crossed in zero length).
 
-Rays enter through the mesh boundary: ``boundary_hits`` lists, per pixel, every
-boundary face the ray crosses, sorted by ``t`` (the same products decide), so rays
-that leave a non-convex mesh re-enter at their next entering face. The same lists are
-the depth layers of the boundary.
+Rays enter through the mesh boundary: ``_layer_kernels.rasterize_hits`` lists, per
+pixel, every boundary face the ray crosses, sorted by ``t``, so rays that leave a
+non-convex mesh re-enter at their next entering face. It decides with edge functions,
+which are the Plücker products of the face's edges up to a positive factor (formed
+once per view: two multiply-adds per edge and pixel); the walk forms the entry face's
+products itself. The same rasteriser gives the depth layers of the boundary.
 
 Integration of a cell's segment: the scalar is linear along it, from ``s0`` to ``s1``.
 Within one table cell the extinction and the colour are linear too and the segment
@@ -151,130 +153,6 @@ def pixel_ray(cam, col, row, width, height):
     scale = cam[CAMERA_FIELDS + 3]
     return ((ox - cam[CAMERA_FIELDS]) / scale, (oy - cam[CAMERA_FIELDS + 1]) / scale,
             (oz - cam[CAMERA_FIELDS + 2]) / scale, dx, dy, dz)
-
-
-# -- boundary faces per pixel (entry points and depth layers) --------------------------------
-@kernel
-def _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz):
-    """``(t, entering)`` of the ray through boundary face ``f``, ``t = nan`` on a miss."""
-    mx = oy * dz - oz * dy
-    my = oz * dx - ox * dz
-    mz = ox * dy - oy * dx
-    a = tri[f, 0]
-    b = tri[f, 1]
-    c = tri[f, 2]
-    wab = _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
-    wbc = _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz)
-    wca = _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
-    if not _same_sign(wab, wbc, wca):
-        return math.nan, False
-    t, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
-    dn = dx * normals[f, 0] + dy * normals[f, 1] + dz * normals[f, 2]
-    return t, dn < 0.0
-
-
-@inline_kernel
-def _edge_line(ax, ay, bx, by, cx, cy):
-    """Coefficients ``(nx, ny, k)`` of the edge a -> b as a signed distance in pixels,
-    positive on the side of c; ``(0, 0, 1)`` (always inside) for a zero-length edge."""
-    nx = ay - by
-    ny = bx - ax
-    length = math.sqrt(nx * nx + ny * ny)
-    if length == 0.0:
-        return 0.0, 0.0, 1.0
-    nx /= length
-    ny /= length
-    k = -(nx * ax + ny * ay)
-    if nx * cx + ny * cy + k < 0.0:
-        return -nx, -ny, -k
-    return nx, ny, k
-
-
-@parallel_kernel
-def boundary_hits(points, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets, out_t,
-                  out_face, out_enter, count_only, counts):
-    """Per pixel, the boundary faces its ray crosses at ``t >= 0``.
-
-    ``boxes`` (b, 4) int64: each face's pixel bounding box ``col0, col1, row0, row1``
-    (inclusive, already clipped to the image; empty when ``col1 < col0``). ``proj``
-    (b, 3, 2): the corners' pixel coordinates, NaN when a corner is behind the camera;
-    a pixel whose centre is over 0.01 pixel outside the projected triangle is not
-    tested further, every other one gets the exact Plücker test (the projection only
-    saves work; it decides nothing). Rows are split into ``bands``, one band per
-    thread at a time, so no two threads write one pixel; lane ``l`` takes bands
-    ``l, l + lanes, ...`` and the lanes are split among the threads, so each thread's
-    rows are spread over the image (a mesh seldom fills it evenly). With ``count_only``
-    the hits are only counted into ``counts``; otherwise they are written from
-    ``offsets[pixel]`` on and sorted by ``t``. (The depth layers of upsampling come
-    from ``_layer_kernels.rasterize_layers``.)
-    """
-    n_faces = tri.shape[0]
-    band_rows = (height + bands - 1) // bands
-    for lane in numba.prange(lanes):
-        for band in range(lane, bands, lanes):
-            r0 = band * band_rows
-            r1 = min(height, r0 + band_rows) - 1
-            for f in range(n_faces):
-                row0 = max(boxes[f, 2], r0)
-                row1 = min(boxes[f, 3], r1)
-                if row1 < row0:
-                    continue
-                ax = proj[f, 0, 0]
-                ay = proj[f, 0, 1]
-                bx = proj[f, 1, 0]
-                by = proj[f, 1, 1]
-                cx = proj[f, 2, 0]
-                cy = proj[f, 2, 1]
-                # a face seen edge-on (or partly behind the camera) skips the 2-D test
-                area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-                flat = not abs(area) > 1e-6
-                n0x, n0y, k0 = _edge_line(ax, ay, bx, by, cx, cy)
-                n1x, n1y, k1 = _edge_line(bx, by, cx, cy, ax, ay)
-                n2x, n2y, k2 = _edge_line(cx, cy, ax, ay, bx, by)
-                for row in range(row0, row1 + 1):
-                    py = row + 0.5
-                    for col in range(boxes[f, 0], boxes[f, 1] + 1):
-                        if not flat:
-                            px = col + 0.5
-                            if (n0x * px + n0y * py + k0 < -0.01 or n1x * px + n1y * py + k1 < -0.01
-                                    or n2x * px + n2y * py + k2 < -0.01):
-                                continue
-                        pix = row * width + col
-                        ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
-                        t, enter = _hit(points, tri, normals, f, ox, oy, oz, dx, dy, dz)
-                        if not t >= 0.0:
-                            continue
-                        if count_only:
-                            counts[pix] += 1
-                        else:
-                            q = offsets[pix] + counts[pix]
-                            out_t[q] = t
-                            out_face[q] = f
-                            out_enter[q] = enter
-                            counts[pix] += 1
-            if not count_only:
-                for row in range(r0, r1 + 1):
-                    for col in range(width):
-                        pix = row * width + col
-                        _sort_hits(out_t, out_face, out_enter, offsets[pix], offsets[pix + 1])
-
-
-@kernel
-def _sort_hits(ts, faces, enter, lo, hi):
-    """Insertion sort of ``ts[lo:hi]`` (with ``faces`` and ``enter``) by ``t``, then face."""
-    for i in range(lo + 1, hi):
-        t = ts[i]
-        f = faces[i]
-        e = enter[i]
-        j = i - 1
-        while j >= lo and (ts[j] > t or (ts[j] == t and faces[j] > f)):
-            ts[j + 1] = ts[j]
-            faces[j + 1] = faces[j]
-            enter[j + 1] = enter[j]
-            j -= 1
-        ts[j + 1] = t
-        faces[j + 1] = f
-        enter[j + 1] = e
 
 
 # -- integration of one segment -----------------------------------------------------------

@@ -229,39 +229,45 @@ def camera_array(camera, mesh, width, height):
     return np.concatenate([camera.kernel_array((width, height)), mesh.center, [mesh.scale]])
 
 
-def _boundary_setup(mesh, camera, width, height, cam):
-    """What ``_tet_kernels.boundary_hits`` reads besides its outputs."""
-    if cam is None:
-        cam = camera_array(camera, mesh, width, height)
+def _face_table(mesh, cam, width, height):
+    """``(faces, boxes, points, tri, normals)``: what the boundary rasteriser
+    (``_layer_kernels``) reads for this view: ``face_setup``'s table, the faces' pixel
+    boxes, and the mesh's points, boundary faces and their normals (for the Plücker test
+    of the rays it leaves to it)."""
     tri = mesh.boundary
-    pts = mesh.points
     normals = _boundary_normals(mesh)
-    boxes, proj = _face_boxes(mesh, cam, width, height)
-    return pts, tri, normals, boxes, proj, cam
+    boxes, _ = _face_boxes(mesh, cam, width, height)
+    faces = np.empty((len(tri), LK.FACE_FIELDS))
+    LK.face_setup(mesh.points, tri, normals, cam, faces)
+    return faces, boxes, mesh.points, tri, normals
 
 
 def boundary_crossings(mesh, camera, size, cam=None):
-    """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``)."""
+    """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``).
+
+    The boundary faces are rasterised twice with the edge functions of the depth layers
+    (``_layer_kernels.rasterize_hits``): once to count each pixel's crossings, once to
+    write them where the counts leave room. The same decisions both times, so the
+    lists fit exactly, and the renderer covers exactly the pixels whose layers
+    :func:`~pv_hdrvol.depth_layers` finds."""
     width, height = size
-    pts, tri, normals, boxes, proj, cam = _boundary_setup(mesh, camera, width, height, cam)
+    if cam is None:
+        cam = camera_array(camera, mesh, width, height)
+    geometry = _face_table(mesh, cam, width, height)
     bands, lanes = _bands(height)
     n_pix = width * height
-    counts = np.zeros(n_pix, dtype=np.int64)
+    counts = np.empty(n_pix, dtype=np.int64)
     empty_f = np.empty(0)
     empty_i = np.empty(0, dtype=np.int64)
     empty_b = np.empty(0, dtype=np.bool_)
-    offsets0 = np.zeros(n_pix + 1, dtype=np.int64)
-    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets0, empty_f, empty_i,
-                     empty_b, True, counts)
+    LK.rasterize_hits(*geometry, cam, width, height, bands, lanes, True, empty_i, counts, empty_f, empty_i, empty_b)
     offsets = np.zeros(n_pix + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     total = int(offsets[-1])
     t = np.empty(total)
     face = np.empty(total, dtype=np.int64)
     entering = np.empty(total, dtype=np.bool_)
-    counts[:] = 0
-    TK.boundary_hits(pts, tri, normals, boxes, proj, cam, width, height, bands, lanes, offsets, t, face, entering,
-                     False, counts)
+    LK.rasterize_hits(*geometry, cam, width, height, bands, lanes, False, offsets, counts, t, face, entering)
     return BoundaryHits(offsets, t, face, entering, width, height)
 
 
@@ -272,22 +278,18 @@ def boundary_layers(mesh, camera, size, k):
     the mesh (the sum of its exit distances minus its entry distances, at least 0), in
     world units; in one pass and without the lists of :func:`boundary_crossings`.
 
-    The faces are rasterised with edge functions (``_layer_kernels``): the same
-    decisions as the ray caster's Plücker tests except for rays that pass within
-    rounding of an edge, and as watertight."""
+    The faces are rasterised with the edge functions that give the ray caster its
+    entry faces (``_layer_kernels``), so the layers and the render cover the same
+    pixels."""
     width, height = size
     cam = camera_array(camera, mesh, width, height)
-    tri = mesh.boundary
-    normals = _boundary_normals(mesh)
-    boxes, _ = _face_boxes(mesh, cam, width, height)
-    faces = np.empty((len(tri), LK.FACE_FIELDS))
-    LK.face_setup(mesh.points, tri, normals, cam, faces)
+    geometry = _face_table(mesh, cam, width, height)
     n_pix = width * height
     counts = np.empty(n_pix, dtype=np.int64)
     layers = np.empty((k, n_pix))
     thickness = np.empty(n_pix)
     bands, lanes = _bands(height)
-    LK.rasterize_layers(faces, boxes, cam, width, height, bands, lanes, float(mesh.scale), counts, layers, thickness)
+    LK.rasterize_layers(*geometry, cam, width, height, bands, lanes, float(mesh.scale), counts, layers, thickness)
     return counts, layers, thickness
 
 

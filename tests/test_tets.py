@@ -174,6 +174,60 @@ def test_rays_reenter_a_non_convex_mesh():
                                atol=1e-12)
 
 
+def _plucker_crossings(mesh, camera, size):
+    """Per pixel, the sorted distances of every boundary face the ray crosses, by the
+    ray caster's Plücker test on every pixel and face (no rasteriser, no boxes)."""
+    import numba
+
+    from pv_hdrvol.raycast import _layer_kernels as LK
+    from pv_hdrvol.raycast.tets import _boundary_normals, camera_array
+
+    @numba.njit(cache=False)
+    def brute(points, tri, normals, cam, width, height, out):
+        for row in range(height):
+            for col in range(width):
+                for f in range(tri.shape[0]):
+                    t, enter = LK._plucker_hit(points, tri, normals, f, cam, col, row, width, height)
+                    if t >= 0.0 and t < math.inf:
+                        out[row * width + col, f] = t
+
+    width, height = size
+    cam = camera_array(camera, mesh, width, height)
+    out = np.full((width * height, len(mesh.boundary)), np.inf)
+    brute(mesh.points, mesh.boundary, _boundary_normals(mesh), cam, width, height, out)
+    return [np.sort(row[np.isfinite(row)]) for row in out]
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_boundary_rasteriser_makes_the_plucker_decisions(parallel):
+    """The renderer's boundary crossings (the rasteriser, with its row spans and the
+    Plücker test for rays within rounding of an edge) are those of the Plücker test
+    run on every pixel and face: on a jittered non-convex mesh seen close up (faces
+    leave the image, some corners lie behind a perspective eye) and on a Kuhn box
+    whose pixel centres fall exactly on its edges and vertices."""
+    from pv_hdrvol.raycast.tets import boundary_crossings
+
+    rng = np.random.default_rng(7)
+    p1, t1, v1 = box_mesh((3, 2, 2))
+    p2, t2, v2 = box_mesh((2, 2, 1), origin=(0.5, 0.0, 2.5))
+    pts = np.concatenate([p1 + rng.uniform(-0.2, 0.2, p1.shape), p2])
+    jittered = tetmesh_from_arrays(pts, np.concatenate([t1, t2 + len(p1)]), np.concatenate([v1, v2]))
+    box = tetmesh_from_arrays(*box_mesh((4, 4, 4)))
+    cases = [(jittered, oblique_camera((1.5, 1.0, 1.5), distance=2.5 if not parallel else 8.0, parallel=parallel,
+                                       scale=1.2), (37, 29)),
+             (box, hv.Camera((2.0, 2.0, 20.0), (2.0, 2.0, 0.0), (0.0, 1.0, 0.0), parallel_projection=parallel,
+                             parallel_scale=2.25, view_angle=12.8), (9, 9))]
+    for mesh, cam, size in cases:
+        hits = boundary_crossings(mesh, cam, size)
+        expected = _plucker_crossings(mesh, cam, size)
+        counts = hits.counts().ravel()
+        assert counts.sum() > 100
+        np.testing.assert_array_equal(counts, [len(e) for e in expected])
+        for pix, e in enumerate(expected):
+            lo, hi = hits.offsets[pix], hits.offsets[pix + 1]
+            np.testing.assert_allclose(hits.t[lo:hi], e, rtol=1e-12, atol=1e-12)
+
+
 # -- precisions and extremes ----------------------------------------------------------------
 def test_faint_opacity_over_thousands_of_cells():
     """Opacity 1e-7 per unit over 2,000 cells along the ray: float64 to 1e-12 relative,

@@ -27,9 +27,12 @@ import numpy as np
 from .._jit import inline_kernel, kernel, parallel_kernel
 from ._tet_kernels import _face_point, _pi, _same_sign, pixel_ray
 
-#: per face: 3 edges x (A, B, C), the plane (P, Q, R), n . R, n . U, n . F, and the
-#: 3 edges' rounding scales (``face_setup``)
-FACE_FIELDS = 18
+#: per face: 3 edges x (A, B, C), the plane (P, Q, R), n . R, n . U, n . F, the 3 edges'
+#: rounding scales and the view-plane centroid (``face_setup``)
+FACE_FIELDS = 20
+#: an edge bounds a row's span of pixels only where its function changes by at least
+#: this many of its rounding tolerances per pixel (then its zero is known to 1e-3 pixel)
+SPAN_SAFE = 1e3
 #: relative size of an edge function below which its sign is left to the Plücker test
 #: (the rounding of either is about 1e-15 of the same scale)
 UNSURE = 1e-9
@@ -174,6 +177,27 @@ def face_setup(points, tri, normals, cam, faces):
         for e in range(3):
             faces[f, 15 + e] = _edge_scale(points, tri[f, e], tri[f, (e + 1) % 3], ox, oy, oz,
                                            0.0 if perspective else 1.0 / scale)
+        # the centroid of the corners' view-plane points (NaN when one is behind the eye)
+        xc = 0.0
+        yc = 0.0
+        for m in range(3):
+            q = tri[f, m]
+            rx, ry, rz = points[q, 0] - ox, points[q, 1] - oy, points[q, 2] - oz
+            x = _dot(rx, ry, rz, cam[3], cam[4], cam[5])
+            y = _dot(rx, ry, rz, cam[6], cam[7], cam[8])
+            if perspective:
+                z = _dot(rx, ry, rz, cam[9], cam[10], cam[11])
+                if not z > 0.0:
+                    xc = math.nan
+                x /= z
+                y /= z
+            else:
+                x *= scale
+                y *= scale
+            xc += x / 3.0
+            yc += y / 3.0
+        faces[f, 18] = xc
+        faces[f, 19] = yc
 
 
 @inline_kernel
@@ -316,6 +340,19 @@ def _sort_hits(ts, faces, enter, lo, hi):
         enter[j + 1] = e
 
 
+@inline_kernel
+def _span(sigma, a, w, tol, pixel, lo, hi):
+    """Narrow ``[lo, hi]`` (view-plane x on one row) to where the edge function
+    ``a x + w`` may have the sign ``sigma`` of the inside; an edge that changes by
+    less than ``SPAN_SAFE`` tolerances ``tol`` per ``pixel`` bounds nothing."""
+    if abs(a) * pixel < SPAN_SAFE * tol:
+        return lo, hi
+    x0 = -w / a
+    if sigma * a > 0.0:
+        return max(lo, x0), hi
+    return lo, min(hi, x0)
+
+
 @kernel
 def _plucker_hit(points, tri, normals, f, cam, col, row, width, height):
     """``(t, entering)`` of pixel ``(col, row)``'s ray through boundary face ``f`` by the
@@ -355,6 +392,10 @@ def _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, pers
     when to ask the Plücker test too, which also gives them exactly opposite numbers.
     """
     k = layers.shape[0]
+    # view-plane x of a column's centre is (col + 1/2) pixel - half_w: its inverse
+    pixel = xs[1] - xs[0] if width > 1 else 1.0
+    to_col = 1.0 / pixel
+    col_shift = -xs[0] * to_col
     for f in range(faces.shape[0]):
         row0 = max(boxes[f, 2], r0)
         row1 = min(boxes[f, 3], r1)
@@ -374,9 +415,32 @@ def _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, pers
         e0 = UNSURE * (faces[f, 15] * spread + abs(a0) * X + abs(b0) * Y + abs(c0))
         e1 = UNSURE * (faces[f, 16] * spread + abs(a1) * X + abs(b1) * Y + abs(c1))
         e2 = UNSURE * (faces[f, 17] * spread + abs(a2) * X + abs(b2) * Y + abs(c2))
+        # which sign the edge functions share inside: theirs at the centroid, when all
+        # three are sure there (a face in front of the eye whose projection is no sliver);
+        # else 0 and every row scans the whole box
+        xc, yc = faces[f, 18], faces[f, 19]
+        sigma = 0.0
+        if xc == xc:
+            w0 = a0 * xc + b0 * yc + c0
+            w1 = a1 * xc + b1 * yc + c1
+            w2 = a2 * xc + b2 * yc + c2
+            if w0 > e0 and w1 > e1 and w2 > e2:
+                sigma = 1.0
+            elif w0 < -e0 and w1 < -e1 and w2 < -e2:
+                sigma = -1.0
         for row in range(row0, row1 + 1):
             y = ys[row]
-            for col in range(col0, col1 + 1):
+            c_lo = col0
+            c_hi = col1
+            if sigma != 0.0:
+                lo, hi = _span(sigma, a0, b0 * y + c0, e0, pixel, -math.inf, math.inf)
+                lo, hi = _span(sigma, a1, b1 * y + c1, e1, pixel, lo, hi)
+                lo, hi = _span(sigma, a2, b2 * y + c2, e2, pixel, lo, hi)
+                # columns whose centres lie in [lo, hi], widened by a pixel: a sure inside
+                # pixel lies there, and an unsure one within 1e-3 pixel of an edge's zero
+                c_lo = max(col0, int(math.ceil(min(max(lo * to_col + col_shift, col0 - 1.0), col1 + 1.0))) - 1)
+                c_hi = min(col1, int(math.floor(min(max(hi * to_col + col_shift, col0 - 1.0), col1 + 1.0))) + 1)
+            for col in range(c_lo, c_hi + 1):
                 x = xs[col]
                 v0 = a0 * x + b0 * y + c0
                 v1 = a1 * x + b1 * y + c1

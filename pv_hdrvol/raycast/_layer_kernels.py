@@ -341,16 +341,27 @@ def _sort_hits(ts, faces, enter, lo, hi):
 
 
 @inline_kernel
-def _span(sigma, a, w, tol, pixel, lo, hi):
-    """Narrow ``[lo, hi]`` (view-plane x on one row) to where the edge function
-    ``a x + w`` may have the sign ``sigma`` of the inside; an edge that changes by
-    less than ``SPAN_SAFE`` tolerances ``tol`` per ``pixel`` bounds nothing."""
-    if abs(a) * pixel < SPAN_SAFE * tol:
-        return lo, hi
-    x0 = -w / a
-    if sigma * a > 0.0:
-        return max(lo, x0), hi
-    return lo, min(hi, x0)
+def _edge_bound(sigma, a, b, c, tol, pixel, to_col, col_shift):
+    """How the edge function ``a x + b y + c`` bounds a row's pixels that may have the
+    inside's sign ``sigma``: ``(kind, k, m)``, the column of its zero on row ``y`` being
+    ``k y + m``, a lower bound for ``kind = 1``, an upper one for ``kind = -1``. ``kind = 0``
+    (no bound) for no known sign, or an edge that changes by less than ``SPAN_SAFE``
+    tolerances ``tol`` per ``pixel`` or is nearly along the rows (``|b| > 1e6 |a|``):
+    the rounding of ``k y + m`` then stays below 1e-6 column."""
+    if sigma == 0.0 or abs(a) * pixel < SPAN_SAFE * tol or abs(b) > 1e6 * abs(a):
+        return 0, 0.0, 0.0
+    inv = to_col / a
+    return (1 if sigma * a > 0.0 else -1), -b * inv, col_shift - c * inv
+
+
+@inline_kernel
+def _bound(kind, k, m, y, lo, hi):
+    """``[lo, hi]`` narrowed by an ``_edge_bound`` on row ``y``."""
+    if kind > 0:
+        return max(lo, k * y + m), hi
+    if kind < 0:
+        return lo, min(hi, k * y + m)
+    return lo, hi
 
 
 @kernel
@@ -428,18 +439,19 @@ def _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, pers
                 sigma = 1.0
             elif w0 < -e0 and w1 < -e1 and w2 < -e2:
                 sigma = -1.0
+        # each edge's zero, in columns, along the rows (a span; none without a sign)
+        k0, g0, m0 = _edge_bound(sigma, a0, b0, c0, e0, pixel, to_col, col_shift)
+        k1, g1, m1 = _edge_bound(sigma, a1, b1, c1, e1, pixel, to_col, col_shift)
+        k2, g2, m2 = _edge_bound(sigma, a2, b2, c2, e2, pixel, to_col, col_shift)
         for row in range(row0, row1 + 1):
             y = ys[row]
-            c_lo = col0
-            c_hi = col1
-            if sigma != 0.0:
-                lo, hi = _span(sigma, a0, b0 * y + c0, e0, pixel, -math.inf, math.inf)
-                lo, hi = _span(sigma, a1, b1 * y + c1, e1, pixel, lo, hi)
-                lo, hi = _span(sigma, a2, b2 * y + c2, e2, pixel, lo, hi)
-                # columns whose centres lie in [lo, hi], widened by a pixel: a sure inside
-                # pixel lies there, and an unsure one within 1e-3 pixel of an edge's zero
-                c_lo = max(col0, int(math.ceil(min(max(lo * to_col + col_shift, col0 - 1.0), col1 + 1.0))) - 1)
-                c_hi = min(col1, int(math.floor(min(max(hi * to_col + col_shift, col0 - 1.0), col1 + 1.0))) + 1)
+            # columns whose centres lie in the span, widened by a pixel: a sure inside
+            # pixel lies there, and an unsure one within 1e-3 pixel of an edge's zero
+            lo, hi = _bound(k0, g0, m0, y, col0 - 1.0, col1 + 1.0)
+            lo, hi = _bound(k1, g1, m1, y, lo, hi)
+            lo, hi = _bound(k2, g2, m2, y, lo, hi)
+            c_lo = max(col0, int(math.ceil(min(lo, col1 + 1.0))) - 1)
+            c_hi = min(col1, int(math.floor(max(hi, col0 - 1.0))) + 1)
             for col in range(c_lo, c_hi + 1):
                 x = xs[col]
                 v0 = a0 * x + b0 * y + c0

@@ -228,6 +228,35 @@ def test_boundary_rasteriser_makes_the_plucker_decisions(parallel):
             np.testing.assert_allclose(hits.t[lo:hi], e, rtol=1e-12, atol=1e-12)
 
 
+def test_rays_leave_and_reenter_through_a_non_conforming_interface():
+    """Two blocks touching at x = 2 whose faces there are split by opposite diagonals
+    (the second block is turned a quarter about x), as the LOX post's symmetry plane:
+    the faces do not match, so a ray leaves the first block and enters the second at
+    the same distance, which the rasteriser and the walk round differently. Rotated and
+    oblique, so no distance is exact: the opacity is the whole length through both."""
+    p1, t1, v1 = box_mesh((2, 3, 3), spacing=1.0)
+    p2, t2, v2 = box_mesh((2, 3, 3), spacing=1.0)
+    p2 = np.column_stack([p2[:, 0] + 2.0, 3.0 - p2[:, 2], p2[:, 1]])  # a quarter turn about x, then along x
+    angle = 0.37
+    rot = np.array([[math.cos(angle), -math.sin(angle), 0.0], [math.sin(angle), math.cos(angle), 0.0],
+                    [0.0, 0.0, 1.0]])
+    pts = np.concatenate([p1, p2]) @ rot.T + 0.1
+    mesh = tetmesh_from_arrays(pts, np.concatenate([t1, t2 + len(p1)]), np.concatenate([v1, v2]))
+    sigma = 0.45
+    for parallel in (False, True):
+        cam = oblique_camera(rot @ (2.0, 1.5, 1.5) + 0.1, parallel=parallel, distance=9.0, scale=2.6)
+        img = hv.render(mesh, constant_tf(-math.expm1(-sigma)), cam, (61, 57), precision="float64",
+                        opacity_unit_distance=1.0)
+        rays = cam.rays((61, 57))
+        # the same rays in the blocks' own frame (R is orthogonal: x R is R^T x)
+        length = slab_length((rays.origins - 0.1) @ rot, rays.directions @ rot, (0, 0, 0), (4, 3, 3))
+        crossing = slab_length((rays.origins - 0.1) @ rot, rays.directions @ rot, (1.9, 0, 0), (2.1, 3, 3)) > 1e-6
+        inner = (length > 1e-6) & crossing
+        assert inner.sum() > 150
+        np.testing.assert_allclose(img.rgba[..., 3].ravel()[inner], -np.expm1(-sigma * length[inner]), rtol=0,
+                                   atol=1e-9)
+
+
 # -- precisions and extremes ----------------------------------------------------------------
 def test_faint_opacity_over_thousands_of_cells():
     """Opacity 1e-7 per unit over 2,000 cells along the ray: float64 to 1e-12 relative,

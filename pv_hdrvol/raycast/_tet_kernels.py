@@ -56,6 +56,11 @@ TIE = 1e-250
 #: over the data value, then the knot's data value (one row: one or two cache lines)
 TABLE_COLUMNS = 9
 
+#: how far (relative, in the mesh's normalised units) before the exit of a ray from
+#: the mesh its next entering boundary face may lie and still be entered: the two
+#: distances come from different faces and formulas, so they round differently
+REENTRY_SLACK = 1e-9
+
 #: table cells a segment may cross and still be integrated cell by cell (beyond: cumulative tables)
 WALK_CELLS = 2
 
@@ -376,7 +381,10 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
     for h in range(lo, hi):
         if done:
             break
-        if not hit_enter[h] or hit_t[h] < t_cur:
+        # entering faces already passed are skipped; one within rounding of the exit is
+        # the next part of the mesh (a face on the far side of a non-conforming
+        # interface, or of a crack, meets the ray where it left)
+        if not hit_enter[h] or hit_t[h] < t_cur - REENTRY_SLACK * (1.0 + abs(t_cur)):
             continue
         f = hit_face[h]
         cell = bcell[f]

@@ -8,8 +8,9 @@ edge function ``A x + B y + C``, with ``A, B, C`` fixed per edge and view. Each 
 three numbers are formed once, from its lower-numbered corner (negated for the other
 direction), so two faces sharing an edge evaluate exactly opposite numbers at every
 pixel and agree on which of them the ray crosses: no pixel is lost or counted twice
-along a shared edge. An exact zero takes the sign of ``A`` (then of ``B``), opposite
-for the two faces too (a tie rule like a rasteriser's top-left rule).
+along a shared edge. Where an edge function is within rounding of zero (a ray through
+an edge or a vertex), the ray caster's own Plücker test decides, with its tie rule for
+exact zeros, so the rasteriser makes exactly the walk's decisions (``_rasterize_band``).
 
 The same rasteriser serves the ray caster (``rasterize_hits``: each pixel's crossings,
 its entry and re-entry faces) and the reference layers of upsampling
@@ -217,7 +218,8 @@ def _edge_scale(points, u, v, ox, oy, oz, spread):
 
 
 @parallel_kernel
-def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, length_scale, counts, layers, thickness):
+def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, length_scale, counts,
+                     layers, thickness):
     """Per pixel: the number of boundary faces its ray crosses at ``t >= 0`` (``counts``),
     the ``k`` nearest ``t`` in order (``layers`` (k, pixels), ``inf`` past the count)
     and the sum of exits' minus entries' ``t``, at least 0 (``thickness``), all three
@@ -227,7 +229,9 @@ def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, ban
     Rows are split into ``bands``, one band per thread at a time, so no two threads
     write one pixel; lane ``l`` takes bands ``l, l + lanes, ...`` and the lanes are
     split among the threads, so each thread's rows are spread over the image (a mesh
-    seldom fills it evenly). ``faces`` and ``boxes`` from ``face_setup``.
+    seldom fills it evenly). ``faces`` and ``boxes`` from ``face_setup`` and ``face_boxes``;
+    ``points``, ``tri`` and ``normals`` (the boundary faces and their outward normals)
+    for the Plücker test of rays within rounding of an edge.
     """
     perspective = cam[14] == 0.0
     half_w = cam[12]
@@ -271,8 +275,8 @@ def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, ban
 
 
 @parallel_kernel
-def rasterize_hits(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, count_only, offsets, counts, out_t, out_face,
-                   out_enter):
+def rasterize_hits(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, count_only, offsets,
+                   counts, out_t, out_face, out_enter):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``: the ray caster's
     entry and re-entry faces, decided by the same edge functions as the layers.
 

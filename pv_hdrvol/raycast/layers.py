@@ -3,9 +3,11 @@
 For a tetrahedral mesh, the layers are the depths at which each pixel's ray crosses
 the mesh boundary, front to back (depth peeling of the boundary faces: entry and exit
 surfaces of non-convex meshes), and the thickness is the length of the ray inside the
-mesh; the boundary faces are rasterised with edge functions that are the ray caster's
-Plücker tests up to a positive factor (``_layer_kernels``). For an image volume, the reference is the depth of an isosurface (the first
-point along the ray where the value reaches ``isovalue``) or, given a transfer
+mesh; the boundary faces are rasterised by the kernel that gives the ray caster its
+entry faces (``_layer_kernels``: edge functions, which are the Plücker tests up to a
+positive factor), so a render and its layers cover the same pixels. For an image
+volume, the reference is the depth of an isosurface (the first point along the ray
+where the value reaches ``isovalue``) or, given a transfer
 function, where the accumulated opacity first reaches a threshold (Callahan & Silva's
 suggestion for structured volumes).
 """

@@ -18,8 +18,9 @@ Rays enter through the mesh boundary: ``_layer_kernels.rasterize_hits`` lists, p
 pixel, every boundary face the ray crosses, sorted by ``t``, so rays that leave a
 non-convex mesh re-enter at their next entering face. It decides with edge functions,
 which are the Plücker products of the face's edges up to a positive factor (formed
-once per view: two multiply-adds per edge and pixel); the walk forms the entry face's
-products itself. The same rasteriser gives the depth layers of the boundary.
+once per view: two multiply-adds per edge and pixel), and hands rays within rounding
+of an edge to ``_pi`` below, so its decisions are the walk's; the walk forms the entry
+face's products itself. The same rasteriser gives the depth layers of the boundary.
 
 Integration of a cell's segment: the scalar is linear along it, from ``s0`` to ``s1``.
 Within one table cell the extinction and the colour are linear too and the segment

@@ -26,7 +26,7 @@ import numba
 import numpy as np
 
 from .._jit import inline_kernel, kernel, parallel_kernel
-from ._tet_kernels import _face_point, _pi, _same_sign, pixel_ray
+from ._tet_kernels import _face_point, _face_products, _same_sign, pixel_ray
 
 #: per face: 3 edges x (A, B, C), the plane (P, Q, R), n . R, n . U, n . F, the 3 edges'
 #: rounding scales and the view-plane centroid (``face_setup``)
@@ -217,6 +217,19 @@ def _edge_scale(points, u, v, ox, oy, oz, spread):
     return na * nb + math.sqrt(_dot(ex, ey, ez, ex, ey, ez)) * (math.sqrt(_dot(ox, oy, oz, ox, oy, oz)) + spread)
 
 
+@kernel
+def _view_plane(cam, width, height):
+    """``(perspective, xs, ys)``: the camera's kind and the view-plane coordinates of
+    the pixel columns and rows (``camera_ray``'s ``x`` and ``y``)."""
+    xs = np.empty(width)
+    for col in range(width):
+        xs[col] = _view_coordinate(col, width, cam[12])
+    ys = np.empty(height)
+    for row in range(height):
+        ys[row] = -_view_coordinate(row, height, cam[13])  # (1 - (row + 1/2) 2 / h) half_h
+    return cam[14] == 0.0, xs, ys
+
+
 @parallel_kernel
 def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, length_scale, counts,
                      layers, thickness):
@@ -233,15 +246,7 @@ def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, ban
     ``points``, ``tri`` and ``normals`` (the boundary faces and their outward normals)
     for the Plücker test of rays within rounding of an edge.
     """
-    perspective = cam[14] == 0.0
-    half_w = cam[12]
-    half_h = cam[13]
-    xs = np.empty(width)
-    for col in range(width):
-        xs[col] = _view_coordinate(col, width, half_w)
-    ys = np.empty(height)
-    for row in range(height):
-        ys[row] = -_view_coordinate(row, height, half_h)  # (1 - (row + 1/2) 2 / h) half_h
+    perspective, xs, ys = _view_plane(cam, width, height)
     no_offsets = np.empty(0, dtype=np.int64)  # the crossing lists: not made here
     no_t = np.empty(0)
     no_enter = np.empty(0, dtype=np.bool_)
@@ -287,15 +292,7 @@ def rasterize_hits(faces, boxes, points, tri, normals, cam, width, height, bands
     face, ``out_enter`` whether the ray goes into the mesh there (``n . d < 0``);
     sorted by ``t``, then face. Bands and lanes as ``rasterize_layers``.
     """
-    perspective = cam[14] == 0.0
-    half_w = cam[12]
-    half_h = cam[13]
-    xs = np.empty(width)
-    for col in range(width):
-        xs[col] = _view_coordinate(col, width, half_w)
-    ys = np.empty(height)
-    for row in range(height):
-        ys[row] = -_view_coordinate(row, height, half_h)
+    perspective, xs, ys = _view_plane(cam, width, height)
     no_layers = np.empty((0, 0))
     no_thickness = np.empty(0)
     mode = COUNT if count_only else HITS
@@ -374,15 +371,10 @@ def _plucker_hit(points, tri, normals, f, cam, col, row, width, height):
     ray caster's own Plücker test (``_tet_kernels._pi``, with its tie rule for exact
     zeros); ``t`` along the unit direction, ``nan`` on a miss."""
     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
-    mx = oy * dz - oz * dy
-    my = oz * dx - ox * dz
-    mz = ox * dy - oy * dx
     a = tri[f, 0]
     b = tri[f, 1]
     c = tri[f, 2]
-    wab = _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
-    wbc = _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz)
-    wca = _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
+    wab, wbc, wca = _face_products(points, a, b, c, ox, oy, oz, dx, dy, dz)
     if not _same_sign(wab, wbc, wca):
         return math.nan, False
     t, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)

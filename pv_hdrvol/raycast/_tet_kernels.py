@@ -127,6 +127,17 @@ def _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
 
 
 @inline_kernel
+def _face_products(points, a, b, c, ox, oy, oz, dx, dy, dz):
+    """The ray's products with the edges ``a -> b``, ``b -> c`` and ``c -> a`` of a face."""
+    mx = oy * dz - oz * dy
+    my = oz * dx - ox * dz
+    mz = ox * dy - oy * dx
+    return (_pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz),
+            _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz),
+            _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz))
+
+
+@inline_kernel
 def _same_sign(x, y, z):
     return (x >= 0.0 and y >= 0.0 and z >= 0.0) or (x <= 0.0 and y <= 0.0 and z <= 0.0)
 
@@ -393,9 +404,7 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
         a = btri[f, 0]
         b = btri[f, 1]
         c = btri[f, 2]
-        wab = _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
-        wbc = _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz)
-        wca = _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
+        wab, wbc, wca = _face_products(points, a, b, c, ox, oy, oz, dx, dy, dz)
         t_in, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
         if t_in != t_in:
             continue

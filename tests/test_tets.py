@@ -3,11 +3,13 @@ extremes and bad input. Meshes are built with numpy (Kuhn triangulations of boxe
 these tests need no VTK."""
 import math
 
+import numba
 import numpy as np
 import pytest
 
 import pv_hdrvol as hv
 from pv_hdrvol.data.tets import tetmesh_from_arrays
+from pv_hdrvol.raycast import _layer_kernels as LK
 
 from meshes import box_mesh, constant_tf, oblique_camera, slab_length
 
@@ -174,27 +176,26 @@ def test_rays_reenter_a_non_convex_mesh():
                                atol=1e-12)
 
 
+@numba.njit(cache=False)
+def _plucker_all(points, tri, normals, cam, width, height, out):
+    """``out[pixel, face]``: the distance of every crossing by the Plücker test."""
+    for row in range(height):
+        for col in range(width):
+            for f in range(tri.shape[0]):
+                t, enter = LK._plucker_hit(points, tri, normals, f, cam, col, row, width, height)
+                if t >= 0.0 and t < math.inf:
+                    out[row * width + col, f] = t
+
+
 def _plucker_crossings(mesh, camera, size):
     """Per pixel, the sorted distances of every boundary face the ray crosses, by the
     ray caster's Plücker test on every pixel and face (no rasteriser, no boxes)."""
-    import numba
-
-    from pv_hdrvol.raycast import _layer_kernels as LK
     from pv_hdrvol.raycast.tets import _boundary_normals, camera_array
-
-    @numba.njit(cache=False)
-    def brute(points, tri, normals, cam, width, height, out):
-        for row in range(height):
-            for col in range(width):
-                for f in range(tri.shape[0]):
-                    t, enter = LK._plucker_hit(points, tri, normals, f, cam, col, row, width, height)
-                    if t >= 0.0 and t < math.inf:
-                        out[row * width + col, f] = t
 
     width, height = size
     cam = camera_array(camera, mesh, width, height)
     out = np.full((width * height, len(mesh.boundary)), np.inf)
-    brute(mesh.points, mesh.boundary, _boundary_normals(mesh), cam, width, height, out)
+    _plucker_all(mesh.points, mesh.boundary, _boundary_normals(mesh), cam, width, height, out)
     return [np.sort(row[np.isfinite(row)]) for row in out]
 
 

@@ -404,7 +404,11 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
         a = btri[f, 0]
         b = btri[f, 1]
         c = btri[f, 2]
-        wab, wbc, wca = _face_products(points, a, b, c, ox, oy, oz, dx, dy, dz)
+        # the products written out, not through _face_products: numba 0.56 takes
+        # minutes longer to compile this loop with a nested inlined helper
+        wab = _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz)
+        wbc = _pi(points, b, c, dx, dy, dz, mx, my, mz, ox, oy, oz)
+        wca = _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz)
         t_in, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
         if t_in != t_in:
             continue

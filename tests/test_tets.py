@@ -205,8 +205,8 @@ def test_boundary_rasteriser_makes_the_plucker_decisions(parallel):
     Plücker test for rays within rounding of an edge) are those of the Plücker test
     run on every pixel and face: on a jittered non-convex mesh seen close up (faces
     leave the image; the perspective eye is inside the second block, so 20 faces reach
-    behind it) and on a Kuhn box whose pixel centres fall exactly on its edges and
-    vertices."""
+    behind it) and on a Kuhn box seen along z (parallel: every pixel centre on its
+    edges and vertices; perspective: the central ray through a vertex)."""
     from pv_hdrvol.raycast.tets import boundary_crossings
 
     rng = np.random.default_rng(7)

@@ -148,8 +148,10 @@ def face_boxes(points, tri, cam, width, height, boxes, proj):
 
 
 @parallel_kernel
-def face_setup(points, tri, normals, cam, faces):
-    """Per boundary face, ``faces[f]``: the three edges' ``(A, B, C)`` and the plane.
+def face_setup(points, tri, normals, proj, cam, width, height, faces):
+    """Per boundary face, ``faces[f]``: the three edges' ``(A, B, C)``, the plane, the
+    edges' rounding scales and the view-plane centroid (from ``face_boxes``' corners
+    ``proj`` of a ``width`` x ``height`` image).
 
     ``cam`` is ``tets.camera_array``; points and the eye are in the mesh's normalised
     frame. The plane (``faces[f, 9:12] = (P, Q, R)``, ``faces[f, 12:15] = (n . R, n . U,
@@ -178,25 +180,12 @@ def face_setup(points, tri, normals, cam, faces):
         for e in range(3):
             faces[f, 15 + e] = _edge_scale(points, tri[f, e], tri[f, (e + 1) % 3], ox, oy, oz,
                                            0.0 if perspective else 1.0 / scale)
-        # the centroid of the corners' view-plane points (NaN when one is behind the eye)
-        xc = 0.0
-        yc = 0.0
-        for m in range(3):
-            q = tri[f, m]
-            rx, ry, rz = points[q, 0] - ox, points[q, 1] - oy, points[q, 2] - oz
-            x = _dot(rx, ry, rz, cam[3], cam[4], cam[5])
-            y = _dot(rx, ry, rz, cam[6], cam[7], cam[8])
-            if perspective:
-                z = _dot(rx, ry, rz, cam[9], cam[10], cam[11])
-                if not z > 0.0:
-                    xc = math.nan
-                x /= z
-                y /= z
-            else:
-                x *= scale
-                y *= scale
-            xc += x / 3.0
-            yc += y / 3.0
+        # the centroid of the corners' view-plane points, from their pixel coordinates
+        # (NaN when one is behind the eye)
+        col_c = (proj[f, 0, 0] + proj[f, 1, 0] + proj[f, 2, 0]) / 3.0
+        row_c = (proj[f, 0, 1] + proj[f, 1, 1] + proj[f, 2, 1]) / 3.0
+        xc = (col_c * (2.0 / width) - 1.0) * cam[12]
+        yc = (1.0 - row_c * (2.0 / height)) * cam[13]
         faces[f, 18] = xc
         faces[f, 19] = yc
 

@@ -236,9 +236,9 @@ def _face_table(mesh, cam, width, height):
     of the rays it leaves to it)."""
     tri = mesh.boundary
     normals = _boundary_normals(mesh)
-    boxes, _ = _face_boxes(mesh, cam, width, height)
+    boxes, proj = _face_boxes(mesh, cam, width, height)
     faces = np.empty((len(tri), LK.FACE_FIELDS))
-    LK.face_setup(mesh.points, tri, normals, cam, faces)
+    LK.face_setup(mesh.points, tri, normals, proj, cam, width, height, faces)
     return faces, boxes, mesh.points, tri, normals
 
 

@@ -140,6 +140,27 @@ def test_bilinear_spatial_weights_with_a_flat_guide_are_bilinear_upsampling():
     np.testing.assert_allclose(far, hv.upsample(low, factor=4, method="bilinear"), rtol=0, atol=1e-12)
 
 
+def test_background_shortcut_changes_no_pixel():
+    """Output pixels whose four low pixels are all zero are written as zero without
+    their weights; every other pixel is filtered. The filter's weights sum to 1, so
+    adding 1 to the image adds 1 to the output: the shifted image (no zero anywhere,
+    no shortcut) checks every pixel next to the zero regions, including those that
+    read a clamped last row or column, and a NaN tap is never taken as zero."""
+    rng = np.random.default_rng(5)
+    low = rng.random((9, 11, 4))
+    low[:4, :5] = 0.0  # a zero block in the corner
+    low[6:, 8:] = 0.0  # and one reaching the last row and column
+    low[2, 2, 1] = np.nan  # one channel of one pixel not zero
+    guide = rng.random((36, 44, 1))
+    out = hv.upsample(low, guide, 4, spatial="bilinear", sigma_range=0.3)
+    shifted = hv.upsample(low + 1.0, guide, 4, spatial="bilinear", sigma_range=0.3) - 1.0
+    nan = np.isnan(shifted)
+    np.testing.assert_array_equal(np.isnan(out), nan)
+    assert 0 < nan.sum() < out.size // 10
+    np.testing.assert_allclose(out[~nan], shifted[~nan], rtol=0, atol=1e-12)
+    zero = np.all(out == 0.0, axis=2)
+    assert zero[:6, :14].all() and zero[-3:, -6:].all()  # the shortcut did apply
+
 def test_nearest_and_bilinear():
     low = np.arange(12.0).reshape(3, 4, 1) * np.array([1.0, -2.0])  # linear in row and column
     near = hv.upsample(low, factor=2, method="nearest")

@@ -138,6 +138,9 @@ def joint_bilinear(low, guide, factor, inv_2sr, table, out):
     every range weight underflows, bilinear weights alone are used. ``table``:
     ``exp_table()``. Arrays are read flat with unsigned offsets from per-row and
     per-column tables (no index arithmetic or wraparound checks per tap).
+
+    An output pixel whose four low pixels are all zero (the background, most often)
+    is zero whatever the weights, and is written without computing them.
     """
     h, w, _ = low.shape
     k, H, W = guide.shape
@@ -159,6 +162,18 @@ def joint_bilinear(low, guide, factor, inv_2sr, table, out):
     c1 = np.empty(W, dtype=np.uint64)
     fc = np.empty(W)
     _bilinear_taps(W, w, factor, 1, c0, c1, fc)
+    # per low pixel: whether it and the three after it that bilinear taps read with it
+    # (clamped at the last row and column, as _bilinear_taps) are all zero
+    zero = np.empty(h * w, dtype=np.bool_)
+    for i in numba.prange(h):
+        i1 = min(i + 1, h - 1)
+        for j in range(w):
+            j1 = min(j + 1, w - 1)
+            z = True
+            for c in range(4):
+                z = z and low[i, j, c] == 0.0 and low[i, j1, c] == 0.0 and low[i1, j, c] == 0.0 \
+                    and low[i1, j1, c] == 0.0
+            zero[i * w + j] = z
     scale = inv_2sr * EXP_STEPS
     plane = _u(H * W)
     kk = _u(k)
@@ -172,6 +187,11 @@ def joint_bilinear(low, guide, factor, inv_2sr, table, out):
             q10 = r1[row] + c0[col]
             q11 = r1[row] + c1[col]
             p = _u(row * W + col)
+            if zero[q00]:
+                o = p * four
+                for c in range(4):
+                    res[o + _u(c)] = 0.0
+                continue
             d00 = 0.0
             d01 = 0.0
             d10 = 0.0

@@ -205,8 +205,9 @@ def test_boundary_rasteriser_makes_the_plucker_decisions(parallel):
     Plücker test for rays within rounding of an edge) are those of the Plücker test
     run on every pixel and face: on a jittered non-convex mesh seen close up (faces
     leave the image; the perspective eye is inside the second block, so 20 faces reach
-    behind it) and on a Kuhn box seen along z (parallel: every pixel centre on its
-    edges and vertices; perspective: the central ray through a vertex)."""
+    behind it), also at a size of 8 bands of rows (faces reach into several), and on a
+    Kuhn box seen along z (parallel: every pixel centre on its edges and vertices;
+    perspective: the central ray through a vertex)."""
     from pv_hdrvol.raycast.tets import boundary_crossings
 
     rng = np.random.default_rng(7)
@@ -215,8 +216,8 @@ def test_boundary_rasteriser_makes_the_plucker_decisions(parallel):
     pts = np.concatenate([p1 + rng.uniform(-0.2, 0.2, p1.shape), p2])
     jittered = tetmesh_from_arrays(pts, np.concatenate([t1, t2 + len(p1)]), np.concatenate([v1, v2]))
     box = tetmesh_from_arrays(*box_mesh((4, 4, 4)))
-    cases = [(jittered, oblique_camera((1.5, 1.0, 1.5), distance=1.5 if not parallel else 8.0, parallel=parallel,
-                                       scale=1.2), (37, 29)),
+    close = oblique_camera((1.5, 1.0, 1.5), distance=1.5 if not parallel else 8.0, parallel=parallel, scale=1.2)
+    cases = [(jittered, close, (37, 29)), (jittered, close, (23, 131)),
              (box, hv.Camera((2.0, 2.0, 20.0), (2.0, 2.0, 0.0), (0.0, 1.0, 0.0), parallel_projection=parallel,
                              parallel_scale=2.25, view_angle=12.8), (9, 9))]
     for mesh, cam, size in cases:

@@ -211,7 +211,7 @@ def test_render_with_upsampling_is_the_three_steps():
     meta = img.metadata
     assert meta["upsampled"] == {"method": "joint_bilateral", "factor": 4.0, "from": [8, 6], "guide": "thickness",
                                  "spatial": "bilinear", "sigma_range": 0.2}
-    assert meta["layers_needed"] == 4 and meta["reference_layers"] == 1  # the thickness guide needs no more
+    assert meta["layers_needed"] == 4 and meta["reference_layers"] == 0  # the thickness guide keeps no layer
     assert all(meta[k] >= 0 for k in ("low_render_seconds", "reference_seconds", "upsample_seconds"))
     # inside the boxes' footprint the picture is uniform: upsampling reproduces it exactly
     # (no low-resolution ray grazes an edge of the boxes at this size)

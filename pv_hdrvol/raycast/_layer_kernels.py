@@ -17,6 +17,12 @@ its entry and re-entry faces) and the reference layers of upsampling
 (``rasterize_layers``: the nearest ``k`` crossings and the thickness), so the two cover
 the same pixels. Per pixel and face it costs two multiply-adds per edge, where a
 Plücker test from the points costs three products of cross products.
+
+What does not depend on the image's size is formed once per view, in the view plane
+(``face_view``, ``face_setup``: edge functions, plane, tolerances, where each edge
+crosses a row), so a low-resolution render and its full-resolution layers share it;
+per size come only the faces' pixel boxes (``face_boxes``) and the faces of each band
+of rows (``band_faces``), so a band visits only its own faces.
 """
 from __future__ import annotations
 
@@ -28,9 +34,10 @@ import numpy as np
 from .._jit import inline_kernel, kernel, parallel_kernel
 from ._tet_kernels import _face_point, _face_products, _same_sign, pixel_ray
 
-#: per face: 3 edges x (A, B, C), the plane (P, Q, R), n . R, n . U, n . F, the 3 edges'
-#: rounding scales and the view-plane centroid (``face_setup``)
-FACE_FIELDS = 20
+#: per face (``face_setup``): 3 edges x (A, B, C), the plane (P, Q, R), n . R, n . U,
+#: n . F, the 3 edges' tolerances, the sign the edge functions share inside, and per
+#: edge the view-plane x of its zero on row y as ``k y + m`` (k, then m, edge by edge)
+FACE_FIELDS = 25
 #: an edge bounds a row's span of pixels only where its function changes by at least
 #: this many of its rounding tolerances per pixel (then its zero is known to 1e-3 pixel)
 SPAN_SAFE = 1e3
@@ -46,7 +53,7 @@ def _dot(ax, ay, az, bx, by, bz):
     return ax * bx + ay * by + az * bz
 
 
-@kernel
+@inline_kernel
 def _edge(points, u, v, cam, ox, oy, oz, scale):
     """``(A, B, C)`` of the edge ``u -> v`` (formed from the lower-numbered corner)."""
     sign = 1.0
@@ -94,13 +101,11 @@ def _view_coordinate(q, n, half):
 
 
 @parallel_kernel
-def face_boxes(points, tri, cam, width, height, boxes, proj):
-    """Per boundary face, its corners' pixel coordinates ``proj[f]`` ((3, 2): column,
-    row, continuous, row 0 at the top, as ``Camera.project``; all NaN for a face with a
-    corner behind a perspective camera) and ``boxes[f]``: the pixels ``col0, col1, row0, row1`` whose
-    centres lie in the projected bounding box widened by 1e-3 pixel against rounding,
-    clipped to the image (empty when ``col1 < col0``); the whole image for a face
-    reaching behind the camera. The box only limits the search; the exact tests decide.
+def face_view(points, tri, cam, view):
+    """Per boundary face, its corners' view-plane coordinates ``view[f]`` ((3, 2):
+    ``camera_ray``'s ``x`` and ``y`` of the ray through the corner; all NaN for a face
+    with a corner behind a perspective camera). They do not depend on the image's
+    size, so one table serves a render and its full-resolution layers.
 
     ``cam`` is ``tets.camera_array`` (``Camera.kernel_array``, then the mesh's centre
     and scale); the points are in the mesh's normalised frame.
@@ -125,21 +130,42 @@ def face_boxes(points, tri, cam, width, height, boxes, proj):
             else:
                 x *= scale
                 y *= scale
-            proj[f, m, 0] = (x / cam[12] + 1.0) * (0.5 * width)
-            proj[f, m, 1] = (1.0 - y / cam[13]) * (0.5 * height)
+            view[f, m, 0] = x
+            view[f, m, 1] = y
         if behind:
             for m in range(3):
-                proj[f, m, 0] = math.nan
-                proj[f, m, 1] = math.nan
+                view[f, m, 0] = math.nan
+                view[f, m, 1] = math.nan
+
+
+@parallel_kernel
+def face_boxes(view, cam, width, height, boxes):
+    """Per boundary face, ``boxes[f]``: the pixels ``col0, col1, row0, row1`` of a
+    ``width`` x ``height`` image whose centres lie in the bounding box of the corners'
+    projections (``face_view``; column ``(x / half_w + 1) width / 2``, row
+    ``(1 - y / half_h) height / 2``, as ``Camera.project``), widened by 1e-3 pixel
+    against rounding and clipped to the image (empty when ``col1 < col0``); the whole
+    image for a face reaching behind the camera. The box only limits the search; the
+    exact tests decide.
+    """
+    for f in numba.prange(view.shape[0]):
+        if view[f, 0, 0] != view[f, 0, 0]:
             boxes[f, 0] = 0
             boxes[f, 1] = width - 1
             boxes[f, 2] = 0
             boxes[f, 3] = height - 1
             continue
-        lo_c = min(proj[f, 0, 0], proj[f, 1, 0], proj[f, 2, 0])
-        hi_c = max(proj[f, 0, 0], proj[f, 1, 0], proj[f, 2, 0])
-        lo_r = min(proj[f, 0, 1], proj[f, 1, 1], proj[f, 2, 1])
-        hi_r = max(proj[f, 0, 1], proj[f, 1, 1], proj[f, 2, 1])
+        lo_c = math.inf
+        hi_c = -math.inf
+        lo_r = math.inf
+        hi_r = -math.inf
+        for m in range(3):
+            col = (view[f, m, 0] / cam[12] + 1.0) * (0.5 * width)
+            row = (1.0 - view[f, m, 1] / cam[13]) * (0.5 * height)
+            lo_c = min(lo_c, col)
+            hi_c = max(hi_c, col)
+            lo_r = min(lo_r, row)
+            hi_r = max(hi_r, row)
         # centres at index + 1/2; clipped before converting (a corner may project far away)
         boxes[f, 0] = int(math.ceil(min(max(lo_c - 0.5 - 1e-3, 0.0), width + 1.0)))
         boxes[f, 1] = int(math.floor(min(max(hi_c - 0.5 + 1e-3, -1.0), width - 1.0)))
@@ -147,21 +173,57 @@ def face_boxes(points, tri, cam, width, height, boxes, proj):
         boxes[f, 3] = int(math.floor(min(max(hi_r - 0.5 + 1e-3, -1.0), height - 1.0)))
 
 
+@kernel
+def band_faces(boxes, height, bands):
+    """``(offsets, members)``: the faces whose boxes reach into each band of rows
+    (``rasterize_layers``' bands), band ``i``'s being ``members[offsets[i]:offsets[i + 1]]``
+    in ascending order, so each band visits only its faces, in the order of all."""
+    band_rows = (height + bands - 1) // bands
+    offsets = np.zeros(bands + 1, dtype=np.int64)
+    for f in range(boxes.shape[0]):
+        if boxes[f, 1] >= boxes[f, 0] and boxes[f, 3] >= boxes[f, 2]:
+            for band in range(boxes[f, 2] // band_rows, boxes[f, 3] // band_rows + 1):
+                offsets[band + 1] += 1
+    for band in range(bands):
+        offsets[band + 1] += offsets[band]
+    members = np.empty(offsets[bands], dtype=np.int64)
+    fill = offsets[:bands].copy()
+    for f in range(boxes.shape[0]):
+        if boxes[f, 1] >= boxes[f, 0] and boxes[f, 3] >= boxes[f, 2]:
+            for band in range(boxes[f, 2] // band_rows, boxes[f, 3] // band_rows + 1):
+                members[fill[band]] = f
+                fill[band] += 1
+    return offsets, members
+
+
 @parallel_kernel
-def face_setup(points, tri, normals, proj, cam, width, height, faces):
-    """Per boundary face, ``faces[f]``: the three edges' ``(A, B, C)``, the plane, the
-    edges' rounding scales and the view-plane centroid (from ``face_boxes``' corners
-    ``proj`` of a ``width`` x ``height`` image).
+def face_setup(points, tri, normals, view, cam, faces):
+    """Per boundary face, ``faces[f]`` (``FACE_FIELDS``): the three edges' ``(A, B, C)``,
+    the plane, the edges' tolerances, the sign the edge functions share inside and
+    where each edge's zero lies along a row; from the corners' view-plane coordinates
+    ``view`` (``face_view``), so the table holds for any image size.
 
     ``cam`` is ``tets.camera_array``; points and the eye are in the mesh's normalised
     frame. The plane (``faces[f, 9:12] = (P, Q, R)``, ``faces[f, 12:15] = (n . R, n . U,
     n . F)``, ``n`` the face's normal): a perspective ray meets it at
     ``t = P |D| / (n . D)`` with ``D = x R + y U + F``, ``n . D = x n.R + y n.U + n.F`` and
     ``|D| = sqrt(1 + x^2 + y^2)``; a parallel one at ``t = (P + Q x + R y) / (n . F)``.
+
+    Tolerance of edge ``e`` (``faces[f, 15 + e]``): ``UNSURE`` times its rounding scale
+    (``_edge_scale``) at the largest ``|x|``, ``|y|`` of the face's pixels: those of its
+    corners plus 2e-3 of the half view (the pixel boxes reach 1e-3 pixel past them),
+    or the half view itself for a face reaching behind the eye. The inside's sign
+    (``faces[f, 18]``): the edge functions' shared sign at the corners' centroid, when
+    all three are sure there (a face in front of the eye whose projection is no
+    sliver), else 0 (no spans: every row scans the face's whole box). Edge ``e``'s zero
+    on row ``y`` is at ``x = k y + m`` (``faces[f, 19 + 2 e]``, ``faces[f, 20 + 2 e]``;
+    0 and 0 for an edge along the rows).
     """
     ox, oy, oz, scale = _eye(cam)
     perspective = cam[14] == 0.0
+    eye = math.sqrt(_dot(ox, oy, oz, ox, oy, oz)) + (0.0 if perspective else 1.0 / scale)
     for f in numba.prange(tri.shape[0]):
+        norms = (_norm(points, tri[f, 0]), _norm(points, tri[f, 1]), _norm(points, tri[f, 2]))
         for e in range(3):
             A, B, C = _edge(points, tri[f, e], tri[f, (e + 1) % 3], cam, ox, oy, oz, scale)
             faces[f, 3 * e] = A
@@ -177,33 +239,55 @@ def face_setup(points, tri, normals, proj, cam, width, height, faces):
         faces[f, 12] = nr
         faces[f, 13] = nu
         faces[f, 14] = _dot(nx, ny, nz, cam[9], cam[10], cam[11])
+        in_front = view[f, 0, 0] == view[f, 0, 0]
+        if in_front:
+            X = max(abs(view[f, 0, 0]), abs(view[f, 1, 0]), abs(view[f, 2, 0])) + 2e-3 * cam[12]
+            Y = max(abs(view[f, 0, 1]), abs(view[f, 1, 1]), abs(view[f, 2, 1])) + 2e-3 * cam[13]
+        else:
+            X = cam[12]
+            Y = cam[13]
+        spread = 1.0 + X + Y
         for e in range(3):
-            faces[f, 15 + e] = _edge_scale(points, tri[f, e], tri[f, (e + 1) % 3], ox, oy, oz,
-                                           0.0 if perspective else 1.0 / scale)
-        # the centroid of the corners' view-plane points, from their pixel coordinates
-        # (NaN when one is behind the eye)
-        col_c = (proj[f, 0, 0] + proj[f, 1, 0] + proj[f, 2, 0]) / 3.0
-        row_c = (proj[f, 0, 1] + proj[f, 1, 1] + proj[f, 2, 1]) / 3.0
-        xc = (col_c * (2.0 / width) - 1.0) * cam[12]
-        yc = (1.0 - row_c * (2.0 / height)) * cam[13]
-        faces[f, 18] = xc
-        faces[f, 19] = yc
+            A, B, C = faces[f, 3 * e], faces[f, 3 * e + 1], faces[f, 3 * e + 2]
+            sc = _edge_scale(points, tri[f, e], tri[f, (e + 1) % 3], norms[e], norms[(e + 1) % 3], eye)
+            faces[f, 15 + e] = UNSURE * (sc * spread + abs(A) * X + abs(B) * Y + abs(C))
+        # the inside's sign, at the centroid of the corners' view-plane points
+        sigma = 0.0
+        if in_front:
+            xc = (view[f, 0, 0] + view[f, 1, 0] + view[f, 2, 0]) / 3.0
+            yc = (view[f, 0, 1] + view[f, 1, 1] + view[f, 2, 1]) / 3.0
+            above = 0
+            below = 0
+            for e in range(3):
+                w = faces[f, 3 * e] * xc + faces[f, 3 * e + 1] * yc + faces[f, 3 * e + 2]
+                above += w > faces[f, 15 + e]
+                below += w < -faces[f, 15 + e]
+            sigma = 1.0 if above == 3 else (-1.0 if below == 3 else 0.0)
+        faces[f, 18] = sigma
+        for e in range(3):
+            A = faces[f, 3 * e]
+            inv = -1.0 / A if A != 0.0 else 0.0
+            faces[f, 19 + 2 * e] = faces[f, 3 * e + 1] * inv
+            faces[f, 20 + 2 * e] = faces[f, 3 * e + 2] * inv
 
 
 @inline_kernel
-def _edge_scale(points, u, v, ox, oy, oz, spread):
+def _norm(points, u):
+    """``|points[u]|``."""
+    return math.sqrt(_dot(points[u, 0], points[u, 1], points[u, 2], points[u, 0], points[u, 1], points[u, 2]))
+
+
+@inline_kernel
+def _edge_scale(points, u, v, nu, nv, eye):
     """The scale of the terms of the edge ``u -> v``'s function and Plücker product,
-    ``|a| |b| + |b - a| (|o| + spread)`` (the same for both directions): the rounding of
-    either is a few 1e-16 of it times ``1 + |x| + |y|``. ``spread``: how far a parallel
-    camera's ray origins move per unit of ``x`` or ``y`` (0 for perspective)."""
-    if u > v:
-        u, v = v, u
-    ax, ay, az = points[u, 0], points[u, 1], points[u, 2]
-    bx, by, bz = points[v, 0], points[v, 1], points[v, 2]
-    na = math.sqrt(_dot(ax, ay, az, ax, ay, az))
-    nb = math.sqrt(_dot(bx, by, bz, bx, by, bz))
-    ex, ey, ez = bx - ax, by - ay, bz - az
-    return na * nb + math.sqrt(_dot(ex, ey, ez, ex, ey, ez)) * (math.sqrt(_dot(ox, oy, oz, ox, oy, oz)) + spread)
+    ``|a| |b| + |b - a| (|o| + spread)`` (the same for both directions), from the
+    corners' norms ``nu``, ``nv`` and ``eye = |o| + spread``: the rounding of either is
+    a few 1e-16 of it times ``1 + |x| + |y|``. ``spread``: how far a parallel camera's
+    ray origins move per unit of ``x`` or ``y`` (0 for perspective)."""
+    ex = points[v, 0] - points[u, 0]
+    ey = points[v, 1] - points[u, 1]
+    ez = points[v, 2] - points[u, 2]
+    return nu * nv + math.sqrt(_dot(ex, ey, ez, ex, ey, ez)) * eye
 
 
 @kernel
@@ -220,8 +304,8 @@ def _view_plane(cam, width, height):
 
 
 @parallel_kernel
-def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, length_scale, counts,
-                     layers, thickness):
+def rasterize_layers(faces, boxes, band_offsets, band_members, points, tri, normals, cam, width, height, bands,
+                     lanes, length_scale, counts, layers, thickness):
     """Per pixel: the number of boundary faces its ray crosses at ``t >= 0`` (``counts``),
     the ``k`` nearest ``t`` in order (``layers`` (k, pixels), ``inf`` past the count)
     and the sum of exits' minus entries' ``t``, at least 0 (``thickness``), all three
@@ -231,7 +315,8 @@ def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, ban
     Rows are split into ``bands``, one band per thread at a time, so no two threads
     write one pixel; lane ``l`` takes bands ``l, l + lanes, ...`` and the lanes are
     split among the threads, so each thread's rows are spread over the image (a mesh
-    seldom fills it evenly). ``faces`` and ``boxes`` from ``face_setup`` and ``face_boxes``;
+    seldom fills it evenly); each band visits only its faces (``band_faces``: ``band_offsets``,
+    ``band_members``). ``faces`` and ``boxes`` from ``face_setup`` and ``face_boxes``;
     ``points``, ``tri`` and ``normals`` (the boundary faces and their outward normals)
     for the Plücker test of rays within rounding of an edge.
     """
@@ -251,8 +336,9 @@ def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, ban
                 thickness[pix] = 0.0
                 for m in range(layers.shape[0]):
                     layers[m, pix] = math.inf
-            _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, perspective, xs, ys, r0, r1,
-                            LAYERS, counts, layers, thickness, no_offsets, no_t, no_offsets, no_enter)
+            _rasterize_band(faces, boxes, band_members, band_offsets[band], band_offsets[band + 1], points, tri,
+                            normals, cam, width, height, perspective, xs, ys, r0, r1, LAYERS, counts, layers,
+                            thickness, no_offsets, no_t, no_offsets, no_enter)
             for row in range(r0, r1 + 1):
                 y = ys[row]
                 for col in range(width):
@@ -269,8 +355,8 @@ def rasterize_layers(faces, boxes, points, tri, normals, cam, width, height, ban
 
 
 @parallel_kernel
-def rasterize_hits(faces, boxes, points, tri, normals, cam, width, height, bands, lanes, count_only, offsets,
-                   counts, out_t, out_face, out_enter):
+def rasterize_hits(faces, boxes, band_offsets, band_members, points, tri, normals, cam, width, height, bands,
+                   lanes, count_only, offsets, counts, out_t, out_face, out_enter):
     """Per pixel, the boundary faces its ray crosses at ``t >= 0``: the ray caster's
     entry and re-entry faces, decided by the same edge functions as the layers.
 
@@ -292,8 +378,9 @@ def rasterize_hits(faces, boxes, points, tri, normals, cam, width, height, bands
             r1 = min(height, (band + 1) * band_rows) - 1
             for pix in range(r0 * width, (r1 + 1) * width):
                 counts[pix] = 0
-            _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, perspective, xs, ys, r0, r1,
-                            mode, counts, no_layers, no_thickness, offsets, out_t, out_face, out_enter)
+            _rasterize_band(faces, boxes, band_members, band_offsets[band], band_offsets[band + 1], points, tri,
+                            normals, cam, width, height, perspective, xs, ys, r0, r1, mode, counts, no_layers,
+                            no_thickness, offsets, out_t, out_face, out_enter)
             if count_only:
                 continue
             for row in range(r0, r1 + 1):
@@ -331,17 +418,17 @@ def _sort_hits(ts, faces, enter, lo, hi):
 
 
 @inline_kernel
-def _edge_bound(sigma, a, b, c, tol, pixel, to_col, col_shift):
-    """How the edge function ``a x + b y + c`` bounds a row's pixels that may have the
-    inside's sign ``sigma``: ``(kind, k, m)``, the column of its zero on row ``y`` being
-    ``k y + m``, a lower bound for ``kind = 1``, an upper one for ``kind = -1``. ``kind = 0``
-    (no bound) for no known sign, or an edge that changes by less than ``SPAN_SAFE``
-    tolerances ``tol`` per ``pixel`` or is nearly along the rows (``|b| > 1e6 |a|``):
-    the rounding of ``k y + m`` then stays below 1e-6 column."""
+def _edge_bound(sigma, a, b, k, m, tol, pixel, to_col, col_shift):
+    """How the edge function ``a x + b y + c`` (zero at view-plane ``x = k y + m``)
+    bounds a row's pixels that may have the inside's sign ``sigma``: ``(kind, kc, mc)``,
+    the column of its zero on row ``y`` being ``kc y + mc``, a lower bound for
+    ``kind = 1``, an upper one for ``kind = -1``. ``kind = 0`` (no bound) for no known
+    sign, or an edge that changes by less than ``SPAN_SAFE`` tolerances ``tol`` per
+    ``pixel`` or is nearly along the rows (``|b| > 1e6 |a|``): the rounding of
+    ``kc y + mc`` then stays below 1e-6 column."""
     if sigma == 0.0 or abs(a) * pixel < SPAN_SAFE * tol or abs(b) > 1e6 * abs(a):
         return 0, 0.0, 0.0
-    inv = to_col / a
-    return (1 if sigma * a > 0.0 else -1), -b * inv, col_shift - c * inv
+    return (1 if sigma * a > 0.0 else -1), k * to_col, m * to_col + col_shift
 
 
 @inline_kernel
@@ -371,9 +458,9 @@ def _plucker_hit(points, tri, normals, f, cam, col, row, width, height):
 
 
 @kernel
-def _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, perspective, xs, ys, r0, r1, mode,
-                    counts, layers, thickness, offsets, out_t, out_face, out_enter):
-    """The faces' pixels in rows ``r0 .. r1``, for ``mode``: ``LAYERS`` (``counts``,
+def _rasterize_band(faces, boxes, members, first, last, points, tri, normals, cam, width, height, perspective, xs, ys,
+                    r0, r1, mode, counts, layers, thickness, offsets, out_t, out_face, out_enter):
+    """The pixels in rows ``r0 .. r1`` of faces ``members[first:last]``, for ``mode``: ``LAYERS`` (``counts``,
     the ``k`` nearest distances ``layers`` and ``thickness``, as ``rasterize_layers``),
     ``COUNT`` (``counts``) or ``HITS`` (each crossing at ``offsets[pix] + counts[pix]``
     of ``out_t``, ``out_face``, ``out_enter``, as ``rasterize_hits``). Distances along
@@ -392,7 +479,8 @@ def _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, pers
     pixel = xs[1] - xs[0] if width > 1 else 1.0
     to_col = 1.0 / pixel
     col_shift = -xs[0] * to_col
-    for f in range(faces.shape[0]):
+    for i in range(first, last):
+        f = members[i]
         row0 = max(boxes[f, 2], r0)
         row1 = min(boxes[f, 3], r1)
         col0 = boxes[f, 0]
@@ -404,30 +492,12 @@ def _rasterize_band(faces, boxes, points, tri, normals, cam, width, height, pers
         a2, b2, c2 = faces[f, 6], faces[f, 7], faces[f, 8]
         p, q, r = faces[f, 9], faces[f, 10], faces[f, 11]
         nr, nu, nf = faces[f, 12], faces[f, 13], faces[f, 14]
-        # the edge functions' rounding, bounded over the face's box
-        X = max(abs(xs[col0]), abs(xs[col1]))
-        Y = max(abs(ys[row0]), abs(ys[row1]))
-        spread = 1.0 + X + Y
-        e0 = UNSURE * (faces[f, 15] * spread + abs(a0) * X + abs(b0) * Y + abs(c0))
-        e1 = UNSURE * (faces[f, 16] * spread + abs(a1) * X + abs(b1) * Y + abs(c1))
-        e2 = UNSURE * (faces[f, 17] * spread + abs(a2) * X + abs(b2) * Y + abs(c2))
-        # which sign the edge functions share inside: theirs at the centroid, when all
-        # three are sure there (a face in front of the eye whose projection is no sliver);
-        # else 0 and every row scans the whole box
-        xc, yc = faces[f, 18], faces[f, 19]
-        sigma = 0.0
-        if xc == xc:
-            w0 = a0 * xc + b0 * yc + c0
-            w1 = a1 * xc + b1 * yc + c1
-            w2 = a2 * xc + b2 * yc + c2
-            if w0 > e0 and w1 > e1 and w2 > e2:
-                sigma = 1.0
-            elif w0 < -e0 and w1 < -e1 and w2 < -e2:
-                sigma = -1.0
-        # each edge's zero, in columns, along the rows (a span; none without a sign)
-        k0, g0, m0 = _edge_bound(sigma, a0, b0, c0, e0, pixel, to_col, col_shift)
-        k1, g1, m1 = _edge_bound(sigma, a1, b1, c1, e1, pixel, to_col, col_shift)
-        k2, g2, m2 = _edge_bound(sigma, a2, b2, c2, e2, pixel, to_col, col_shift)
+        e0, e1, e2 = faces[f, 15], faces[f, 16], faces[f, 17]
+        # each edge's zero, in columns, along the rows (a span; none without the inside's sign)
+        sigma = faces[f, 18]
+        k0, g0, m0 = _edge_bound(sigma, a0, b0, faces[f, 19], faces[f, 20], e0, pixel, to_col, col_shift)
+        k1, g1, m1 = _edge_bound(sigma, a1, b1, faces[f, 21], faces[f, 22], e1, pixel, to_col, col_shift)
+        k2, g2, m2 = _edge_bound(sigma, a2, b2, faces[f, 23], faces[f, 24], e2, pixel, to_col, col_shift)
         for row in range(row0, row1 + 1):
             y = ys[row]
             # columns whose centres lie in the span, widened by a pixel: a sure inside

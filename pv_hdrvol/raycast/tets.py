@@ -87,6 +87,12 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     if upsample > 1:
         return _render_upsampled(mesh, tf, camera, size, options, upsample, tau_max, progress, progress_bar,
                                  option_kwargs)
+    return _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, option_kwargs)[0]
+
+
+def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, option_kwargs, view=None):
+    """``render_tets`` of a prepared mesh at full resolution: ``(image, view)``, ``view``
+    the boundary's ``view_faces`` (reused when given and made for this camera)."""
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
     if opts.blending != "composite":
         raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
@@ -106,21 +112,8 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     prec = opts.precision
 
     unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else mesh.default_unit_distance()
-    table_size = 256 if prec == "uint8" else tf.table_size
-    rgb, sigma = tf.table(np.float64, opts.global_alpha, unit, table_size)
-    if prec == "uint8":
-        # an 8-bit table: colour and the opacity of one unit distance in 256 levels
-        rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
-        alpha = np.round(-np.expm1(-sigma * unit) * 255) / 255
-        sigma = -np.log1p(-np.minimum(alpha, 1 - 1e-12)) / unit
+    table, sigma = _table(tf, prec, opts.global_alpha, unit)
     a0, a1 = tf.axis_range
-    table = np.empty((table_size, TK.TABLE_COLUMNS))
-    table[:, :3] = rgb
-    table[:, 3] = sigma
-    knots = _scale_inverse(np.linspace(a0, a1, table_size), tf.scale, tf.linthresh)
-    knots[0], knots[-1] = tf.vmin, tf.vmax
-    table[:, 8] = np.maximum.accumulate(knots)  # monotone despite rounding of the inverse axis
-    TK.cumulative_tables(table)
     params = TK.TetParams(
         PRECISION_CODES[prec], SCALE_CODES[tf.scale], float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
         1.0 - opts.termination if opts.termination > 0 else math.inf, float(opts.depth_threshold),
@@ -131,7 +124,8 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
     cam = camera_array(camera, mesh, width, height)
     t0 = time.perf_counter()
-    hits = boundary_crossings(mesh, camera, (width, height), cam)
+    view = view if view is not None and np.array_equal(view[0], cam) else (cam, *view_faces(mesh, cam))
+    hits = boundary_crossings(mesh, camera, (width, height), cam, view[1:])
     t_hits = time.perf_counter() - t0
     has = hits.offsets[1:] > hits.offsets[:-1]
     inside = int(np.count_nonzero(~hits.entering[hits.offsets[:-1][has]]))
@@ -179,14 +173,37 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
         "tau_max": tau_max,
         "stopped_rays": int(guard.sum()),
     }
-    return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
+    return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view
+
+
+def _table(tf, prec, global_alpha, unit):
+    """``(table, sigma)``: the renderer's table (``TABLE_COLUMNS``) and its extinction
+    column, built for each render. (Kept on the mesh, it would save about 1 ms, but a
+    kept table is out of cache when the ray walk reads it, and the walk lost as much:
+    measured on the FEA bracket at 128² and 256².)"""
+    table_size = 256 if prec == "uint8" else tf.table_size
+    rgb, sigma = tf.table(np.float64, global_alpha, unit, table_size)
+    if prec == "uint8":
+        # an 8-bit table: colour and the opacity of one unit distance in 256 levels
+        rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
+        alpha = np.round(-np.expm1(-sigma * unit) * 255) / 255
+        sigma = -np.log1p(-np.minimum(alpha, 1 - 1e-12)) / unit
+    a0, a1 = tf.axis_range
+    table = np.empty((table_size, TK.TABLE_COLUMNS))
+    table[:, :3] = rgb
+    table[:, 3] = sigma
+    knots = _scale_inverse(np.linspace(a0, a1, table_size), tf.scale, tf.linthresh)
+    knots[0], knots[-1] = tf.vmin, tf.vmax
+    table[:, 8] = np.maximum.accumulate(knots)  # monotone despite rounding of the inverse axis
+    TK.cumulative_tables(table)
+    return table, sigma
 
 
 def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress, progress_bar, option_kwargs):
     """``render_tets(upsample=factor)``: low-resolution render (I), full-resolution
     reference layers (R), joint bilateral upsampling (U)."""
     from ..image.upsample import upsample
-    from .layers import depth_layers
+    from .layers import DepthLayers
 
     width, height = as_size(size)
     if width % factor or height % factor:
@@ -194,12 +211,18 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     if camera is None:
         camera = Camera.fit(mesh.bounds, "iso")
     t0 = time.perf_counter()
-    low = render_tets(mesh, tf, camera, (width // factor, height // factor), options, tau_max=tau_max,
-                      progress=progress, progress_bar=progress_bar, **option_kwargs)
+    low, view = _render(mesh, tf, camera, (width // factor, height // factor), options, tau_max, progress,
+                        progress_bar, option_kwargs)
     t1 = time.perf_counter()
-    # the thickness guides the filter; of the layers themselves only the first is kept
-    layers = depth_layers(mesh, camera, (width, height), max_layers=1)
+    # the thickness guides the filter: no layers are kept. The boundary's view-plane
+    # table is the low render's (the camera array is the same for one aspect ratio)
+    cam = camera_array(camera, mesh, width, height)
+    counts, t, thickness = boundary_layers(mesh, camera, (width, height), 0, cam=cam,
+                                           view=view[1:] if np.array_equal(view[0], cam) else None)
+    layers = DepthLayers(t.reshape(0, height, width), counts.reshape(height, width), 0.0,
+                         f"boundary of {mesh.n_cells} tets", thickness=thickness.reshape(height, width))
     t2 = time.perf_counter()
+    layers.seconds = t2 - t1
     out = upsample(low, layers, factor)
     t3 = time.perf_counter()
     out.metadata.update({"low_render_seconds": t1 - t0, "reference_seconds": t2 - t1, "upsample_seconds": t3 - t2,
@@ -229,21 +252,37 @@ def camera_array(camera, mesh, width, height):
     return np.concatenate([camera.kernel_array((width, height)), mesh.center, [mesh.scale]])
 
 
-def _face_table(mesh, cam, width, height):
-    """``(faces, boxes, points, tri, normals)``: what the boundary rasteriser
-    (``_layer_kernels``) reads for this view: ``face_setup``'s table, the faces' pixel
-    boxes, and the mesh's points, boundary faces and their normals (for the Plücker test
-    of the rays it leaves to it)."""
+def view_faces(mesh, cam):
+    """``(faces, corners)``: ``face_setup``'s table of the boundary faces and their
+    corners' view-plane coordinates (``face_view``) for ``cam`` (``camera_array``).
+    Neither depends on the image's size, and ``cam`` is the same for every size of one
+    aspect ratio, so a low-resolution render and its full-resolution layers share them."""
     tri = mesh.boundary
-    normals = _boundary_normals(mesh)
-    boxes, proj = _face_boxes(mesh, cam, width, height)
+    corners = np.empty((len(tri), 3, 2))
+    LK.face_view(mesh.points, tri, cam, corners)
     faces = np.empty((len(tri), LK.FACE_FIELDS))
-    LK.face_setup(mesh.points, tri, normals, proj, cam, width, height, faces)
-    return faces, boxes, mesh.points, tri, normals
+    LK.face_setup(mesh.points, tri, _boundary_normals(mesh), corners, cam, faces)
+    return faces, corners
 
 
-def boundary_crossings(mesh, camera, size, cam=None):
-    """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``).
+def _face_table(mesh, cam, width, height, view=None):
+    """``(geometry, bands, lanes)``: what the boundary rasteriser (``_layer_kernels``)
+    reads for this view and size, ``geometry`` being ``(faces, boxes, band_offsets,
+    band_members, points, tri, normals)``: ``view_faces`` (``view`` when given), the
+    faces' pixel boxes, the faces of each band of rows, and the mesh's points,
+    boundary faces and their normals (for the Plücker test of the rays it leaves to
+    it)."""
+    faces, corners = view if view is not None else view_faces(mesh, cam)
+    boxes = np.empty((len(faces), 4), dtype=np.int64)
+    LK.face_boxes(corners, cam, width, height, boxes)
+    bands, lanes = _bands(height)
+    offsets, members = LK.band_faces(boxes, height, bands)
+    return (faces, boxes, offsets, members, mesh.points, mesh.boundary, _boundary_normals(mesh)), bands, lanes
+
+
+def boundary_crossings(mesh, camera, size, cam=None, view=None):
+    """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``; ``view``:
+    its ``view_faces``, made here when not given).
 
     The boundary faces are rasterised twice with the edge functions of the depth layers
     (``_layer_kernels.rasterize_hits``): once to count each pixel's crossings, once to
@@ -253,8 +292,7 @@ def boundary_crossings(mesh, camera, size, cam=None):
     width, height = size
     if cam is None:
         cam = camera_array(camera, mesh, width, height)
-    geometry = _face_table(mesh, cam, width, height)
-    bands, lanes = _bands(height)
+    geometry, bands, lanes = _face_table(mesh, cam, width, height, view)
     n_pix = width * height
     counts = np.empty(n_pix, dtype=np.int64)
     empty_f = np.empty(0)
@@ -271,7 +309,7 @@ def boundary_crossings(mesh, camera, size, cam=None):
     return BoundaryHits(offsets, t, face, entering, width, height)
 
 
-def boundary_layers(mesh, camera, size, k):
+def boundary_layers(mesh, camera, size, k, cam=None, view=None):
     """``(counts, t, thickness)``: per pixel the number of boundary crossings
     (``width * height``), the ``k`` nearest crossing distances in order
     (``(k, width * height)``, ``inf`` past the count) and the length of the ray inside
@@ -282,21 +320,21 @@ def boundary_layers(mesh, camera, size, k):
     entry faces (``_layer_kernels``), so the layers and the render cover the same
     pixels."""
     width, height = size
-    cam = camera_array(camera, mesh, width, height)
-    geometry = _face_table(mesh, cam, width, height)
+    if cam is None:
+        cam = camera_array(camera, mesh, width, height)
+    geometry, bands, lanes = _face_table(mesh, cam, width, height, view)
     n_pix = width * height
     counts = np.empty(n_pix, dtype=np.int64)
     layers = np.empty((k, n_pix))
     thickness = np.empty(n_pix)
-    bands, lanes = _bands(height)
     LK.rasterize_layers(*geometry, cam, width, height, bands, lanes, float(mesh.scale), counts, layers, thickness)
     return counts, layers, thickness
 
 
 def _bands(height):
-    """``(bands, lanes)`` of the boundary kernels: bands of at least 16 rows (each band
-    visits every face's box, so more bands cost more on a small image), at most 32 per
-    thread, and one lane per thread, so each thread takes every n-th band."""
+    """``(bands, lanes)`` of the boundary kernels: bands of at least 16 rows (a face
+    that reaches into several bands is set up in each), at most 32 per thread, and one
+    lane per thread, so each thread takes every n-th band."""
     import numba
 
     threads = numba.get_num_threads()
@@ -325,19 +363,6 @@ def _boundary_normals(mesh):
         a, b, c = (pts[tri[:, i]] for i in range(3))
         mesh.cache["boundary_normals"] = np.ascontiguousarray(np.cross(b - a, c - a))
     return mesh.cache["boundary_normals"]
-
-
-def _face_boxes(mesh, cam, width, height):
-    """``(boxes, corners)``: pixel bounding boxes ``(col0, col1, row0, row1)`` of the boundary
-    faces and their corners' pixel coordinates (b, 3, 2) (``_layer_kernels.face_boxes``:
-    the pixels whose centres lie in the face's projected bounding box, widened by 1e-3
-    pixel against rounding; the exact test is the Plücker one. A face with a corner
-    behind a perspective camera gets the whole image). ``cam``: ``camera_array``."""
-    tri = mesh.boundary
-    boxes = np.empty((len(tri), 4), dtype=np.int64)
-    proj = np.empty((len(tri), 3, 2))
-    LK.face_boxes(mesh.points, tri, cam, width, height, boxes, proj)
-    return boxes, proj
 
 
 def _active_cells(mesh, sigma, params):

@@ -212,7 +212,8 @@ def face_setup(points, tri, normals, view, cam, faces):
     Tolerance of edge ``e`` (``faces[f, 15 + e]``): ``UNSURE`` times its rounding scale
     (``_edge_scale``) at the largest ``|x|``, ``|y|`` of the face's pixels: those of its
     corners plus 2e-3 of the half view (the pixel boxes reach 1e-3 pixel past them),
-    or the half view itself for a face reaching behind the eye. The inside's sign
+    at most the half view (every pixel centre lies inside it; all of it for a face
+    reaching behind the eye). The inside's sign
     (``faces[f, 18]``): the edge functions' shared sign at the corners' centroid, when
     all three are sure there (a face in front of the eye whose projection is no
     sliver), else 0 (no spans: every row scans the face's whole box). Edge ``e``'s zero
@@ -239,13 +240,13 @@ def face_setup(points, tri, normals, view, cam, faces):
         faces[f, 12] = nr
         faces[f, 13] = nu
         faces[f, 14] = _dot(nx, ny, nz, cam[9], cam[10], cam[11])
+        # every pixel centre lies inside the view (|x| < half_w, |y| < half_h)
+        X = cam[12]
+        Y = cam[13]
         in_front = view[f, 0, 0] == view[f, 0, 0]
         if in_front:
-            X = max(abs(view[f, 0, 0]), abs(view[f, 1, 0]), abs(view[f, 2, 0])) + 2e-3 * cam[12]
-            Y = max(abs(view[f, 0, 1]), abs(view[f, 1, 1]), abs(view[f, 2, 1])) + 2e-3 * cam[13]
-        else:
-            X = cam[12]
-            Y = cam[13]
+            X = min(X, max(abs(view[f, 0, 0]), abs(view[f, 1, 0]), abs(view[f, 2, 0])) + 2e-3 * cam[12])
+            Y = min(Y, max(abs(view[f, 0, 1]), abs(view[f, 1, 1]), abs(view[f, 2, 1])) + 2e-3 * cam[13])
         spread = 1.0 + X + Y
         for e in range(3):
             A, B, C = faces[f, 3 * e], faces[f, 3 * e + 1], faces[f, 3 * e + 2]

@@ -318,7 +318,8 @@ def boundary_layers(mesh, camera, size, k, cam=None, view=None):
 
     The faces are rasterised with the edge functions that give the ray caster its
     entry faces (``_layer_kernels``), so the layers and the render cover the same
-    pixels."""
+    pixels. ``cam``: ``camera_array`` (made here when not given); ``view``: its
+    ``view_faces`` (likewise; another size's of the same camera array will do)."""
     width, height = size
     if cam is None:
         cam = camera_array(camera, mesh, width, height)

@@ -485,9 +485,7 @@ def _rasterize_band(faces, boxes, members, first, last, points, tri, normals, ca
         row0 = max(boxes[f, 2], r0)
         row1 = min(boxes[f, 3], r1)
         col0 = boxes[f, 0]
-        col1 = boxes[f, 1]
-        if row1 < row0 or col1 < col0:
-            continue
+        col1 = boxes[f, 1]  # >= col0: band_faces lists no empty box
         a0, b0, c0 = faces[f, 0], faces[f, 1], faces[f, 2]
         a1, b1, c1 = faces[f, 3], faces[f, 4], faces[f, 5]
         a2, b2, c2 = faces[f, 6], faces[f, 7], faces[f, 8]

@@ -85,6 +85,15 @@ class DepthLayers:
                 f"{self.seconds * 1e3:.1f} ms, {self.source})")
 
 
+def mesh_layers(mesh, size, counts, t, thickness, t0):
+    """:class:`DepthLayers` of ``tets.boundary_layers``' flat ``counts``, layers ``t``
+    (k, pixels) and ``thickness`` of ``mesh`` at ``size``, begun at ``t0``
+    (``time.perf_counter``)."""
+    width, height = size
+    return DepthLayers(t.reshape(len(t), height, width), counts.reshape(height, width), time.perf_counter() - t0,
+                       f"boundary of {mesh.n_cells} tets", thickness=thickness.reshape(height, width))
+
+
 def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=None, preference="point",
                  isovalue=None, tf=None, threshold=0.05, **options):
     """Full-resolution depth layers of a mesh's boundary, or a reference depth of a volume.
@@ -128,9 +137,7 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
         width, height = as_size(size)
         counts, t, thickness = boundary_layers(mesh, camera, (width, height), max_layers)
         k = max(1, min(max_layers, int(counts.max()) if counts.size else 0))
-        return DepthLayers(t[:k].reshape(k, height, width), counts.reshape(height, width),
-                           time.perf_counter() - t0, f"boundary of {mesh.n_cells} tets",
-                           thickness=thickness.reshape(height, width))
+        return mesh_layers(mesh, (width, height), counts, t[:k], thickness, t0)
     from .. import render
     from ..data.transfer import TransferFunction
     from .grid import as_volume

@@ -92,7 +92,7 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
 
 def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, option_kwargs, view=None):
     """``render_tets`` of a prepared mesh at full resolution: ``(image, view)``, ``view``
-    the boundary's ``view_faces`` (reused when given and made for this camera)."""
+    the boundary's ``_view`` (the one given when it was made for this camera)."""
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
     if opts.blending != "composite":
         raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
@@ -124,8 +124,8 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
     cam = camera_array(camera, mesh, width, height)
     t0 = time.perf_counter()
-    view = view if view is not None and np.array_equal(view[0], cam) else (cam, *view_faces(mesh, cam))
-    hits = boundary_crossings(mesh, camera, (width, height), cam, view[1:])
+    view = _view(mesh, cam, view)
+    hits = boundary_crossings(mesh, camera, (width, height), cam, view)
     t_hits = time.perf_counter() - t0
     has = hits.offsets[1:] > hits.offsets[:-1]
     inside = int(np.count_nonzero(~hits.entering[hits.offsets[:-1][has]]))
@@ -203,7 +203,7 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     """``render_tets(upsample=factor)``: low-resolution render (I), full-resolution
     reference layers (R), joint bilateral upsampling (U)."""
     from ..image.upsample import upsample
-    from .layers import DepthLayers
+    from .layers import mesh_layers
 
     width, height = as_size(size)
     if width % factor or height % factor:
@@ -216,13 +216,8 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     t1 = time.perf_counter()
     # the thickness guides the filter: no layers are kept. The boundary's view-plane
     # table is the low render's (the camera array is the same for one aspect ratio)
-    cam = camera_array(camera, mesh, width, height)
-    counts, t, thickness = boundary_layers(mesh, camera, (width, height), 0, cam=cam,
-                                           view=view[1:] if np.array_equal(view[0], cam) else None)
-    layers = DepthLayers(t.reshape(0, height, width), counts.reshape(height, width), 0.0,
-                         f"boundary of {mesh.n_cells} tets", thickness=thickness.reshape(height, width))
+    layers = mesh_layers(mesh, (width, height), *boundary_layers(mesh, camera, (width, height), 0, view=view), t1)
     t2 = time.perf_counter()
-    layers.seconds = t2 - t1
     out = upsample(low, layers, factor)
     t3 = time.perf_counter()
     out.metadata.update({"low_render_seconds": t1 - t0, "reference_seconds": t2 - t1, "upsample_seconds": t3 - t2,
@@ -265,14 +260,22 @@ def view_faces(mesh, cam):
     return faces, corners
 
 
+def _view(mesh, cam, view=None):
+    """``(cam, faces, corners)``: ``view`` when it was made for ``cam`` (another size of
+    the same camera array), else ``view_faces`` made now."""
+    if view is not None and np.array_equal(view[0], cam):
+        return view
+    return (cam, *view_faces(mesh, cam))
+
+
 def _face_table(mesh, cam, width, height, view=None):
     """``(geometry, bands, lanes)``: what the boundary rasteriser (``_layer_kernels``)
     reads for this view and size, ``geometry`` being ``(faces, boxes, band_offsets,
-    band_members, points, tri, normals)``: ``view_faces`` (``view`` when given), the
-    faces' pixel boxes, the faces of each band of rows, and the mesh's points,
+    band_members, points, tri, normals)``: ``view_faces`` (``view``'s, see ``_view``),
+    the faces' pixel boxes, the faces of each band of rows, and the mesh's points,
     boundary faces and their normals (for the Plücker test of the rays it leaves to
     it)."""
-    faces, corners = view if view is not None else view_faces(mesh, cam)
+    _, faces, corners = _view(mesh, cam, view)
     boxes = np.empty((len(faces), 4), dtype=np.int64)
     LK.face_boxes(corners, cam, width, height, boxes)
     bands, lanes = _bands(height)
@@ -282,7 +285,7 @@ def _face_table(mesh, cam, width, height, view=None):
 
 def boundary_crossings(mesh, camera, size, cam=None, view=None):
     """:class:`BoundaryHits` of the camera's rays (``cam``: ``camera_array``; ``view``:
-    its ``view_faces``, made here when not given).
+    a ``_view`` to reuse, see there).
 
     The boundary faces are rasterised twice with the edge functions of the depth layers
     (``_layer_kernels.rasterize_hits``): once to count each pixel's crossings, once to
@@ -318,8 +321,8 @@ def boundary_layers(mesh, camera, size, k, cam=None, view=None):
 
     The faces are rasterised with the edge functions that give the ray caster its
     entry faces (``_layer_kernels``), so the layers and the render cover the same
-    pixels. ``cam``: ``camera_array`` (made here when not given); ``view``: its
-    ``view_faces`` (likewise; another size's of the same camera array will do)."""
+    pixels. ``cam``: ``camera_array`` (made here when not given); ``view``: a
+    ``_view`` to reuse, see there."""
     width, height = size
     if cam is None:
         cam = camera_array(camera, mesh, width, height)

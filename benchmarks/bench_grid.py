@@ -71,15 +71,17 @@ def data_dir():
     return Path(os.environ.get("PV_HDRVOL_DATA", REPO.parent / "shared" / "data"))
 
 
-def transfer_functions():
-    """The two transfer functions, keyed by name (data are uint8, 0..255).
+def transfer_functions(hv=None):
+    """The two transfer functions, keyed by name (data are uint8, 0..255), made with the
+    package ``hv`` (default: ``pv_hdrvol``; ``ab_grid.py`` passes each revision's).
 
     ``transparent``: opacity ramps from 0 to 0.02 per voxel over the whole range, so
     only value 0 is empty and no ray gets anywhere near the termination threshold.
     ``opaque``: opacity ramps from 0 at 40 to 1 per voxel at 200; rays stop a few
     voxels into the material.
     """
-    import pv_hdrvol as hv
+    if hv is None:
+        import pv_hdrvol as hv
 
     return {
         "transparent": hv.TransferFunction.ramp(0.0, 255.0, cmap="gray", opacity=(0.0, 0.02)),

@@ -12,7 +12,8 @@ which on power-of-two volumes maps every plane to the same cache set.
 Per ray: clip to the box, march a lattice of segments of length ``step`` (the last
 one shortened to end exactly at the exit), sample each at its midpoint, classify
 through one interleaved table (r, g, b, opacity per step; flat, 4 values per entry),
-and composite front to back.
+and composite front to back; the plain loop samples a few values ahead before it
+classifies and composites them (``_march_plain``).
 
 Indices known to be non-negative are cast to uint64 (``_u``) so numba emits no
 negative-index wraparound, which cost a compare and a conditional move per load.
@@ -40,6 +41,8 @@ F64, F32, F16, U8 = 0, 1, 2, 3
 LINEAR, LOG, SYMLOG = 0, 1, 2
 # bricks of 2**BRICK_SHIFT cells a side (memory layout; independent of skip blocks)
 BRICK_SHIFT = 3
+# values a ray samples before it classifies them (``_march_plain``'s two phases)
+SCRATCH = 8
 
 
 class GridParams(NamedTuple):
@@ -537,7 +540,7 @@ def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
 
 
 @fused_kernel
-def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step):
+def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch):
     """The sampling and compositing loop of ``_march`` for trilinear sampling of
     ``bricks``, compiled once per precision ``marker``.
 
@@ -550,12 +553,22 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
       a function of ``k`` alone, so empty-space leaps change no sample;
     - its brick offset is the sum of three per-axis entries of ``offs``
       (``brick_offsets``), three loads instead of a chain of multiplies;
-    - the loop is compiled with fused multiply-adds (``fused_kernel``).
+    - the loop is compiled with fused multiply-adds (``fused_kernel``);
+    - it runs in two phases: it samples the next few values (2, then 4, then up to
+      ``SCRATCH``) into ``scratch``, then classifies and composites them. The table
+      lookups and the compositing chain of one batch then overlap the brick loads of
+      the next instead of waiting behind them (engine, 256², one thread: 0.86x the
+      time of one sample at a time with a transparent transfer function, 1.00-1.04x
+      with an opaque one, which stops within a batch and drops its rest). The samples,
+      their order and the arithmetic are those of one sample at a time, so the bits
+      are too.
 
     The labelled loop (``_kernels_ext._composite_ext``) repeats this arithmetic, so a
     composite label gives the same bits.
 
-    ``offs`` holds the x, then y, then z offsets (``nx + ny + nz`` entries).
+    ``offs`` holds the x, then y, then z offsets (``nx + ny + nz`` entries);
+    ``scratch`` is float64 with ``2 * SCRATCH`` entries (values, then their ``k``),
+    one per thread.
     """
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
     size = 1 << p.block_shift
@@ -580,57 +593,72 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
     k = 0
     kf = 0.0  # k as a float, counted (no conversion per sample)
     n_full = n_seg - 1
+    cap = scratch.shape[0] // 2
+    chunk = 2
     while k < n_full:
-        x = min(max(bx0 + kf * sx, 0.0), x_max)
-        y = min(max(by0 + kf * sy, 0.0), y_max)
-        z = min(max(bz0 + kf * sz, 0.0), z_max)
-        xi = int(x)
-        yi = int(y)
-        zi = int(z)
-        ib = min(xi, nx - 2) >> shift
-        jb = min(yi, ny - 2) >> shift
-        kb = min(zi, nz - 2) >> shift
-        radius = leap[_u((kb * by + jb) * bx + ib)]
-        if radius != 0:
-            k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
-            kf = float(k)
-            continue
-        fx = x - xi
-        fy = y - yi
-        fz = z - zi
-        # the stencil of _sample's plain sampler, written out for the same reason; it must
-        # stay the same expression (the labelled loop samples through _sample).
-        # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
-        q = _u(offs[_u(xi)] + offs[oy_off + _u(yi)] + offs[oz_off + _u(zi)])
-        v000 = np.float64(bricks[q])
-        v100 = np.float64(bricks[q + one])
-        v010 = np.float64(bricks[q + p1])
-        v110 = np.float64(bricks[q + p1 + one])
-        v001 = np.float64(bricks[q + p2])
-        v101 = np.float64(bricks[q + p2 + one])
-        v011 = np.float64(bricks[q + p2 + p1])
-        v111 = np.float64(bricks[q + p2 + p1 + one])
-        c00 = v000 + fx * (v100 - v000)
-        c10 = v010 + fx * (v110 - v010)
-        c01 = v001 + fx * (v101 - v001)
-        c11 = v011 + fx * (v111 - v011)
-        c0 = c00 + fy * (c10 - c00)
-        c1 = c01 + fy * (c11 - c01)
-        v = c0 + fz * (c1 - c0)
-        k += 1
-        kf += 1.0
-        if v != v:  # NaN in the stencil: empty
-            continue
-        samples += 1
-        r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
-        if a_i > 0.0:  # as skipped samples: skipping then changes no bit
-            state = _accumulate(marker, p.precision, state, a_i, r, gg, b)
-            alpha = _opacity(marker, state)
-            if depth == math.inf and alpha >= p.depth_alpha:
-                depth = t0 + (k - 0.5) * step
-            if alpha >= p.alpha_stop:
-                stopped = True
-                break
+        # phase 1: the next `chunk` values that are not NaN, with their segment indices
+        # (k after the sample), leaping empty blocks
+        j = 0
+        while j < chunk and k < n_full:
+            x = min(max(bx0 + kf * sx, 0.0), x_max)
+            y = min(max(by0 + kf * sy, 0.0), y_max)
+            z = min(max(bz0 + kf * sz, 0.0), z_max)
+            xi = int(x)
+            yi = int(y)
+            zi = int(z)
+            ib = min(xi, nx - 2) >> shift
+            jb = min(yi, ny - 2) >> shift
+            kb = min(zi, nz - 2) >> shift
+            radius = leap[_u((kb * by + jb) * bx + ib)]
+            if radius != 0:
+                k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+                kf = float(k)
+                continue
+            fx = x - xi
+            fy = y - yi
+            fz = z - zi
+            # the stencil of _sample's plain sampler, written out for the same reason; it must
+            # stay the same expression (the labelled loop samples through _sample).
+            # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
+            q = _u(offs[_u(xi)] + offs[oy_off + _u(yi)] + offs[oz_off + _u(zi)])
+            v000 = np.float64(bricks[q])
+            v100 = np.float64(bricks[q + one])
+            v010 = np.float64(bricks[q + p1])
+            v110 = np.float64(bricks[q + p1 + one])
+            v001 = np.float64(bricks[q + p2])
+            v101 = np.float64(bricks[q + p2 + one])
+            v011 = np.float64(bricks[q + p2 + p1])
+            v111 = np.float64(bricks[q + p2 + p1 + one])
+            c00 = v000 + fx * (v100 - v000)
+            c10 = v010 + fx * (v110 - v010)
+            c01 = v001 + fx * (v101 - v001)
+            c11 = v011 + fx * (v111 - v011)
+            c0 = c00 + fy * (c10 - c00)
+            c1 = c01 + fy * (c11 - c01)
+            v = c0 + fz * (c1 - c0)
+            k += 1
+            kf += 1.0
+            if v != v:  # NaN in the stencil: empty
+                continue
+            scratch[_u(j)] = v
+            scratch[_u(cap + j)] = kf
+            j += 1
+        # phase 2: classify and composite them in order; at termination the rest of the
+        # chunk is dropped, so every count and bit is that of one sample at a time
+        for jj in range(j):
+            samples += 1
+            r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(scratch[_u(jj)], p), u8)
+            if a_i > 0.0:  # as skipped samples: skipping then changes no bit
+                state = _accumulate(marker, p.precision, state, a_i, r, gg, b)
+                alpha = _opacity(marker, state)
+                if depth == math.inf and alpha >= p.depth_alpha:
+                    depth = t0 + (scratch[_u(cap + jj)] - 0.5) * step
+                if alpha >= p.alpha_stop:
+                    stopped = True
+                    break
+        if stopped:
+            break
+        chunk = min(2 * chunk, cap)
     if not stopped:
         # the last segment ends exactly at the exit and is shorter than a step: its
         # opacity comes from the extinction column (the per-step one may have rounded to 1)
@@ -650,34 +678,37 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
 
 
 def _march_loop(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                step):
+                step, scratch):
     """``_march_plain`` for the plain sampler, ``_march_in`` for a mip-map sampler (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_march_loop, jit_options=_JIT)
 def _march_loop_impl(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                     step):
+                     step, scratch):
     if isinstance(sampler, numba.types.Integer):
         def plain(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                  step):
-            return _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step)
+                  step, scratch):
+            return _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step,
+                                scratch)
         return plain
 
     def mipmapped(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                  step):
+                  step, scratch):
         return _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
                          step)
     return mipmapped
 
 
 @kernel
-def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step):
+def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step, scratch):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
-    ``offs``: ``_march_plain``) or a ``mip_sampler`` tuple: a ray with a level of detail
-    samples the mip-map, passed as ``bricks`` (see ``_sample``; ``offs`` unused).
+    ``offs``: ``_march_plain``, which batches samples in the float64 array ``scratch``
+    of ``2 * SCRATCH`` entries, one per thread) or a ``mip_sampler`` tuple: a ray with
+    a level of detail samples the mip-map, passed as ``bricks`` (see ``_sample``;
+    ``offs`` and ``scratch`` unused).
 
     ``grids`` holds the shapes (z, y, x) of the empty-space block grid, then of the
     brick grid. ``leap`` (flat over the block grid) is 0 for a block to sample, else the
@@ -713,12 +744,12 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
     if p.precision == F64:
         return _march_loop(0.0, sampler, F64, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                           step)
+                           step, scratch)
     if p.precision == F32:
         return _march_loop(np.float32(0.0), sampler, F32, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
-                           t0, t1, p, step)
+                           t0, t1, p, step, scratch)
     return _march_loop(0, sampler, p.precision, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                       step)
+                       step, scratch)
 
 
 @fused_parallel_kernel
@@ -740,6 +771,7 @@ def render_tiles(bricks, offs, table, sigma, leap, grids, dims, cam, origins, di
     n_tiles = tile_rows.shape[0] * tiles_x
     from_camera = cam.shape[0] > 0
     for lane in numba.prange(lanes):
+        scratch = np.empty(2 * SCRATCH)
         for t in range(lane, n_tiles, lanes):
             row0 = tile_rows[t // tiles_x] * tile
             col0 = (t % tiles_x) * tile
@@ -756,7 +788,7 @@ def render_tiles(bricks, offs, table, sigma, leap, grids, dims, cam, origins, di
                         dy = directions[pix, 1]
                         dz = directions[pix, 2]
                     r, g, b, a, dep, ns = _march(0, bricks, offs, table, sigma, leap, grids, dims,
-                                                 ox, oy, oz, dx, dy, dz, lo, hi, p, p.step)
+                                                 ox, oy, oz, dx, dy, dz, lo, hi, p, p.step, scratch)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

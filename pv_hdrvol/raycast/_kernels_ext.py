@@ -25,7 +25,7 @@ import numpy as np
 
 from .._jit import fused_kernel, kernel, parallel_kernel, uindex as _u
 from ._kernels import (
-    BRICK_SHIFT, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity,
+    BRICK_SHIFT, SCRATCH, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity,
     _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, sigma_at, table_row,
     trilinear as _trilinear,
 )
@@ -465,6 +465,7 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
+        scratch = np.empty(2 * SCRATCH)
         for t in range(lane, n_tiles, lanes):
             row0 = tile_rows[t // tiles_x] * tile
             col0 = (t % tiles_x) * tile
@@ -477,7 +478,7 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
                         r, gg, b, a, dep, ns = _march(0, bricks, offs, table0, sigma0, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p, p.step)
+                                                      lo, hi, p, p.step, scratch)
                     elif plain_ok:
                         # the plain loop, sampling two mip levels
                         r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, offs,
@@ -485,7 +486,7 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
                                                       sigma0, leap_lod[level],
                                                       grids, dims, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p, level_steps[level])
+                                                      lo, hi, p, level_steps[level], scratch)
                     else:
                         r, gg, b, a, dep, ns = _march_ext(
                             bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, slots, modes,

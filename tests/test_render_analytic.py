@@ -124,6 +124,29 @@ def test_depth_is_distance_to_threshold_crossing():
     assert np.isinf(hv.render(vol, constant_tf(1e-4), cam, (4, 4), depth_threshold=0.5).depth).all()
 
 
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_termination_counts_exactly_the_samples_composited(precision):
+    # The plain loop samples a few values ahead (batches of 2, 4, 8, 8, ...) before it
+    # composites them; a ray that terminates inside a batch must count and composite
+    # exactly the samples up to the one that crossed, wherever that falls in a batch.
+    # Constant opacity a per step: after n samples alpha = 1 - (1 - a)**n, so a
+    # termination threshold of (1 - a)**(n - 1/2) stops the ray at sample n exactly.
+    a = 0.2
+    vol = slab(nz=41, spacing=(1, 1, 1))
+    cam = down_camera(vol)
+    for nan_plane in (None, 37):
+        values = np.ones((41, 5, 5))
+        if nan_plane is not None:
+            values[nan_plane] = np.nan  # the two samples whose stencils touch it are empty
+        for n in range(1, 26):
+            img = hv.render(values, constant_tf(a), cam, (2, 2), precision=precision, step=1.0,
+                            termination=(1 - a) ** (n - 0.5), depth_threshold=1 - (1 - a) ** (n - 0.5))
+            assert img.metadata["samples"] == 4 * n, (nan_plane, n)
+            np.testing.assert_allclose(img.rgba[..., 3], 1 - (1 - a) ** n, rtol=1e-6)
+            skipped = 2 if nan_plane is not None and n >= 40 - nan_plane else 0  # samples 3 and 4
+            np.testing.assert_allclose(img.depth, 10.0 + n + skipped - 0.5, rtol=0, atol=1e-9)
+
+
 def test_empty_space_skipping_changes_no_pixel():
     rng = np.random.default_rng(7)
     z, y, x = np.mgrid[0:40, 0:37, 0:33]

@@ -568,7 +568,7 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
 
     ``offs`` holds the x, then y, then z offsets (``nx + ny + nz`` entries);
     ``scratch`` is float64 with ``2 * SCRATCH`` entries (values, then their ``k``),
-    one per thread.
+    one per lane of ``render_tiles`` (a lane runs on one thread at a time).
     """
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
     size = 1 << p.block_shift
@@ -706,7 +706,7 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
     ``offs``: ``_march_plain``, which batches samples in the float64 array ``scratch``
-    of ``2 * SCRATCH`` entries, one per thread) or a ``mip_sampler`` tuple: a ray with
+    of ``2 * SCRATCH`` entries, one per lane) or a ``mip_sampler`` tuple: a ray with
     a level of detail samples the mip-map, passed as ``bricks`` (see ``_sample``;
     ``offs`` and ``scratch`` unused).
 

@@ -763,9 +763,10 @@ def render_tiles(bricks, offs, table, sigma, leap, grids, dims, cam, origins, di
 
     Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
     (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
-    ``l, l + lanes, ...``; lanes are split among threads, so each thread's work is
-    spread over the image (balanced without dynamic scheduling, which numba 0.56
-    lacks).
+    ``l, l + lanes, ...``, one lane per thread (``grid._lanes``): each thread's work
+    is spread evenly over the image (balanced without dynamic scheduling, which numba
+    0.56 lacks), and the tile it renders next lies beside the last one, whose bricks
+    are still in cache.
     """
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x

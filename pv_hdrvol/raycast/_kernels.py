@@ -765,8 +765,8 @@ def render_tiles(bricks, offs, table, sigma, leap, grids, dims, cam, origins, di
     (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
     ``l, l + lanes, ...``, one lane per thread (``grid._lanes``): each thread's work
     is spread evenly over the image (balanced without dynamic scheduling, which numba
-    0.56 lacks), and the tile it renders next lies beside the last one, whose bricks
-    are still in cache.
+    0.56 lacks), and the tile it renders next lies a few tiles on along the row, where
+    most of the last one's bricks are still in cache.
     """
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x

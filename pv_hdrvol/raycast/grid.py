@@ -754,8 +754,9 @@ def _quantize_u8(values, tf):
 def _lanes():
     """Lanes of the tile kernels: one per thread. Lane ``l`` of ``n`` renders tiles
     ``l, l + n, ...``, so each thread walks the image in small steps: the tile it renders
-    next lies beside the last one and finds most of its bricks (or cells) still in
-    cache, while every thread still gets an even share of every part of the image."""
+    next lies ``n`` tiles on along the row (two, 16 pixels, on two threads) and finds
+    most of its bricks (or cells) still in cache, while every thread still gets an even
+    share of every part of the image."""
     import numba
 
     return numba.get_num_threads()

@@ -61,6 +61,8 @@ PEERS = ("raycast", "projected", "zsweep")
 LOW_OPACITY = 0.02
 #: range sigmas of the thickness guide measured by --part upsample (the default is 0.2)
 SIGMAS = (0.05, 0.1, 0.2, 0.4)
+#: untimed render(upsample=f) calls before the timed ones (see part_upsample)
+UPSAMPLE_WARMUP = 2
 
 
 def data_dir():
@@ -174,7 +176,8 @@ def part_upsample(target, lows, repeat):
         grid, mesh, tf, camera, unit = scene(name, scalars)
         size = (target, target)
         opts = {"opacity_unit_distance": unit, "progress_bar": False}
-        hv.render(mesh, tf, camera, (64, 64), **opts)  # warm-up
+        hv.render(mesh, tf, camera, (64, 64), **opts)  # warm-up: JIT
+        hv.render(mesh, tf, camera, size, **opts)  # one full-size frame untimed, as below
         full_t = []
         for _ in range(repeat):
             t = time.perf_counter()
@@ -185,6 +188,12 @@ def part_upsample(target, lows, repeat):
         for low in lows:
             f = target // low
             parts = {"I": [], "R": [], "U": [], "total": []}
+            # untimed: the first call compiles the layer and filter kernels (or loads them
+            # from numba's cache), which the 64^2 warm-up above does not use. (Frames that
+            # get memory the machine has not touched before still run tens of ms slower
+            # at 1024^2: compare the medians with the load and with a second run.)
+            for _ in range(UPSAMPLE_WARMUP):
+                hv.render(mesh, tf, camera, size, upsample=f, **opts)
             for _ in range(repeat):
                 t = time.perf_counter()
                 img = hv.render(mesh, tf, camera, size, upsample=f, **opts)

@@ -502,7 +502,7 @@ def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, 
                  hit_offsets, hit_t, hit_face, hit_enter, cam, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
-    ``_kernels.render_tiles``: lanes of interleaved tiles per thread)."""
+    ``_kernels.render_tiles``: one lane of interleaved tiles per thread)."""
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):

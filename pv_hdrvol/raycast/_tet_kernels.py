@@ -65,6 +65,13 @@ REENTRY_SLACK = 1e-9
 #: table cells a segment may cross and still be integrated cell by cell (beyond: cumulative tables)
 WALK_CELLS = 2
 
+#: a cell's record (``tets._cell_records``): its integer view holds the four corners
+#: (columns 0-3), then the four neighbour codes ``4 neighbour + face there`` (-1 on the
+#: boundary; columns 4-7); its float64 view the four corner values from column
+#: ``value_col`` (4 for int32 records, 64 bytes a cell; 8 for int64 ones)
+CORNER_COL = 0
+NEIGHBOR_COL = 4
+
 
 class TetParams(NamedTuple):
     """Scalars of a tet render (15 fields at most, see ``_kernels.GridParams``)."""
@@ -338,7 +345,7 @@ def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p):
 
 # -- one ray -------------------------------------------------------------------------------
 @inline_kernel
-def _corners(tets, cell, face, a, b, c):
+def _corners(cells_i, cell, face, a, b, c):
     """Local indices in ``cell`` of the points ``a, b, c`` of its face ``face``. A point
     repeated in a degenerate cell is matched once; a corner left unmatched (only in a
     cell whose face lists repeated points) takes a free index."""
@@ -348,7 +355,7 @@ def _corners(tets, cell, face, a, b, c):
     for k in range(4):
         if k == face:
             continue
-        vk = tets[cell, k]
+        vk = cells_i[cell, CORNER_COL + k]
         if vk == a and ia < 0:
             ia = k
         elif vk == b and ib < 0:
@@ -375,7 +382,7 @@ def _consistency(x, y, z):
 
 
 @kernel
-def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
+def _march_in(marker, prec, points, cells_i, cells_f, value_col, active, btri, bcell, bface, table,
               hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
     """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``."""
     mx = oy * dz - oz * dy
@@ -426,9 +433,10 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
                 break
             # the entry face (a, b, c) and its edge products come from the previous cell
             # (or the boundary test): only the three edges to the fourth corner d are new
-            ia, ib, ic = _corners(tets, cell, face, a, b, c)
-            d = tets[cell, face]
-            s_in = ua * values[cell, ia] + ub * values[cell, ib] + uc * values[cell, ic]
+            ia, ib, ic = _corners(cells_i, cell, face, a, b, c)
+            d = cells_i[cell, CORNER_COL + face]
+            s_in = (ua * cells_f[cell, value_col + ia] + ub * cells_f[cell, value_col + ib]
+                    + uc * cells_f[cell, value_col + ic])
             wad = _pi(points, a, d, dx, dy, dz, mx, my, mz, ox, oy, oz)
             wbd = _pi(points, b, d, dx, dy, dz, mx, my, mz, ox, oy, oz)
             wcd = _pi(points, c, d, dx, dy, dz, mx, my, mz, ox, oy, oz)
@@ -457,7 +465,8 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
             if not t_out > t_in:  # NaN (ray in the face's plane) or rounding: no length
                 t_out = t_in
             if active[cell] and t_out > t_in:
-                s_out = ua * values[cell, ia] + ub * values[cell, ib] + uc * values[cell, ic]
+                s_out = (ua * cells_f[cell, value_col + ia] + ub * cells_f[cell, value_col + ib]
+                         + uc * cells_f[cell, value_col + ic])
                 same = s_in == s_prev
                 x_in = x_prev if same else _tpos(s_in, n_table, p)
                 x_out = _tpos(s_out, n_table, p)
@@ -473,32 +482,32 @@ def _march_in(marker, prec, points, tets, values, neighbors, neighbor_faces, act
                     done = True
                     break
             t_in = t_out
-            nb = neighbors[cell, out]
-            if nb < 0:
+            code = cells_i[cell, NEIGHBOR_COL + out]
+            if code < 0:
                 t_cur = t_out
                 break
-            face = neighbor_faces[cell, out]
-            cell = nb
+            face = code & 3
+            cell = code >> 2
     r, g_, b_, alpha = _finish(marker, state)
     return r, g_, b_, alpha, depth, cells, pieces, guard
 
 
 @kernel
-def _march(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table, hit_t,
+def _march(points, cells_i, cells_f, value_col, active, btri, bcell, bface, table, hit_t,
            hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
     """One ray in the precision ``p.precision`` (one compiled loop per precision)."""
     if p.precision == F64:
-        return _march_in(0.0, F64, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface,
+        return _march_in(0.0, F64, points, cells_i, cells_f, value_col, active, btri, bcell, bface,
                          table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
     if p.precision == F32:
-        return _march_in(np.float32(0.0), F32, points, tets, values, neighbors, neighbor_faces, active, btri, bcell,
-                         bface, table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
-    return _march_in(0, p.precision, points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface,
+        return _march_in(np.float32(0.0), F32, points, cells_i, cells_f, value_col, active, btri, bcell, bface,
+                         table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+    return _march_in(0, p.precision, points, cells_i, cells_f, value_col, active, btri, bcell, bface,
                      table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
 
 
 @parallel_kernel
-def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
+def render_tiles(points, cells_i, cells_f, value_col, active, btri, bcell, bface, table,
                  hit_offsets, hit_t, hit_face, hit_enter, cam, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
@@ -518,7 +527,7 @@ def render_tiles(points, tets, values, neighbors, neighbor_faces, active, btri, 
                         continue
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
-                        points, tets, values, neighbors, neighbor_faces, active, btri, bcell, bface, table,
+                        points, cells_i, cells_f, value_col, active, btri, bcell, bface, table,
                         hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g

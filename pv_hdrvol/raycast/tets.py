@@ -141,11 +141,11 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     pieces = np.zeros(n_pix, dtype=np.int64)
     guard = np.zeros(n_pix, dtype=np.bool_)
     lanes = _lanes()
-    tets, neighbors, neighbor_faces = _compact_topology(mesh)
+    cells_i, cells_f, value_col = _cell_records(mesh)
 
     def cast(tile_rows):
         rows = np.ascontiguousarray(tile_rows)
-        TK.render_tiles(mesh.points, tets, mesh.values, neighbors, neighbor_faces, active,
+        TK.render_tiles(mesh.points, cells_i, cells_f, value_col, active,
                         mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, hits.offsets,
                         hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
                         params, rgba, depth, cells, pieces, guard)
@@ -346,18 +346,32 @@ def _bands(height):
     return bands, min(threads, bands)
 
 
-def _compact_topology(mesh):
-    """``(tets, neighbors, neighbor_faces)`` of ``mesh`` as int32, int32 and int8, kept on
-    the mesh: the ray caster reads them once per cell visited, and half the bytes are
-    half the cache lines (2-11 % per frame on the test meshes, the most at low
-    resolution). The mesh's own int64 arrays where an index would not fit."""
-    if "compact_topology" not in mesh.cache:
-        if max(len(mesh.points), mesh.n_cells) < 2**31 - 1:
-            mesh.cache["compact_topology"] = (mesh.tets.astype(np.int32), mesh.neighbors.astype(np.int32),
-                                              mesh.neighbor_faces.astype(np.int8))
-        else:
-            mesh.cache["compact_topology"] = (mesh.tets, mesh.neighbors, mesh.neighbor_faces)
-    return mesh.cache["compact_topology"]
+def _cell_records(mesh):
+    """``(cells_i, cells_f, value_col)``: one record per cell, kept on the mesh, which is
+    all the ray walk reads of a cell but its fourth corner's point. Two views of one
+    buffer: the integer view (int32, or int64 where an index would not fit) holds the
+    corners (``TK.CORNER_COL``) and the neighbour codes ``4 cell + face`` (-1 on the
+    boundary; ``TK.NEIGHBOR_COL``), the float64 view the corner values from column
+    ``value_col``. With int32 a record is 64 bytes, aligned to a cache line: one line a
+    cell visited, where separate arrays of corners, neighbours, their faces and values
+    cost four.
+    """
+    if "cell_records" not in mesh.cache:
+        n = mesh.n_cells
+        small = max(len(mesh.points), 4 * n + 3) < 2**31 - 1
+        itype = np.int32 if small else np.int64
+        row = 8 if small else 12  # float64 slots per record: 8 ints of 4 or 8 bytes, then 4 values
+        value_col = 4 if small else 8
+        raw = np.zeros(n * row * 8 + 64, dtype=np.uint8)
+        skip = (-raw.ctypes.data) % 64  # records start on a cache line
+        cells_f = raw[skip:skip + n * row * 8].view(np.float64).reshape(n, row)
+        cells_i = cells_f.view(itype)
+        cells_i[:, TK.CORNER_COL:TK.CORNER_COL + 4] = mesh.tets
+        codes = np.where(mesh.neighbors >= 0, 4 * mesh.neighbors + mesh.neighbor_faces, -1)
+        cells_i[:, TK.NEIGHBOR_COL:TK.NEIGHBOR_COL + 4] = codes
+        cells_f[:, value_col:value_col + 4] = mesh.values
+        mesh.cache["cell_records"] = (cells_i, cells_f, value_col)
+    return mesh.cache["cell_records"]
 
 
 def _boundary_normals(mesh):

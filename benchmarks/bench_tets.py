@@ -19,6 +19,10 @@ and joint bilateral upsampling against nearest and bilinear (Callahan & Silva's 
    layers each mesh has. ``--figure`` writes the rate-distortion plot to docs/images.
 3. **Integration** (``--part tau``). Time and error of ``tau_max`` (the largest optical
    depth of one integration piece) against ``tau_max = 0.002``, float64, at 256^2.
+4. **Table size** (``--part table``). Time and error of the transfer function's
+   ``table_size`` (float32, at 256^2) against a float64 render with 2^20 rows; the
+   sizes' frames interleaved. The walk reads the table at every cell: 72 bytes a row,
+   4.7 MB at the default 65,536 rows, more than this machine's L2 cache.
 
 Usage::
 
@@ -26,6 +30,7 @@ Usage::
     python3 benchmarks/bench_tets.py --part peers --sizes 512 --repeat 3
     python3 benchmarks/bench_tets.py --part upsample --figure docs/images/upsample_rd.png
     python3 benchmarks/bench_tets.py --part tau         # error and time against tau_max
+    python3 benchmarks/bench_tets.py --part table       # error and time against table_size
 
 The load average is printed beside every row: the machine is shared.
 """
@@ -241,7 +246,39 @@ def part_tau(size, repeat, values=(1.0, 0.5, 0.25, 0.1, 0.05, 0.02)):
     return rows
 
 
-def markdown(peers, ups, taus=()):
+#: table sizes measured by --part table, and the reference's
+TABLE_SIZES = (65536, 16384, 4096, 1024, 256)
+TABLE_REFERENCE = 2**20
+
+
+def part_table(size, repeat, sizes=TABLE_SIZES):
+    """Time and error of the table size (float32) against float64 with ``TABLE_REFERENCE`` rows."""
+    import pv_hdrvol as hv
+
+    rows = []
+    for name, scalars, label in MESHES:
+        grid, mesh, tf, camera, unit = scene(name, scalars)
+        lo, hi = mesh.value_range
+        tfs = {n: hv.TransferFunction.ramp(lo, hi, cmap="viridis", opacity=OPAQUE["opacity"], table_size=n)
+               for n in (TABLE_REFERENCE, *sizes)}
+        opts = {"opacity_unit_distance": unit, "progress_bar": False}
+        ref = np.asarray(hv.render(mesh, tfs[TABLE_REFERENCE], camera, (size, size), precision="float64",
+                                   **opts).rgba, np.float64)
+        imgs = {n: hv.render(mesh, tfs[n], camera, (size, size), **opts) for n in sizes}  # warm-up
+        ts = {n: [] for n in sizes}
+        for _ in range(repeat):
+            for n in sizes:
+                ts[n].append(hv.render(mesh, tfs[n], camera, (size, size), **opts).metadata["render_seconds"])
+        for n in sizes:
+            err = np.abs(np.asarray(imgs[n].rgba, np.float64) - ref)
+            row = {"mesh": label, "size": size, "table_size": n, "seconds": statistics.median(ts[n]),
+                   "max_error": float(err.max()), "rmse": float(np.sqrt(np.mean(err ** 2))), "load": load()}
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    return rows
+
+
+def markdown(peers, ups, taus=(), tables=()):
     lines = [f"Machine: {platform.platform()}, {os.cpu_count()} CPUs.", ""]
     if peers:
         names = [k for k in PEERS if k in peers[0]["seconds"]]
@@ -281,6 +318,14 @@ def markdown(peers, ups, taus=()):
         for r in taus:
             lines.append(f"| {r['mesh']} | {r['tau_max']} | {r['seconds']:.3f} | {r['pieces'] / r['cells']:.2f} | "
                          f"{r['max_error']:.1e} | {r['rmse']:.1e} | {r['load']} |")
+    if tables:
+        lines += ["", "| mesh | table size | march s | / 65,536 rows | max error | RMSE | load |",
+                  "|---|--:|--:|--:|--:|--:|--:|"]
+        base = {r["mesh"]: r["seconds"] for r in tables if r["table_size"] == 65536}
+        for r in tables:
+            ratio = f"{r['seconds'] / base[r['mesh']]:.2f}" if r["mesh"] in base else "-"
+            lines.append(f"| {r['mesh']} | {r['table_size']:,} | {r['seconds']:.3f} | {ratio} | "
+                         f"{r['max_error']:.1e} | {r['rmse']:.1e} | {r['load']} |")
     return "\n".join(lines)
 
 
@@ -313,8 +358,8 @@ def figure(ups, path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--part", choices=("peers", "upsample", "tau", "both"), default="both",
-                    help="both: peers and upsample; tau: the tau_max trade (at --target / 4)")
+    ap.add_argument("--part", choices=("peers", "upsample", "tau", "table", "both"), default="both",
+                    help="both: peers and upsample; tau, table: the tau_max and table-size trades (at --target / 4)")
     ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024])
     ap.add_argument("--peers", nargs="+", choices=PEERS, default=list(PEERS))
     ap.add_argument("--repeat", type=int, default=3)
@@ -336,9 +381,10 @@ def main(argv=None):
     peers = part_peers(args.sizes, args.repeat, args.peers) if args.part in ("peers", "both") else []
     ups = part_upsample(args.target, args.lows, args.repeat) if args.part in ("upsample", "both") else []
     taus = part_tau(args.target // 4, args.repeat) if args.part == "tau" else []
-    print(markdown(peers, ups, taus))
+    tables = part_table(args.target // 4, args.repeat) if args.part == "table" else []
+    print(markdown(peers, ups, taus, tables))
     if args.out:
-        args.out.write_text(json.dumps({"peers": peers, "upsample": ups, "tau": taus}, indent=1))
+        args.out.write_text(json.dumps({"peers": peers, "upsample": ups, "tau": taus, "table": tables}, indent=1))
     if args.figure and ups:
         figure(ups, args.figure)
 

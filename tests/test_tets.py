@@ -155,6 +155,34 @@ def test_zero_volume_and_inverted_cells_are_crossed():
     assert img.metadata["stopped_rays"] == 0
 
 
+def test_cell_records_hold_the_mesh_and_wide_records_render_the_same(monkeypatch):
+    """The walk's records (64 bytes a cell: corners, neighbour codes, values) hold the
+    mesh's arrays; the int64 records of meshes too large for int32 render the same."""
+    from pv_hdrvol.raycast import tets as T
+
+    pts, tets, values = box_mesh((3, 2, 2), field=lambda p: 0.2 + 0.1 * p[:, 0] + 0.05 * p[:, 1])
+    mesh = tetmesh_from_arrays(pts, tets, values)
+    cells_i, cells_f, col = T._cell_records(mesh)
+    assert cells_i.dtype == np.int32 and cells_f.shape == (mesh.n_cells, 8) and col == 4
+    assert cells_f.ctypes.data % 64 == 0
+    np.testing.assert_array_equal(cells_i[:, :4], mesh.tets)
+    codes = cells_i[:, 4:8]
+    np.testing.assert_array_equal(np.where(codes >= 0, codes >> 2, -1), mesh.neighbors)
+    np.testing.assert_array_equal(codes[codes >= 0] & 3, mesh.neighbor_faces[codes >= 0])
+    np.testing.assert_array_equal(cells_f[:, col:col + 4], mesh.values)
+    tf = hv.TransferFunction.ramp(0.2, 0.6, cmap="viridis", opacity=(0.1, 0.6))
+    cam = oblique_camera((1.5, 1.0, 1.0))
+    narrow = hv.render(mesh, tf, cam, (24, 24), precision="float64")
+    monkeypatch.setattr(T, "INT32_RECORDS", 0)
+    wide_mesh = tetmesh_from_arrays(pts, tets, values)
+    cells_i, cells_f, col = T._cell_records(wide_mesh)
+    assert cells_i.dtype == np.int64 and cells_f.shape == (mesh.n_cells, 12) and col == 8
+    wide = hv.render(wide_mesh, tf, cam, (24, 24), precision="float64")
+    assert narrow.metadata["cells"] > 100
+    np.testing.assert_array_equal(wide.rgba, narrow.rgba)
+    np.testing.assert_array_equal(wide.depth, narrow.depth)
+
+
 def test_rays_reenter_a_non_convex_mesh():
     """Two boxes one behind the other (a gap between them): each ray adds both lengths."""
     p1, t1, v1 = box_mesh((2, 2, 1))

@@ -346,6 +346,10 @@ def _bands(height):
     return bands, min(threads, bands)
 
 
+#: the largest point index or neighbour code (``4 cell + 3``) of int32 cell records
+INT32_RECORDS = 2**31 - 1
+
+
 def _cell_records(mesh):
     """``(cells_i, cells_f, value_col)``: one record per cell, kept on the mesh, which is
     all the ray walk reads of a cell but its fourth corner's point. Two views of one
@@ -358,7 +362,7 @@ def _cell_records(mesh):
     """
     if "cell_records" not in mesh.cache:
         n = mesh.n_cells
-        small = max(len(mesh.points), 4 * n + 3) < 2**31 - 1
+        small = max(len(mesh.points), 4 * n + 3) <= INT32_RECORDS
         itype = np.int32 if small else np.int64
         row = 8 if small else 12  # float64 slots per record: 8 ints of 4 or 8 bytes, then 4 values
         value_col = 4 if small else 8

@@ -162,8 +162,9 @@ def test_cell_records_hold_the_mesh_and_wide_records_render_the_same(monkeypatch
 
     pts, tets, values = box_mesh((3, 2, 2), field=lambda p: 0.2 + 0.1 * p[:, 0] + 0.05 * p[:, 1])
     mesh = tetmesh_from_arrays(pts, tets, values)
-    cells_i, cells_f, col = T._cell_records(mesh)
-    assert cells_i.dtype == np.int32 and cells_f.shape == (mesh.n_cells, 8) and col == 4
+    cells_i, cells_f = T._cell_records(mesh)
+    col = 4  # the last four float64 columns hold the values
+    assert cells_i.dtype == np.int32 and cells_f.shape == (mesh.n_cells, 8)
     assert cells_f.ctypes.data % 64 == 0
     np.testing.assert_array_equal(cells_i[:, :4], mesh.tets)
     codes = cells_i[:, 4:8]
@@ -175,8 +176,9 @@ def test_cell_records_hold_the_mesh_and_wide_records_render_the_same(monkeypatch
     narrow = hv.render(mesh, tf, cam, (24, 24), precision="float64")
     monkeypatch.setattr(T, "INT32_RECORDS", 0)
     wide_mesh = tetmesh_from_arrays(pts, tets, values)
-    cells_i, cells_f, col = T._cell_records(wide_mesh)
-    assert cells_i.dtype == np.int64 and cells_f.shape == (mesh.n_cells, 12) and col == 8
+    cells_i, cells_f = T._cell_records(wide_mesh)
+    assert cells_i.dtype == np.int64 and cells_f.shape == (mesh.n_cells, 12)
+    np.testing.assert_array_equal(cells_f[:, 8:12], wide_mesh.values)
     wide = hv.render(wide_mesh, tf, cam, (24, 24), precision="float64")
     assert narrow.metadata["cells"] > 100
     np.testing.assert_array_equal(wide.rgba, narrow.rgba)

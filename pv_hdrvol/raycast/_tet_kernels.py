@@ -67,8 +67,8 @@ WALK_CELLS = 2
 
 #: a cell's record (``tets._cell_records``): its integer view holds the four corners
 #: (columns 0-3), then the four neighbour codes ``4 neighbour + face there`` (-1 on the
-#: boundary; columns 4-7); its float64 view the four corner values from column
-#: ``value_col`` (4 for int32 records, 64 bytes a cell; 8 for int64 ones)
+#: boundary; columns 4-7); its float64 view ends with the four corner values
+#: (``_value_col``: column 4 of int32 records, 64 bytes a cell; 8 of int64 ones)
 CORNER_COL = 0
 NEIGHBOR_COL = 4
 
@@ -345,6 +345,12 @@ def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p):
 
 # -- one ray -------------------------------------------------------------------------------
 @inline_kernel
+def _value_col(cells_f):
+    """The float64 column of a record's first corner value: the last four are the values."""
+    return cells_f.shape[1] - 4
+
+
+@inline_kernel
 def _corners(cells_i, cell, face, a, b, c):
     """Local indices in ``cell`` of the points ``a, b, c`` of its face ``face``. A point
     repeated in a degenerate cell is matched once; a corner left unmatched (only in a
@@ -382,7 +388,7 @@ def _consistency(x, y, z):
 
 
 @kernel
-def _march_in(marker, prec, points, cells_i, cells_f, value_col, active, btri, bcell, bface, table,
+def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface, table,
               hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
     """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``."""
     mx = oy * dz - oz * dy
@@ -397,6 +403,7 @@ def _march_in(marker, prec, points, cells_i, cells_f, value_col, active, btri, b
     done = False
     no_cum = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     n_table = table.shape[0]
+    value_col = _value_col(cells_f)
     for h in range(lo, hi):
         if done:
             break
@@ -493,21 +500,21 @@ def _march_in(marker, prec, points, cells_i, cells_f, value_col, active, btri, b
 
 
 @kernel
-def _march(points, cells_i, cells_f, value_col, active, btri, bcell, bface, table, hit_t,
+def _march(points, cells_i, cells_f, active, btri, bcell, bface, table, hit_t,
            hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
     """One ray in the precision ``p.precision`` (one compiled loop per precision)."""
     if p.precision == F64:
-        return _march_in(0.0, F64, points, cells_i, cells_f, value_col, active, btri, bcell, bface,
+        return _march_in(0.0, F64, points, cells_i, cells_f, active, btri, bcell, bface,
                          table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
     if p.precision == F32:
-        return _march_in(np.float32(0.0), F32, points, cells_i, cells_f, value_col, active, btri, bcell, bface,
+        return _march_in(np.float32(0.0), F32, points, cells_i, cells_f, active, btri, bcell, bface,
                          table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
-    return _march_in(0, p.precision, points, cells_i, cells_f, value_col, active, btri, bcell, bface,
+    return _march_in(0, p.precision, points, cells_i, cells_f, active, btri, bcell, bface,
                      table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
 
 
 @parallel_kernel
-def render_tiles(points, cells_i, cells_f, value_col, active, btri, bcell, bface, table,
+def render_tiles(points, cells_i, cells_f, active, btri, bcell, bface, table,
                  hit_offsets, hit_t, hit_face, hit_enter, cam, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
@@ -527,7 +534,7 @@ def render_tiles(points, cells_i, cells_f, value_col, active, btri, bcell, bface
                         continue
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
-                        points, cells_i, cells_f, value_col, active, btri, bcell, bface, table,
+                        points, cells_i, cells_f, active, btri, bcell, bface, table,
                         hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g

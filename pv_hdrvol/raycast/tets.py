@@ -141,11 +141,11 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     pieces = np.zeros(n_pix, dtype=np.int64)
     guard = np.zeros(n_pix, dtype=np.bool_)
     lanes = _lanes()
-    cells_i, cells_f, value_col = _cell_records(mesh)
+    cells_i, cells_f = _cell_records(mesh)
 
     def cast(tile_rows):
         rows = np.ascontiguousarray(tile_rows)
-        TK.render_tiles(mesh.points, cells_i, cells_f, value_col, active,
+        TK.render_tiles(mesh.points, cells_i, cells_f, active,
                         mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, hits.offsets,
                         hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
                         params, rgba, depth, cells, pieces, guard)
@@ -353,21 +353,21 @@ INT32_RECORDS = 2**31 - 1
 
 
 def _cell_records(mesh):
-    """``(cells_i, cells_f, value_col)``: one record per cell, kept on the mesh, which is
-    all the ray walk reads of a cell but its fourth corner's point. Two views of one
-    buffer: the integer view (int32, or int64 where an index would not fit) holds the
-    corners (``TK.CORNER_COL``) and the neighbour codes ``4 cell + face`` (-1 on the
-    boundary; ``TK.NEIGHBOR_COL``), the float64 view the corner values from column
-    ``value_col``. With int32 a record is 64 bytes, aligned to a cache line: one line a
-    cell visited, where separate arrays of corners, neighbours, their faces and values
-    cost four.
+    """``(cells_i, cells_f)``: one record per cell, kept on the mesh, which is all the
+    ray walk reads of a cell but its fourth corner's point. Two views of one buffer: the
+    integer view (int32, or int64 where an index would not fit) holds the corners
+    (``TK.CORNER_COL``) and the neighbour codes ``4 cell + face`` (-1 on the boundary;
+    ``TK.NEIGHBOR_COL``), the float64 view ends with the four corner values
+    (``TK._value_col``). With int32 a record is 64 bytes, aligned to a cache line: one
+    line a cell visited, where separate arrays of corners, neighbours, their faces and
+    values cost four.
     """
     if "cell_records" not in mesh.cache:
         n = mesh.n_cells
         small = max(len(mesh.points), 4 * n + 3) <= INT32_RECORDS
         itype = np.int32 if small else np.int64
-        row = 8 if small else 12  # float64 slots per record: 8 ints of 4 or 8 bytes, then 4 values
-        value_col = 4 if small else 8
+        value_col = 4 if small else 8  # float64 slots of the 8 ints (4 or 8 bytes each)
+        row = value_col + 4  # then the 4 values
         raw = np.zeros(n * row * 8 + 64, dtype=np.uint8)
         skip = (-raw.ctypes.data) % 64  # records start on a cache line
         cells_f = raw[skip:skip + n * row * 8].view(np.float64).reshape(n, row)
@@ -376,7 +376,7 @@ def _cell_records(mesh):
         codes = np.where(mesh.neighbors >= 0, 4 * mesh.neighbors + mesh.neighbor_faces, -1)
         cells_i[:, TK.NEIGHBOR_COL:TK.NEIGHBOR_COL + 4] = codes
         cells_f[:, value_col:value_col + 4] = mesh.values
-        mesh.cache["cell_records"] = (cells_i, cells_f, value_col)
+        mesh.cache["cell_records"] = (cells_i, cells_f)
     return mesh.cache["cell_records"]
 
 

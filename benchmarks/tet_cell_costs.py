@@ -57,11 +57,11 @@ def knockout_copy(into):
     return "pvh_knockout"
 
 
-def scene(hv, grid, scalars, table_size=None):
+def scene(hv, grid, scalars):
+    """``(mesh, tf, camera, render options)`` of ``bench_tets``' scene, made with package ``hv``."""
     mesh = hv.tetmesh_from_dataset(grid, scalars)
     lo, hi = mesh.value_range
-    extra = {} if table_size is None else {"table_size": table_size}
-    tf = hv.TransferFunction.ramp(lo, hi, cmap="viridis", opacity=OPAQUE["opacity"], **extra)
+    tf = hv.TransferFunction.ramp(lo, hi, cmap="viridis", opacity=OPAQUE["opacity"])
     camera = hv.Camera.fit(mesh.bounds, "iso")
     return mesh, tf, camera, {"opacity_unit_distance": mesh.default_unit_distance() * OPAQUE["unit_factor"],
                               "progress_bar": False}

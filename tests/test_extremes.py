@@ -78,6 +78,57 @@ def test_round_u8_is_nearest_multiple_of_1_255():
     np.testing.assert_array_equal(got, np.round(np.clip(x, 0, 1) * 255) / 255)
 
 
+def _nan_past_the_end(a):
+    """A copy of ``a`` followed in memory by NaN, as a reused heap block may be."""
+    buf = np.full(a.size + 64, np.nan, a.dtype)
+    buf[:a.size] = a.reshape(-1)
+    return buf[:a.size].reshape(a.shape)
+
+
+def test_uint8_lookup_of_the_last_entry_reads_only_that_entry():
+    """The 8-bit lookup takes the nearest row; at the top of the axis that is the last
+    row, and it must not touch the row past it (issue 18: 0.1-0.9 % of 8-bit renders of a
+    freshly read dataset came out wrong when the heap past the table held NaN or inf)."""
+    n = 256
+    table = _nan_past_the_end(np.tile(np.array([0.25, 0.5, 0.75, 0.125], np.float32), n))
+    sigma = _nan_past_the_end(np.full(n, 2.0, np.float32))
+    p = K.GridParams(1.0, K.U8, K.LINEAR, 0.0, 1.0, 1.0, math.inf, 0.99, 2)
+    for v in (1.0, 1.0 - 0.4 / (n - 1), 7.0):  # the last row, its nearest-row band, clamped
+        r, g, b, a, i, f = K._lookup(table, v, n, p)
+        assert (r, g, b, a, i, f) == (0.25, 0.5, 0.75, 0.125, n - 1, 0.0)
+        assert K.sigma_at(sigma, i, f) == 2.0
+
+
+@pytest.mark.parametrize("blending", ["composite", "maximum"])
+def test_uint8_render_ignores_memory_past_the_table(monkeypatch, blending):
+    """Every sample of a constant column at the top of the transfer function selects the
+    table's last row (and the shorter last segment its last extinction): a render whose
+    table and extinction are followed by NaN gives the same pixels as one followed by
+    finite memory, grey where the function is grey. Before the fix, the NaN reached the
+    colour of one channel or dropped a sample, deterministically."""
+    from pv_hdrvol.raycast import _kernels_ext as KX
+
+    vol = column(41, value=2.0)
+    tf = hv.TransferFunction([0.0, 2.0], GREY, [0.05, 0.05])
+    clean = hv.render(vol, tf, looking_down(vol), (2, 2), precision="uint8", step=0.7, blending=blending)
+    tiles, projection = K.render_tiles, KX.render_projection
+
+    def padded_tiles(bricks, offs, table, sigma, *rest):
+        return tiles(bricks, offs, _nan_past_the_end(table), _nan_past_the_end(sigma), *rest)
+
+    def padded_projection(*args):
+        args = list(args)
+        args[8], args[9] = _nan_past_the_end(args[8]), _nan_past_the_end(args[9])  # tables, sigmas
+        return projection(*args)
+
+    monkeypatch.setattr(K, "render_tiles", padded_tiles)
+    monkeypatch.setattr(KX, "render_projection", padded_projection)
+    dirty = hv.render(vol, tf, looking_down(vol), (2, 2), precision="uint8", step=0.7, blending=blending)
+    np.testing.assert_array_equal(dirty.rgba, clean.rgba)
+    px = clean.rgba[0, 0]
+    assert px[3] > 0 and px[0] == px[1] == px[2]
+
+
 def test_sixteen_decades_render_with_a_log_table():
     z, y, x = np.mgrid[0:33, 0:33, 0:33]
     r = np.sqrt((x - 16.0) ** 2 + (y - 16.0) ** 2 + (z - 16.0) ** 2)

@@ -170,14 +170,15 @@ def table_row(table, base, n, u, u8):
     conversions). Inlined, so it takes the caller's flags: every compositing loop that
     must give the same bits is a ``fused_kernel``."""
     if u8:
+        # the row itself: at u = 1 it is the last, and a lerp would read the row past it
         i = int(u * (n - 1) + 0.5)
-        f = 0.0
-    else:
-        x = u * (n - 1)
-        i = int(x)
-        if i > n - 2:
-            i = n - 2
-        f = x - i
+        q = _u(base + 4 * i)
+        return table[q], table[q + _u(1)], table[q + _u(2)], table[q + _u(3)], i, 0.0
+    x = u * (n - 1)
+    i = int(x)
+    if i > n - 2:
+        i = n - 2
+    f = x - i
     q = _u(base + 4 * i)
     ft = table.dtype.type(f)
     r = table[q] + ft * (table[q + _u(4)] - table[q])
@@ -374,8 +375,11 @@ def _lookup(table, v, n, p):
 
 @fused_kernel
 def sigma_at(sigma, i, f):
-    """Extinction between entries ``i`` and ``i + 1`` of ``sigma`` at fraction ``f`` (float64)."""
+    """Extinction between entries ``i`` and ``i + 1`` of ``sigma`` at fraction ``f`` (float64).
+    ``f = 0`` reads entry ``i`` alone: the 8-bit lookup gives the last entry that way."""
     s0 = np.float64(sigma[_u(i)])
+    if f == 0.0:
+        return s0
     return s0 + f * (np.float64(sigma[_u(i + 1)]) - s0)
 
 

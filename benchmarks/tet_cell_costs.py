@@ -37,8 +37,16 @@ from bench_tets import MESHES, OPAQUE, data_dir, load  # noqa: E402
 #: what the knock-out replaces in raycast/_tet_kernels.py, and with what
 INTEGRATION = """                x_in = x_prev if same else _tpos(s_in, n_table, p)
                 x_out = _tpos(s_out, n_table, p)
+                lit = unlit
+                if p.shade:
+                    gx = grads[cell, 0]
+                    gy = grads[cell, 1]
+                    gz = grads[cell, 2]
+                    w = fade_weight(math.sqrt(gx * gx + gy * gy + gz * gz), 0.5 * (s_in + s_out), p.scale,
+                                    p.axis_inv_range, p.linthresh, shading[SH_FADE])
+                    lit = light_factors(gx, gy, gz, ex, ey, ez, w, shading, lights)
                 state, np_, c_ok, c_prev = _segment(marker, prec, state, table, s_in, x_in, s_out, x_out,
-                                                    c_ok and same, c_prev, (t_out - t_in) * p.length_scale, p)"""
+                                                    c_ok and same, c_prev, (t_out - t_in) * p.length_scale, p, lit)"""
 CONSTANT = """                x_in = 0.0
                 x_out = 0.0
                 state = _accumulate(marker, prec, state, 1e-6 * (t_out - t_in), s_in, s_out, 0.5)

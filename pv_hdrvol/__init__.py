@@ -12,7 +12,7 @@ from .data.transfer import TransferFunction
 from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
 from .image.upsample import upsample
-from .params import PRECISIONS, RenderOptions
+from .params import PRECISIONS, Light, RenderOptions
 from .rays.camera import Camera, Rays
 from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
 from .raycast.grid import BlockGrid, render_volume
@@ -55,7 +55,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 
 __all__ = [
-    "datasets", "BlockGrid", "Camera", "DepthLayers", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Magnifier",
+    "datasets", "BlockGrid", "Camera", "DepthLayers", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Light", "Magnifier",
     "PRECISIONS", "Rays", "RenderOptions", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
     "TransferFunction", "depth_layers", "load", "render", "render_tets", "render_volume", "tetmesh_from_arrays",
     "tetmesh_from_dataset", "tonemap", "upsample", "volume_from_array", "volume_from_dataset",

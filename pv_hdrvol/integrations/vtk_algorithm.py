@@ -38,6 +38,28 @@ def _option_methods(field, meaning):
     return setter, getter
 
 
+def _bool_option_methods(field, meaning):
+    """``Set<Field>``/``Get<Field>``/``<Field>On``/``<Field>Off`` for a bool field;
+    the setter also takes VTK-style 0 and 1."""
+    set_bool, getter = _option_methods(field, meaning)
+
+    def setter(self, value):
+        if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value in (0, 1):
+            value = bool(value)
+        set_bool(self, value)
+
+    def on(self):
+        setter(self, True)
+
+    def off(self):
+        setter(self, False)
+
+    setter.__doc__ = set_bool.__doc__.replace("Validated", "A bool (VTK-style 0/1 are accepted). Validated")
+    on.__doc__ = f"Set ``RenderOptions.{field}`` to True."
+    off.__doc__ = f"Set ``RenderOptions.{field}`` to False."
+    return setter, getter, on, off
+
+
 class HDRVolumeRenderer(VTKPythonAlgorithmBase):
     """Volume render a ``vtkImageData`` or a tetrahedral ``vtkUnstructuredGrid`` into a 2-D
     float RGBA ``vtkImageData``.
@@ -135,22 +157,20 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         "blending", "'composite', 'maximum', 'minimum', 'average' or 'additive' (PyVista's names).")
     SetGradientOpacity, GetGradientOpacity = _option_methods(
         "gradient_opacity", "None, or (low, high): extinction times a ramp of the gradient magnitude.")
-    _SetSkipEmpty, GetSkipEmpty = _option_methods(
+    SetSkipEmpty, GetSkipEmpty, SkipEmptyOn, SkipEmptyOff = _bool_option_methods(
         "skip_empty", "skip blocks that map to zero opacity (same result, less time).")
-
-    def SetSkipEmpty(self, value):
-        """Set ``RenderOptions.skip_empty`` (a bool; VTK-style 0/1 are accepted)."""
-        if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value in (0, 1):
-            value = bool(value)
-        self._SetSkipEmpty(value)
-
-    def SkipEmptyOn(self):
-        """``SetSkipEmpty(True)``."""
-        self.SetSkipEmpty(True)
-
-    def SkipEmptyOff(self):
-        """``SetSkipEmpty(False)``."""
-        self.SetSkipEmpty(False)
+    SetShade, GetShade, ShadeOn, ShadeOff = _bool_option_methods(
+        "shade", "Blinn-Phong shading by the gradient (composite blending only).")
+    SetAmbient, GetAmbient = _option_methods("ambient", "Blinn-Phong ambient weight (>= 0).")
+    SetDiffuse, GetDiffuse = _option_methods("diffuse", "Blinn-Phong diffuse weight (>= 0).")
+    SetSpecular, GetSpecular = _option_methods("specular", "Blinn-Phong specular weight (>= 0).")
+    SetSpecularPower, GetSpecularPower = _option_methods("specular_power", "Blinn-Phong exponent (>= 1).")
+    SetLights, GetLights = _option_methods(
+        "lights", "None (a headlight), a Light, a direction towards the light, or a sequence of them.")
+    SetShadeGradient, GetShadeGradient = _option_methods(
+        "shade_gradient", "'sampled' (central differences at each sample) or 'interpolated'.")
+    SetShadeThreshold, GetShadeThreshold = _option_methods(
+        "shade_threshold", "fraction of the TF axis per voxel at which shading is at full strength (>= 0).")
 
     # -- other properties --------------------------------------------------------------
     def SetImageSize(self, width, height=None):

@@ -3,9 +3,10 @@
 - **Projections** (``render_projection``): maximum, minimum, average and additive
   (X-ray) blending. One scalar per ray, in float64, plus its colour.
 - **Extended compositing** (``render_ext``): emission-absorption with any of
-  gradient-magnitude opacity modulation, two-level rendering of labelled data (a
-  transfer function and a blending mode per label) and mip-mapped sampling for rays
-  sparser than the camera's (a lens's level of detail, ``Rays.lod``).
+  gradient-magnitude opacity modulation, Blinn-Phong shading by the gradient,
+  two-level rendering of labelled data (a transfer function and a blending mode per
+  label) and mip-mapped sampling for rays sparser than the camera's (a lens's level of
+  detail, ``Rays.lod``).
 
 Kept apart from ``_kernels.py`` so that a plain render compiles and runs none of this
 ("model only what a scene requires"); a ray that needs none of it is handed to
@@ -23,12 +24,13 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from .._jit import fused_kernel, kernel, parallel_kernel, uindex as _u
+from .._jit import fused_kernel, inline_kernel, kernel, parallel_kernel, uindex as _u
 from ._kernels import (
     BRICK_SHIFT, SCRATCH, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity,
     _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, sigma_at, table_row,
     trilinear as _trilinear,
 )
+from ._shading_kernels import SH_FADE, SH_INV_SPACING, SH_SAMPLED, SH_SPACING, fade_weight, light_factors
 
 # blending codes (params.BLENDING_CODES)
 COMPOSITE, MAXIMUM, MINIMUM, AVERAGE, ADDITIVE = 0, 1, 2, 3, 4
@@ -43,7 +45,8 @@ class ExtParams(NamedTuple):
     ``gradient``: 1 to scale extinction by a ramp of the gradient magnitude from
     ``g_lo`` (0) to ``g_lo + 1 / g_inv`` (1). ``lattice``/``midpoint``: whether any
     label uses a maximum/minimum (sampled at lattice points) or a compositing mode
-    (sampled at segment midpoints).
+    (sampled at segment midpoints). ``shade``: 1 to light samples (``_shade``, with the
+    ``shading`` and ``lights`` arrays of ``render_ext``).
     """
 
     mode: int
@@ -56,6 +59,7 @@ class ExtParams(NamedTuple):
     labelled: int
     lattice: int
     midpoint: int
+    shade: int
 
 
 # -- sampling --------------------------------------------------------------------------------------
@@ -136,6 +140,63 @@ def _gradient_factor(gbricks, g, x, y, z, e):
     if not w > 0.0:  # also NaN
         return 0.0
     return min(w, 1.0)
+
+
+# -- shading ----------------------------------------------------------------------------------
+@inline_kernel
+def _central(bricks, g, x, y, z, ax):
+    """Central difference of the trilinear field along axis ``ax`` over two voxels
+    (one-sided where the stencil leaves the grid), in data units per voxel. For a
+    trilinear field this is the trilinear interpolation of the grid points' central
+    differences, so it equals ``shade_gradient="interpolated"`` to rounding."""
+    lo_x = x
+    hi_x = x
+    lo_y = y
+    hi_y = y
+    lo_z = z
+    hi_z = z
+    if ax == 0:
+        lo_x = max(x - 1.0, 0.0)
+        hi_x = min(x + 1.0, g[3])
+        span = hi_x - lo_x
+    elif ax == 1:
+        lo_y = max(y - 1.0, 0.0)
+        hi_y = min(y + 1.0, g[4])
+        span = hi_y - lo_y
+    else:
+        lo_z = max(z - 1.0, 0.0)
+        hi_z = min(z + 1.0, g[5])
+        span = hi_z - lo_z
+    if not span > 0.0:
+        return 0.0
+    v1 = _trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], hi_x, hi_y, hi_z)
+    v0 = _trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], lo_x, lo_y, lo_z)
+    return (v1 - v0) / span
+
+
+@kernel
+def _shade(bricks, gvec, g, shading, lights, axis, v, x, y, z, dx, dy, dz, r, gg, b):
+    """The lit colour ``(r, g, b)`` (float64, not clamped: HDR) of the sample of value
+    ``v`` at voxel position ``(x, y, z)`` on the ray of voxel direction ``(dx, dy, dz)``
+    (``_shading_kernels``). ``axis`` is the sample's transfer-function axis
+    ``(scale, lo, 1 / range, linthresh)``, over which the lighting fades in."""
+    if shading[SH_SAMPLED] != 0.0:
+        gx = _central(bricks, g, x, y, z, 0) * shading[SH_INV_SPACING]
+        gy = _central(bricks, g, x, y, z, 1) * shading[SH_INV_SPACING + 1]
+        gz = _central(bricks, g, x, y, z, 2) * shading[SH_INV_SPACING + 2]
+    else:
+        n3 = gvec.shape[0] // 3
+        gx = _trilinear(gvec, 0, g[0], g[1], g[2], g[9], g[10], x, y, z)
+        gy = _trilinear(gvec, n3, g[0], g[1], g[2], g[9], g[10], x, y, z)
+        gz = _trilinear(gvec, 2 * n3, g[0], g[1], g[2], g[9], g[10], x, y, z)
+    w = fade_weight(math.sqrt(gx * gx + gy * gy + gz * gz), v, int(axis[0]), axis[2], axis[3], shading[SH_FADE])
+    # towards the eye, in world units (the ray runs in voxel coordinates)
+    ex = -dx * shading[SH_SPACING]
+    ey = -dy * shading[SH_SPACING + 1]
+    ez = -dz * shading[SH_SPACING + 2]
+    el = math.sqrt(ex * ex + ey * ey + ez * ez)
+    mr, mg, mb, kr, kg, kb = light_factors(gx, gy, gz, ex / el, ey / el, ez / el, w, shading, lights)
+    return np.float64(r) * mr + kr, np.float64(gg) * mg + kg, np.float64(b) * mb + kb
 
 
 # -- projections ------------------------------------------------------------------------------
@@ -287,8 +348,8 @@ def _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, sl
 
 
 @fused_kernel
-def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes,
-                   ox, oy, oz, dx, dy, dz, t0, t1, p, e):
+def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes,
+                   tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e):
     """Front-to-back compositing with gradient modulation, labels and mip sampling.
 
     Composite labels (and unlabelled renders) sample segment midpoints exactly as
@@ -392,6 +453,8 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
             a_i = -math.expm1(-sg * (tb - ta))
         if a_i <= 0.0:
             continue
+        if e.shade:
+            r, gg, b = _shade(bricks, gvec, g, shading, lights, axes[slot], v, xm, ym, zm, dx, dy, dz, r, gg, b)
         state = _accumulate(marker, prec, state, a_i, r, gg, b)
         alpha = _opacity(marker, state)
         if depth == math.inf and alpha >= p.depth_alpha:
@@ -430,26 +493,26 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, slots
 
 
 @kernel
-def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes,
+def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas, axes,
                ox, oy, oz, dx, dy, dz, lo, hi, p, e):
     """Clip the ray and run ``_composite_ext`` in the render's precision."""
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     if p.precision == F64:
-        return _composite_ext(0.0, F64, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas,
-                              axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+        return _composite_ext(0.0, F64, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots,
+                              modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
     if p.precision == F32:
-        return _composite_ext(np.float32(0.0), F32, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables,
-                              sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
-    return _composite_ext(0, p.precision, bricks, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas,
-                          axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+        return _composite_ext(np.float32(0.0), F32, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights,
+                              slots, modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+    return _composite_ext(0, p.precision, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots,
+                          modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
 
 
 @parallel_kernel
-def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, slots, modes, tables, sigmas, axes,
-               sigma0, level_tables, level_steps, origins, directions, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth,
-               out_samples):
+def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, gvec, shading, lights, slots, modes,
+               tables, sigmas, axes, sigma0, level_tables, level_steps, origins, directions, width, height, tile,
+               tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
     level of detail 0) goes through ``_kernels._march`` with slot 0's table, so it is
     bit-identical to a plain render; a ray with a level of detail (and nothing else)
@@ -458,7 +521,7 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
     ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the lower of its two levels."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
-    plain_ok = e.labelled == 0 and e.gradient == 0
+    plain_ok = e.labelled == 0 and e.gradient == 0 and e.shade == 0
     n_table = tables.shape[0] // (4 * modes.shape[0])
     table0 = tables[: 4 * n_table]
     has_lod = lods.shape[0] == width * height
@@ -489,8 +552,8 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
                                                       lo, hi, p, level_steps[level], scratch)
                     else:
                         r, gg, b, a, dep, ns = _march_ext(
-                            bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, slots, modes,
-                            tables, sigmas, axes, origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                            bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, gvec, shading,
+                            lights, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                             directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
@@ -549,3 +612,23 @@ def gradient_magnitude(values, inv_spacing, out):
                 gy = (np.float64(values[k, j1, i]) - np.float64(values[k, j0, i])) * sy / max(j1 - j0, 1)
                 gz = (np.float64(values[k1, j, i]) - np.float64(values[k0, j, i])) * sz / max(k1 - k0, 1)
                 out[k, j, i] = math.sqrt(gx * gx + gy * gy + gz * gz)
+
+
+@kernel
+def gradient_vectors(values, inv_spacing, out):
+    """``grad v`` per point (world units) into ``out`` (3, nz, ny, nx): central
+    differences, one-sided at edges (as ``gradient_magnitude``)."""
+    nz, ny, nx = values.shape
+    sx, sy, sz = inv_spacing[0], inv_spacing[1], inv_spacing[2]
+    for k in range(nz):
+        k0 = max(k - 1, 0)
+        k1 = min(k + 1, nz - 1)
+        for j in range(ny):
+            j0 = max(j - 1, 0)
+            j1 = min(j + 1, ny - 1)
+            for i in range(nx):
+                i0 = max(i - 1, 0)
+                i1 = min(i + 1, nx - 1)
+                out[0, k, j, i] = (np.float64(values[k, j, i1]) - np.float64(values[k, j, i0])) * sx / max(i1 - i0, 1)
+                out[1, k, j, i] = (np.float64(values[k, j1, i]) - np.float64(values[k, j0, i])) * sy / max(j1 - j0, 1)
+                out[2, k, j, i] = (np.float64(values[k1, j, i]) - np.float64(values[k0, j, i])) * sz / max(k1 - k0, 1)

@@ -44,6 +44,7 @@ import numpy as np
 from .._jit import inline_kernel, kernel, parallel_kernel
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
 from ._kernels import _accumulate, _finish, _opacity, _start, table_position, F32, F64
+from ._shading_kernels import SH_FADE, fade_weight, light_factors
 
 
 #: directions of the symbolic perturbation of rays (generic: no simple ratios)
@@ -87,6 +88,7 @@ class TetParams(NamedTuple):
     tau_max: float  # largest optical depth of one piece
     max_pieces: int
     max_steps: int  # cells a ray may visit before it is stopped (a guard, never reached on valid meshes)
+    shade: int  # 1: light each cell by its gradient (``_shading_kernels``)
 
 
 # -- Plücker products -----------------------------------------------------------------------
@@ -245,7 +247,7 @@ def cumulative_tables(table):
 
 
 @inline_kernel
-def _piece(marker, prec, state, tau, er, eg, eb, dr, dg, db):
+def _piece(marker, prec, state, tau, er, eg, eb, dr, dg, db, lit):
     """Composite a piece of optical depth ``tau``, emission ``(er, eg, eb) = int c sigma dt``
     (the colour's mean ``E / tau``) and colour change front to back ``(dr, dg, db)``.
 
@@ -253,7 +255,12 @@ def _piece(marker, prec, state, tau, er, eg, eb, dr, dg, db):
     then ``a mean(c) + k (c_b - c_f)`` with ``a = 1 - e^-tau`` and
     ``k = (1 - e^-tau (1 + tau)) / tau - a / 2`` (the front is seen through less of the
     piece; exact for a constant extinction or a constant colour). ``k`` cancels for
-    small ``tau``: its series is used below 0.01."""
+    small ``tau``: its series is used below 0.01.
+
+    ``lit = (mr, mg, mb, kr, kg, kb)`` lights the colour as ``m c + k`` per channel
+    (``_shading_kernels.light_factors``: constant across a cell, so the lit emission
+    is exactly ``m`` times the unlit one plus ``k`` times the opacity); ``(1, 1, 1, 0,
+    0, 0)`` leaves it unchanged, bit for bit."""
     if not tau > 0.0:
         return state
     a = -math.expm1(-tau)
@@ -263,23 +270,23 @@ def _piece(marker, prec, state, tau, er, eg, eb, dr, dg, db):
     else:
         k = (a - (1.0 - a) * tau) * inv - 0.5 * a
     k /= a
-    return _accumulate(marker, prec, state, a, max(er * inv + k * dr, 0.0), max(eg * inv + k * dg, 0.0),
-                       max(eb * inv + k * db, 0.0))
+    return _accumulate(marker, prec, state, a, max(er * inv + k * dr, 0.0) * lit[0] + lit[3],
+                       max(eg * inv + k * dg, 0.0) * lit[1] + lit[4], max(eb * inv + k * db, 0.0) * lit[2] + lit[5])
 
 
 @inline_kernel
-def _piece_linear(marker, prec, state, h, r0, g0, b0, a0, r1, g1, b1, a1):
+def _piece_linear(marker, prec, state, h, r0, g0, b0, a0, r1, g1, b1, a1, lit):
     """Composite a piece of length ``h`` along which colour and extinction go linearly
     from ``(r0, g0, b0, a0)`` to ``(r1, g1, b1, a1)``: exact optical depth, emission
     exact when the extinction or the colour is constant."""
     w0 = h * (a0 + 0.5 * a1) / 3.0
     w1 = h * (0.5 * a0 + a1) / 3.0
     return _piece(marker, prec, state, 0.5 * h * (a0 + a1), w0 * r0 + w1 * r1, w0 * g0 + w1 * g1, w0 * b0 + w1 * b1,
-                  r1 - r0, g1 - g0, b1 - b0)
+                  r1 - r0, g1 - g0, b1 - b0, lit)
 
 
 @kernel
-def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p):
+def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p, lit):
     """Composite the segment of world ``length`` along which the scalar goes linearly from
     ``s0`` to ``s1`` (fractional table indices ``x0``, ``x1``). ``c0`` is
     ``_cumulative`` at ``s0`` when ``c0_ok`` (the previous cell's exit). Returns the
@@ -293,7 +300,7 @@ def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p):
         # one table cell (or one constant end region): sigma and c are linear in t
         r0, g0, b0, a0 = _row(table, x0)
         r1, g1, b1, a1 = _row(table, x1)
-        return _piece_linear(marker, prec, state, length, r0, g0, b0, a0, r1, g1, b1, a1), 1, False, c0
+        return _piece_linear(marker, prec, state, length, r0, g0, b0, a0, r1, g1, b1, a1, lit), 1, False, c0
     # a few table cells: walk them, one exact piece per cell (no cancellation)
     up = s1 > s0
     j_first = (0 if s0 < table[0, 8] else i0 + 1) if up else (n - 1 if s0 > table[n - 1, 8] else i0)
@@ -310,13 +317,13 @@ def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p):
             sk = table[j, 8]
             if (up and sk > sa and sk < s1) or (not up and sk < sa and sk > s1):
                 state = _piece_linear(marker, prec, state, (sk - sa) * scale, ra, ga, ba, aa,
-                                      table[j, 0], table[j, 1], table[j, 2], table[j, 3])
+                                      table[j, 0], table[j, 1], table[j, 2], table[j, 3], lit)
                 pieces += 1
                 sa = sk
                 ra, ga, ba, aa = table[j, 0], table[j, 1], table[j, 2], table[j, 3]
             j = j + 1 if up else j - 1
         rb, gb, bb, ab = _row(table, x1)
-        state = _piece_linear(marker, prec, state, (s1 - sa) * scale, ra, ga, ba, aa, rb, gb, bb, ab)
+        state = _piece_linear(marker, prec, state, (s1 - sa) * scale, ra, ga, ba, aa, rb, gb, bb, ab, lit)
         return state, pieces + 1, False, c0
     # many table cells: integrals from the cumulative tables, per unit of s
     scale = length / (s1 - s0)
@@ -329,14 +336,14 @@ def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p):
         pieces = min(int(math.ceil(tau / p.tau_max)), p.max_pieces)
     if pieces == 1:
         return _piece(marker, prec, state, tau, (c1[1] - c0[1]) * scale, (c1[2] - c0[2]) * scale,
-                      (c1[3] - c0[3]) * scale, c1[4] - c0[4], c1[5] - c0[5], c1[6] - c0[6]), 1, True, c1
+                      (c1[3] - c0[3]) * scale, c1[4] - c0[4], c1[5] - c0[5], c1[6] - c0[6], lit), 1, True, c1
     ca = c0
     for k in range(1, pieces + 1):
         sb = s0 + (s1 - s0) * (k / pieces) if k < pieces else s1
         cb = _cumulative(table, sb, _tpos(sb, n, p))
         state = _piece(marker, prec, state, (cb[0] - ca[0]) * scale, (cb[1] - ca[1]) * scale,
                        (cb[2] - ca[2]) * scale, (cb[3] - ca[3]) * scale, cb[4] - ca[4], cb[5] - ca[5],
-                       cb[6] - ca[6])
+                       cb[6] - ca[6], lit)
         ca = cb
         if _opacity(marker, state) >= p.alpha_stop:
             break
@@ -388,9 +395,18 @@ def _consistency(x, y, z):
 
 
 @kernel
-def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface, table,
+def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
               hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
-    """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``."""
+    """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``.
+
+    With ``p.shade``, each cell is lit by its gradient ``grads[cell]`` (world units)
+    from the eye along the ray (``_shading_kernels``); else ``grads``, ``shading``,
+    ``lights`` are placeholders and nothing is lit."""
+    unlit = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)
+    dl = math.sqrt(dx * dx + dy * dy + dz * dz)
+    ex = -dx / dl
+    ey = -dy / dl
+    ez = -dz / dl
     mx = oy * dz - oz * dy
     my = oz * dx - ox * dz
     mz = ox * dy - oy * dx
@@ -477,8 +493,16 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
                 same = s_in == s_prev
                 x_in = x_prev if same else _tpos(s_in, n_table, p)
                 x_out = _tpos(s_out, n_table, p)
+                lit = unlit
+                if p.shade:
+                    gx = grads[cell, 0]
+                    gy = grads[cell, 1]
+                    gz = grads[cell, 2]
+                    w = fade_weight(math.sqrt(gx * gx + gy * gy + gz * gz), 0.5 * (s_in + s_out), p.scale,
+                                    p.axis_inv_range, p.linthresh, shading[SH_FADE])
+                    lit = light_factors(gx, gy, gz, ex, ey, ez, w, shading, lights)
                 state, np_, c_ok, c_prev = _segment(marker, prec, state, table, s_in, x_in, s_out, x_out,
-                                                    c_ok and same, c_prev, (t_out - t_in) * p.length_scale, p)
+                                                    c_ok and same, c_prev, (t_out - t_in) * p.length_scale, p, lit)
                 s_prev = s_out
                 x_prev = x_out
                 pieces += np_
@@ -500,21 +524,21 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
 
 
 @kernel
-def _march(points, cells_i, cells_f, active, btri, bcell, bface, table, hit_t,
+def _march(points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights, hit_t,
            hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
     """One ray in the precision ``p.precision`` (one compiled loop per precision)."""
     if p.precision == F64:
         return _march_in(0.0, F64, points, cells_i, cells_f, active, btri, bcell, bface,
-                         table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                         table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
     if p.precision == F32:
         return _march_in(np.float32(0.0), F32, points, cells_i, cells_f, active, btri, bcell, bface,
-                         table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                         table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
     return _march_in(0, p.precision, points, cells_i, cells_f, active, btri, bcell, bface,
-                     table, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                     table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
 
 
 @parallel_kernel
-def render_tiles(points, cells_i, cells_f, active, btri, bcell, bface, table,
+def render_tiles(points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
                  hit_offsets, hit_t, hit_face, hit_enter, cam, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
@@ -534,7 +558,7 @@ def render_tiles(points, cells_i, cells_f, active, btri, bcell, bface, table,
                         continue
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
-                        points, cells_i, cells_f, active, btri, bcell, bface, table,
+                        points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
                         hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g

@@ -16,6 +16,7 @@ from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays
 from . import _kernels as K
 from . import _kernels_ext as KX
+from .shading import shading_arrays, shading_metadata
 
 # Rays are cast in square tiles of this many pixels a side (cache locality).
 _TILE = 8
@@ -413,7 +414,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     lanes = _lanes()
 
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
-        or lod is not None
+        or lod is not None or opts.shade
     if extended and rays is None:
         # the extended kernels take rays as arrays
         rays = camera.rays((width, height))
@@ -439,7 +440,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         else:
             a = kernel_args
             KX.render_ext(bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods,
-                          a.gbricks, a.slots,
+                          a.gbricks, a.gvec, a.shading, a.lights, a.slots,
                           a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
                           directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth, samples)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
@@ -470,6 +471,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         meta["blending"] = opts.blending
     if opts.gradient_opacity is not None:
         meta["gradient_opacity"] = list(opts.gradient_opacity)
+    if opts.shade:
+        meta["shading"] = shading_metadata(opts)
     if styles is not None:
         meta["label_styles"] = styles.describe()
     if lod is not None:
@@ -499,6 +502,9 @@ class _Extended(NamedTuple):
     lods: np.ndarray
     leap_lod: np.ndarray
     gbricks: np.ndarray
+    gvec: np.ndarray
+    shading: np.ndarray
+    lights: np.ndarray
     slots: np.ndarray
     modes: np.ndarray
     tables: np.ndarray
@@ -527,6 +533,8 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
         pyr, pgeo, lods, leap_lod = one, np.zeros((1, 6), np.int64), np.zeros(1), leap.reshape(1, -1)
         level_tables, level_steps = table.reshape(1, -1), np.array([params.step])
     gbricks = _gradient_bricks(volume, dtype) if opts.gradient_opacity is not None else one
+    gvec = _gradient_vector_bricks(volume, dtype) if opts.shade and opts.shade_gradient == "interpolated" else one
+    shading, lights = shading_arrays(opts, volume.spacing)
     g_lo, g_hi = opts.gradient_opacity if opts.gradient_opacity is not None else (0.0, 1.0)
     if styles is not None:
         slots, modes, tables, sigmas, axes = styles.slots, styles.modes, styles.tables, styles.sigmas, styles.axes
@@ -549,8 +557,9 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
             stop = -float(blocks.minimum[finite].min())
     e = KX.ExtParams(BLENDING_CODES[opts.blending], float(unit), stop, int(opts.gradient_opacity is not None),
                      float(g_lo), float(1.0 / (g_hi - g_lo)), int(pgeo.shape[0]) if lod is not None else 0,
-                     int(styles is not None), int(lattice), int(midpoint))
-    return _Extended(pyr, pgeo, lods, leap_lod, gbricks, slots, modes, tables, sigmas, axes, level_tables,
+                     int(styles is not None), int(lattice), int(midpoint), int(opts.shade))
+    return _Extended(pyr, pgeo, lods, leap_lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas, axes,
+                     level_tables,
                      level_steps, e)
 
 
@@ -631,6 +640,23 @@ def _gradient_bricks(volume, dtype):
         shape = _brick_shape(volume.dims)
         b = np.empty(int(np.prod(shape)) * (size + 1) ** 3, dtype)
         K.make_bricks(mag, K.BRICK_SHIFT, *shape, b)
+        volume.cache[key] = b
+    return volume.cache[key]
+
+
+def _gradient_vector_bricks(volume, dtype):
+    """``grad v`` per grid point (world units), each component bricked like the data, one
+    after the other in one flat array (``_kernels_ext._shade``); cached on the volume."""
+    key = ("gradient_vectors", np.dtype(dtype).str)
+    if key not in volume.cache:
+        grad = np.empty((3,) + volume.values.shape, np.float64)
+        KX.gradient_vectors(volume.values, np.ascontiguousarray(1.0 / volume.spacing, dtype=np.float64), grad)
+        size = 1 << K.BRICK_SHIFT
+        shape = _brick_shape(volume.dims)
+        n = int(np.prod(shape)) * (size + 1) ** 3
+        b = np.empty(3 * n, dtype)
+        for axis in range(3):
+            K.make_bricks(grad[axis].astype(dtype), K.BRICK_SHIFT, *shape, b[axis * n:(axis + 1) * n])
         volume.cache[key] = b
     return volume.cache[key]
 

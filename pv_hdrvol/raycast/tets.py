@@ -20,6 +20,7 @@ from ..rays.camera import Camera
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
 from .grid import _TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function, run_in_chunks
+from .shading import shading_arrays, shading_metadata
 
 #: extinction columns whose active-cell masks a mesh keeps
 _ACTIVE_CACHE = 4
@@ -117,7 +118,7 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     params = TK.TetParams(
         PRECISION_CODES[prec], SCALE_CODES[tf.scale], float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
         1.0 - opts.termination if opts.termination > 0 else math.inf, float(opts.depth_threshold),
-        float(mesh.scale), tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64),
+        float(mesh.scale), tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64), int(opts.shade),
     )
     active = _active_cells(mesh, sigma, params)
 
@@ -142,11 +143,15 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     guard = np.zeros(n_pix, dtype=np.bool_)
     lanes = _lanes()
     cells_i, cells_f = _cell_records(mesh)
+    # a cell's gradient is constant: its light depends only on the ray's direction
+    grads = cell_gradients(mesh) if opts.shade else np.zeros((1, 3))
+    shading, lights = shading_arrays(opts, (mesh.default_unit_distance(),) * 3)
 
     def cast(tile_rows):
         rows = np.ascontiguousarray(tile_rows)
         TK.render_tiles(mesh.points, cells_i, cells_f, active,
-                        mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, hits.offsets,
+                        mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
+                        hits.offsets,
                         hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
                         params, rgba, depth, cells, pieces, guard)
         return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
@@ -173,6 +178,8 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
         "tau_max": tau_max,
         "stopped_rays": int(guard.sum()),
     }
+    if opts.shade:
+        meta["shading"] = shading_metadata(opts)
     return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view
 
 
@@ -378,6 +385,27 @@ def _cell_records(mesh):
         cells_f[:, value_col:value_col + 4] = mesh.values
         mesh.cache["cell_records"] = (cells_i, cells_f)
     return mesh.cache["cell_records"]
+
+
+def cell_gradients(mesh):
+    """The gradient of each cell's linear interpolant, world units, (cells, 3) float64;
+    cached on the mesh.
+
+    Solves ``(p_i - p_0) . g = v_i - v_0`` for the corners ``i = 1, 2, 3``. A degenerate
+    cell (no volume) or one with a non-finite corner value gets 0: it is not lit.
+    """
+    if "cell_gradients" not in mesh.cache:
+        p = mesh.world_points()[mesh.tets]  # (cells, 4, 3)
+        edges = p[:, 1:] - p[:, :1]
+        dv = mesh.values[:, 1:] - mesh.values[:, :1]
+        det = np.linalg.det(edges)
+        size = np.einsum("cij,cij->c", edges, edges) ** 1.5 / 27.0
+        ok = (np.abs(det) > 1e-12 * size) & np.all(np.isfinite(dv), axis=1)
+        grads = np.zeros((len(p), 3))
+        if ok.any():
+            grads[ok] = np.linalg.solve(edges[ok], dv[ok][..., None])[..., 0]
+        mesh.cache["cell_gradients"] = np.ascontiguousarray(grads)
+    return mesh.cache["cell_gradients"]
 
 
 def _boundary_normals(mesh):

@@ -157,9 +157,21 @@ class HDRImage:
           ``pixel_type`` is ignored. See :func:`pv_hdrvol.image.rgbe.write_hdr`.
         - ``.npy``: RGBA and depth, bit-exact, no metadata.
         - ``.png``: the default 8-bit display mapping (:meth:`save_png`).
+
+        Raises
+        ------
+        ValueError
+            For an unknown extension or ``pixel_type``.
+        OSError
+            Naming the file or folder: ``FileNotFoundError`` when the folder does not
+            exist, ``IsADirectoryError``, ``PermissionError`` (see
+            :func:`pv_hdrvol.image.io.check_writable`).
         """
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()
+        if ext not in (".exr", ".hdr", ".npy", ".png"):
+            raise ValueError(f"unknown image extension {ext!r}; use .exr, .hdr, .npy or .png")
+        _fileio.check_writable(path)
         if ext == ".exr":
             _fileio.write_exr(path, self.rgba, self.depth, self.metadata, pixel_type, self.value)
         elif ext == ".hdr":
@@ -168,10 +180,8 @@ class HDRImage:
             _rgbe.write_hdr(path, self.rgba[..., :3], metadata)
         elif ext == ".npy":
             _fileio.write_npy(path, self.rgba, self.depth)
-        elif ext == ".png":
-            self.save_png(path)
         else:
-            raise ValueError(f"unknown image extension {ext!r}; use .exr, .hdr, .npy or .png")
+            self.save_png(path)
         return path
 
     @classmethod
@@ -181,6 +191,14 @@ class HDRImage:
         ``.exr`` and ``.npy`` give back what was saved. ``.hdr`` gives an opaque
         picture: RGB as stored (``EXPOSURE`` not applied), alpha 1.0 everywhere, depth
         ``inf``, metadata from the ``PV_HDRVOL`` header line.
+
+        Raises
+        ------
+        FileNotFoundError, IsADirectoryError, PermissionError
+            As ``open(path)`` does, naming the path.
+        ValueError
+            For an unknown extension, or a file that is not a readable image of its
+            extension's format (another format, truncated, corrupt), naming the path.
         """
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()

@@ -154,11 +154,19 @@ def test_info(volume_file, tmp_path, capsys):
     (["demo", "--orbital", "2", "2", "0"], "pv-hdrvol demo: error: l must satisfy 0 <= l < n = 2; got l=2"),
     (["info", "{tmp}/missing.exr"], "pv-hdrvol info: error: file not found: '{tmp}/missing.exr'"),
     (["info", "{tmp}/notes.txt"], "pv-hdrvol info: error: unknown image extension '.txt'; use .exr, .hdr or .npy"),
-    (["info", "{tmp}/fake.exr"], "pv-hdrvol info: error: cannot read '{tmp}/fake.exr': "),
+    (["info", "{tmp}/fake.exr"], "pv-hdrvol info: error: '{tmp}/fake.exr' is not a readable OpenEXR image: it "
+                                 "does not start with the OpenEXR magic number"),
+    (["render", "{vol}", "-o", "{tmp}/nodir/x.exr"],
+     "pv-hdrvol render: error: -o/--output: cannot write '{tmp}/nodir/x.exr': no such folder: '{tmp}/nodir'"),
+    (["render", "{vol}", "-o", "{tmp}/x.exr", "--png", "{tmp}/notes.txt/x.png"],
+     "pv-hdrvol render: error: --png: cannot write '{tmp}/notes.txt/x.png': not a folder: '{tmp}/notes.txt'"),
+    (["demo", "-o", "{tmp}/out", "--size", "8"], "pv-hdrvol demo: error: --output-dir: cannot write an image over a "
+                                                 "folder: '{tmp}/out/demo.png'"),
     (["paint"], "pv-hdrvol: error: argument COMMAND: invalid choice: 'paint'"),
 ])
 def test_user_errors_exit_2_without_traceback(args, message, volume_file, tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("not a volume")
+    (tmp_path / "out" / "demo.png").mkdir(parents=True)
     (tmp_path / "fake.exr").write_bytes(b"not an exr")
     pv.Sphere().save(tmp_path / "sphere.vtk")
     tets = pv.ImageData(dimensions=(3, 3, 3)).triangulate()
@@ -195,3 +203,43 @@ def test_transfer_function_options_on_a_constant_volume(tmp_path):
             "--no-progress"]
     assert main(args) == 0
     assert hv.load(out).rgba[..., 3].max() > 0
+
+
+def test_output_folders_are_checked_before_reading_and_rendering(volume_file, tmp_path, monkeypatch, capsys):
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("rendered although the output cannot be written")
+
+    monkeypatch.setattr(pv, "read", must_not_run)
+    monkeypatch.setattr(hv, "render", must_not_run)
+    for args in (["-o", str(tmp_path / "missing" / "x.exr")], ["--png", str(tmp_path / "missing" / "x.png")]):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["render", str(volume_file), "--no-progress", *args])
+        assert exit_info.value.code == 2
+        assert f"no such folder: '{tmp_path / 'missing'}'" in capsys.readouterr().err
+
+
+def test_render_help_lists_every_readable_extension(capsys):
+    from pv_hdrvol.integrations.cli import READABLE
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", "--help"])
+    assert exit_info.value.code == 0
+    help_text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
+    assert f"one of {', '.join(READABLE)} (meshes: .vtu, .vtk)" in help_text
+    assert ".vtu" in READABLE and ".cube" in READABLE
+
+
+@pytest.mark.data
+def test_render_gaussian_cube_as_pyvista_reads_it(shared_data, tmp_path, capsys):
+    cube = shared_data / "hdr" / "m4_TotalDensity.cube"
+    out = tmp_path / "cube.exr"
+    assert main(["render", str(cube), "-o", str(out), "--size", "16", "12", "--no-progress"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ("pv-hdrvol render: note: m4_TotalDensity.cube is rendered as pyvista.read gives it, in "
+                            "grid index units (spacing 1, origin 0, axis-aligned); the cube's origin, step (steps "
+                            "0.566918, 0.566917, 0.566918) and axis directions are not applied\n")
+    assert "m4_TotalDensity.cube (SCF Total Density, 25x22x31): 16x12 float32" in captured.out
+    # the same image as pyvista.read + the accessor give
+    ref = pv.read(cube).hdrvol.render(size=(16, 12), camera="iso")
+    np.testing.assert_array_equal(hv.load(out).rgba, ref.rgba)
+    assert ref.peak_luminance > 0  # not an empty picture

@@ -12,6 +12,7 @@ argparse-style message on stderr and exit status 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import math
 import pathlib
 import sys
 
@@ -20,7 +21,10 @@ from ..data.transfer import SCALES
 from ..params import BLENDINGS, PRECISIONS
 
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
-READABLE = (".vti", ".vtk", ".vtu", ".nrrd", ".nhdr", ".mha", ".mhd")
+#: Extensions ``pv-hdrvol render`` reads (with ``pyvista.read``); the help is made from it.
+READABLE = (".vti", ".vtk", ".vtu", ".nrrd", ".nhdr", ".mha", ".mhd", ".cube")
+#: Of those, the ones that hold tetrahedral meshes (``.vtk`` holds either kind).
+MESH_FORMATS = (".vtu", ".vtk")
 
 
 class UserError(Exception):
@@ -55,9 +59,14 @@ def build_parser():
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    p = sub.add_parser("render", help="render a volume file (.vti, .vtk, .nrrd, ...)",
-                       description="Render an image volume read with pyvista.read to a float OpenEXR image.")
-    p.add_argument("file", metavar="FILE", help="volume file (.vti, .vtk, .nrrd, .nhdr, .mha, .mhd)")
+    p = sub.add_parser("render", help=f"render a volume or mesh file ({', '.join(READABLE)})",
+                       description="Render an image volume or a tetrahedral mesh read with pyvista.read to a float "
+                                   "OpenEXR image. Gaussian cube files (.cube) are rendered as pyvista.read gives "
+                                   "them: in grid index units (spacing 1, origin 0, axis-aligned), without the "
+                                   "cube's own origin, step and axis directions (a note on stderr says so).")
+    p.add_argument("file", metavar="FILE",
+                   help=f"image volume or tetrahedral mesh, one of {', '.join(READABLE)} "
+                        f"(meshes: {', '.join(MESH_FORMATS)})")
     p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
     p.add_argument("-o", "--output", default=None, metavar="OUT.exr",
                    help="output image, .exr or .npy (default: FILE's stem + .exr in the current directory)")
@@ -126,10 +135,14 @@ def _cmd_render(args):
     if path.suffix.lower() not in READABLE:
         raise UserError(f"cannot read {str(path)!r}: unknown extension {path.suffix!r}; "
                         f"use one of {', '.join(READABLE)}")
+    output = pathlib.Path(args.output) if args.output else pathlib.Path(path.stem + ".exr")
+    png = _check_outputs(output, args.png)
     try:
         dataset = pv.read(path)
     except Exception as exc:  # readers raise anything from OSError to ValueError
         raise UserError(f"cannot read {str(path)!r}: {exc}") from None
+    if path.suffix.lower() == ".cube":
+        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
     if not isinstance(dataset, (pv.ImageData, pv.UnstructuredGrid)):
         kind = type(dataset).__name__
         raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) and "
@@ -144,13 +157,12 @@ def _cmd_render(args):
     except (ScalarsError, ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
     tf = _transfer_function(args, volume)
-    output = pathlib.Path(args.output) if args.output else pathlib.Path(path.stem + ".exr")
-    png = _check_outputs(output, args.png)
     image = _render(args, volume, tf, default_view="iso")
     image.metadata["source_file"] = str(path)
     _write(image, output, png)
     shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
-    _print_stats(image, f"{path.name} ({volume.name}, {shape})")
+    # .strip(): pyvista names a cube's array after its comment line (" SCF Total Density\n")
+    _print_stats(image, f"{path.name} ({volume.name.strip()}, {shape})")
 
 
 def _cmd_demo(args):
@@ -164,7 +176,12 @@ def _cmd_demo(args):
     out_dir = pathlib.Path(args.output_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise UserError(f"--output-dir {str(out_dir)!r} exists and is not a directory")
-    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--output-dir: cannot create {str(out_dir)!r}: {exc.strerror}") from None
+    for name in ("demo.exr", "demo.png"):
+        _check_writable("--output-dir", out_dir / name)
     tf = demo_transfer_function(vmax=float(grid["probability_density"].max()))
     # the side view shows the nodal cones of the default 3d_z2 orbital as dark wedges;
     # zoom: the cube's corners hold almost nothing visible
@@ -180,9 +197,9 @@ def _cmd_info(args):
     path = _existing_file(args.file)
     try:
         image = HDRImage.load(path)
-    except ValueError as exc:
+    except ValueError as exc:  # names the file: unknown extension, not an EXR, truncated...
         raise UserError(str(exc)) from None
-    except Exception as exc:  # a corrupt or foreign file
+    except Exception as exc:  # anything else a corrupt or foreign file may cause
         raise UserError(f"cannot read {str(path)!r}: {exc}") from None
     _print_stats(image, path.name)
     if image.metadata:
@@ -249,15 +266,41 @@ def _render(args, volume, tf, default_view, zoom=1.0):
 
 
 def _check_outputs(output, png):
-    """Check the output names before spending time on a render; returns ``png`` as a path."""
+    """Check the output names and folders before spending time on a render; returns
+    ``png`` as a path."""
     if output.suffix.lower() not in (".exr", ".npy"):
         raise UserError(f"output {str(output)!r} must end in .exr or .npy")
+    _check_writable("-o/--output", output)
     if png is None:
         return None
     png = pathlib.Path(png)
     if png.suffix.lower() != ".png":
         raise UserError(f"--png {str(png)!r} must end in .png")
+    _check_writable("--png", png)
     return png
+
+
+def _check_writable(option, path):
+    from ..image.io import check_writable
+
+    try:
+        check_writable(path)
+    except OSError as exc:  # e.g. "cannot write 'a/b.exr': no such folder: 'a'"
+        raise UserError(f"{option}: {exc.strerror}: {exc.filename!r}") from None
+
+
+def _cube_note(path):
+    """What ``pyvista.read`` leaves out of a Gaussian cube file's geometry."""
+    detail = ""
+    try:  # lines 4-6 of the header: points along each axis and that axis's step vector
+        with open(path) as f:
+            lines = [f.readline() for _ in range(6)]
+        steps = [math.hypot(*(float(x) for x in line.split()[1:4])) for line in lines[3:6]]
+        detail = f" (steps {', '.join(f'{s:.6g}' for s in steps)})"
+    except (OSError, ValueError, TypeError):
+        pass
+    return (f"{path.name} is rendered as pyvista.read gives it, in grid index units (spacing 1, origin 0, "
+            f"axis-aligned); the cube's origin, step{detail} and axis directions are not applied")
 
 
 def _write(image, output, png):

@@ -243,3 +243,76 @@ def test_render_gaussian_cube_as_pyvista_reads_it(shared_data, tmp_path, capsys)
     ref = pv.read(cube).hdrvol.render(size=(16, 12), camera="iso")
     np.testing.assert_array_equal(hv.load(out).rgba, ref.rgba)
     assert ref.peak_luminance > 0  # not an empty picture
+
+
+def _png_pixels(path):
+    """RGB pixels of a PNG written by pv_hdrvol's own writer (8-bit RGB, filter 0 on every row)."""
+    import zlib
+
+    data = path.read_bytes()
+    width, height = _png_size(path)
+    pos, idat = 8, b""
+    while pos < len(data):
+        length, tag = struct.unpack(">I4s", data[pos:pos + 8])
+        if tag == b"IDAT":
+            idat += data[pos + 8:pos + 8 + length]
+        pos += 12 + length
+    raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(height, 1 + 3 * width)
+    assert np.all(raw[:, 0] == 0)
+    return raw[:, 1:].reshape(height, width, 3)
+
+
+@pytest.mark.parametrize("tonemap", [None, "drago", "linear"])
+def test_png_preview_tonemap(volume_file, tmp_path, tonemap):
+    out_exr, out_png = tmp_path / "t.exr", tmp_path / "t.png"
+    args = ["render", str(volume_file), "-o", str(out_exr), "--png", str(out_png), "--size", "20", "16",
+            "--no-progress"] + (["--tonemap", tonemap] if tonemap else [])
+    assert main(args) == 0
+    image = hv.load(out_exr)  # float32 both in the render and in the file
+    expected = image.to_display() if tonemap is None else image.tonemap(tonemap).rgb8
+    np.testing.assert_array_equal(_png_pixels(out_png), expected)
+    if tonemap == "drago":
+        assert not np.array_equal(expected, image.to_display())  # the option changes the picture
+
+
+def test_png_preview_with_colorbar(volume_file, tmp_path):
+    import matplotlib.image
+
+    out_exr, out_png = tmp_path / "c.exr", tmp_path / "c.png"
+    args = ["render", str(volume_file), "-o", str(out_exr), "--png", str(out_png), "--size", "20", "16",
+            "--vmin", "1e-9", "--vmax", "1e-3", "--scale", "log", "--colorbar", "--no-progress"]
+    assert main(args) == 0
+    preview = hv.load(out_exr).to_display()
+    figure = np.round(matplotlib.image.imread(out_png)[..., :3] * 255).astype(np.uint8)
+    assert figure.shape[1] > 20 + 60 and figure.shape[0] >= 16  # room for the bar and its labels
+    # the preview sits pixel for pixel at the left edge
+    rows = [r for r in range(figure.shape[0] - 15) if np.array_equal(figure[r:r + 16, :20], preview)]
+    assert len(rows) == 1, rows
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--colorbar"], "pv-hdrvol render: error: --colorbar styles the PNG preview; add --png OUT.png"),
+    (["--tonemap", "drago"], "pv-hdrvol render: error: --tonemap styles the PNG preview; add --png OUT.png"),
+    # (argparse quotes the choices from Python 3.12.8 on: the list is not pinned)
+    (["--png", "{tmp}/x.png", "--tonemap", "aces"],
+     "pv-hdrvol render: error: argument --tonemap: invalid choice: 'aces' (choose from "),
+])
+def test_preview_option_errors(args, message, volume_file, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", str(volume_file), "-o", str(tmp_path / "x.exr"), "--no-progress",
+              *[a.format(tmp=tmp_path) for a in args]])
+    assert exit_info.value.code == 2
+    assert message.format(tmp=tmp_path) in capsys.readouterr().err
+
+
+def test_matplotlib_stays_out_of_a_render_without_colorbar(volume_file, tmp_path):
+    # pyvista itself imports parts of matplotlib (colors); the figure machinery stays out
+    code = ("import sys; from pv_hdrvol.integrations.cli import main; "
+            f"main(['render', {str(volume_file)!r}, '-o', {str(tmp_path / 'g.exr')!r}, '--png', "
+            f"{str(tmp_path / 'g.png')!r}, '--cmap', 'gray', '--size', '8', '--no-progress']); "
+            "print(sorted(m for m in ('pv_hdrvol.image.colorbar', 'matplotlib.figure', 'matplotlib.pyplot') "
+            "if m in sys.modules))")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[-1] == "[]"

@@ -15,6 +15,7 @@ MODULES = [
     "pv_hdrvol.image.views",
     "pv_hdrvol.image.sequence",
     "pv_hdrvol.image.upsample",
+    "pv_hdrvol.image.colorbar",
     "pv_hdrvol.datasets",
 ]
 

@@ -18,6 +18,7 @@ import sys
 
 from .. import __version__
 from ..data.transfer import SCALES
+from ..image.tonemap import OPERATORS
 from ..params import BLENDINGS, PRECISIONS
 
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
@@ -53,6 +54,16 @@ def _add_render_options(p):
                    help="show a progress bar (default: when stderr is a terminal)")
 
 
+def _add_preview_options(p, png_option):
+    g = p.add_argument_group(f"PNG preview ({png_option})")
+    g.add_argument("--tonemap", choices=sorted(OPERATORS), default=None, metavar="NAME",
+                   help=f"tone-mapping operator of the preview, one of {', '.join(sorted(OPERATORS))} "
+                        f"(pv_hdrvol.tonemap with its default parameters; default: auto exposure and clamp)")
+    g.add_argument("--colorbar", action="store_true",
+                   help="add the transfer function's colour bar, ticks in data units (log ticks on a log axis), "
+                        "to the right of the preview (needs matplotlib)")
+
+
 def build_parser():
     """The ``argparse`` parser of ``pv-hdrvol`` (sub-commands render, demo, info)."""
     parser = argparse.ArgumentParser(prog="pv-hdrvol", description="High-dynamic-range volume rendering to OpenEXR.")
@@ -70,8 +81,10 @@ def build_parser():
     p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
     p.add_argument("-o", "--output", default=None, metavar="OUT.exr",
                    help="output image, .exr or .npy (default: FILE's stem + .exr in the current directory)")
-    p.add_argument("--png", default=None, metavar="OUT.png", help="also write an 8-bit preview (auto exposure)")
+    p.add_argument("--png", default=None, metavar="OUT.png",
+                   help="also write an 8-bit preview (auto exposure, or --tonemap)")
     _add_render_options(p)
+    _add_preview_options(p, "--png")
     tf = p.add_argument_group("transfer function (a colormap ramp; default: chosen from the data range)")
     tf.add_argument("--vmin", type=float, default=None, help="bottom of the range (default: data minimum, "
                     "smallest positive value for --scale log)")
@@ -91,6 +104,7 @@ def build_parser():
                    help="quantum numbers (default 3 2 0)")
     p.add_argument("--grid", type=int, default=64, metavar="N", help="volume points per axis (default 64)")
     _add_render_options(p)
+    _add_preview_options(p, "demo.png")
     p.set_defaults(handler=_cmd_demo, subparser=p)
 
     p = sub.add_parser("info", help="print the statistics and metadata of an image",
@@ -137,6 +151,9 @@ def _cmd_render(args):
                         f"use one of {', '.join(READABLE)}")
     output = pathlib.Path(args.output) if args.output else pathlib.Path(path.stem + ".exr")
     png = _check_outputs(output, args.png)
+    if png is None and (args.colorbar or args.tonemap):
+        option = "--colorbar" if args.colorbar else "--tonemap"
+        raise UserError(f"{option} styles the PNG preview; add --png OUT.png")
     try:
         dataset = pv.read(path)
     except Exception as exc:  # readers raise anything from OSError to ValueError
@@ -157,9 +174,13 @@ def _cmd_render(args):
     except (ScalarsError, ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
     tf = _transfer_function(args, volume)
+    if tf is None and args.colorbar:  # the bar needs the function the core would choose
+        from ..raycast.grid import default_transfer_function
+
+        tf = default_transfer_function(volume)
     image = _render(args, volume, tf, default_view="iso")
     image.metadata["source_file"] = str(path)
-    _write(image, output, png)
+    _write(image, output, png, args, tf, volume.name.strip())
     shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
     # .strip(): pyvista names a cube's array after its comment line (" SCF Total Density\n")
     _print_stats(image, f"{path.name} ({volume.name.strip()}, {shape})")
@@ -187,7 +208,7 @@ def _cmd_demo(args):
     # zoom: the cube's corners hold almost nothing visible
     image = _render(args, grid, tf, default_view="xz", zoom=1.5)
     image.metadata["source"] = f"pv_hdrvol.datasets.hydrogen_orbital(n={n}, l={l}, m={m}, size={args.grid})"
-    _write(image, out_dir / "demo.exr", out_dir / "demo.png")
+    _write(image, out_dir / "demo.exr", out_dir / "demo.png", args, tf, "probability density")
     _print_stats(image, f"hydrogen orbital n={n} l={l} m={m} on {args.grid}^3 points")
 
 
@@ -303,15 +324,31 @@ def _cube_note(path):
             f"axis-aligned); the cube's origin, step{detail} and axis directions are not applied")
 
 
-def _write(image, output, png):
+def _write(image, output, png, args, tf, label):
     try:
         image.save(output)
         print(f"wrote {output}")
         if png is not None:
-            image.save_png(png)
+            _write_preview(image, png, args, tf, label)
             print(f"wrote {png}")
     except OSError as exc:
         raise UserError(f"cannot write: {exc}") from None
+
+
+def _write_preview(image, png, args, tf, label):
+    """The PNG preview: auto exposure and clamp (default) or ``--tonemap``, with ``--colorbar``."""
+    if args.tonemap is None and not args.colorbar:
+        image.save_png(png)
+        return
+    picture = image.tonemap(args.tonemap).rgb8 if args.tonemap else image.to_display()
+    if args.colorbar:
+        from ..image.colorbar import save_png_with_colorbar  # matplotlib only when asked for
+
+        save_png_with_colorbar(png, picture, tf, label=label or None)
+    else:
+        from ..image.hdr import _write_png
+
+        _write_png(png, picture)
 
 
 def _print_stats(image, title):

@@ -16,6 +16,7 @@ MODULES = [
     "pv_hdrvol.image.sequence",
     "pv_hdrvol.image.upsample",
     "pv_hdrvol.image.colorbar",
+    "pv_hdrvol.settings",
     "pv_hdrvol.datasets",
 ]
 

@@ -113,6 +113,36 @@ class HDRImage:
         return (f"HDRImage({c}x{r}, {self.rgba.dtype}, peak luminance {self.peak_luminance:.4g}, "
                 f"{self.dynamic_range_decades:.2f} decades, {self.metadata.get('precision', '?')} compositing)")
 
+    def settings(self, partial=False):
+        """The settings this image was rendered with, from ``metadata["settings"]``.
+
+        Returns
+        -------
+        RenderSettings
+            ``(tf, camera, size, options, keywords)``; ``settings.render(data)`` renders
+            ``data`` with them again, bit-identical on the same data and machine
+            (see :mod:`pv_hdrvol.settings`).
+
+        Raises
+        ------
+        ValueError
+            When the metadata hold no settings (an image from ``.npy``, or not rendered
+            by pv_hdrvol), or when the render also used inputs settings do not hold
+            (a lens, labels, a block mask, rays instead of a camera), unless
+            ``partial=True``.
+        """
+        from ..settings import RenderSettings
+
+        stored = self.metadata.get("settings")
+        if not isinstance(stored, dict):
+            raise ValueError("this image's metadata hold no render settings (images keep them from a pv_hdrvol "
+                             "render, in .exr, .hdr and VTK files; .npy files keep no metadata)")
+        not_stored = stored.get("not_stored") or []
+        if not_stored and not partial:
+            raise ValueError(f"the render also used {', '.join(not_stored)}, which the settings do not hold; "
+                             f"settings(partial=True) returns the rest")
+        return RenderSettings.from_dict(stored)
+
     # -- display -----------------------------------------------------------------
     def to_display(self, exposure_stops=None, background=(0.0, 0.0, 0.0)):
         """8-bit sRGB (rows, cols, 3) by exposure and clamp; ``None``: auto exposure."""

@@ -1,4 +1,5 @@
 """The pv-hdrvol command, in-process and once as a real subprocess."""
+import json
 import os
 import shutil
 import struct
@@ -129,6 +130,15 @@ def test_info(volume_file, tmp_path, capsys):
     assert out.startswith("i.exr: 8x8 float32\n")  # EXR stores float32
     assert _stat_line(out, "peak luminance") == f"{image.peak_luminance:.6g}"
     assert "  precision: float64\n" in out and f"  source_file: {volume_file}\n" in out
+    # the render settings, readably; all of them with --json
+    settings = image.settings()
+    assert "render settings (pv_hdrvol.load(FILE).settings()):\n  size:               8x8\n" in out
+    assert (f"  transfer function:  64 control points over [{settings.tf.vmin!r}, {settings.tf.vmax!r}], scale "
+            f"{settings.tf.scale}, colours in rgb, opacity 0 to 1, table of 65536 entries\n") in out
+    assert "  options:            step=0.5, precision='float64', global_alpha=1.0, " in out
+    assert "  settings: " not in out  # not repeated as a raw dict
+    assert main(["info", str(exr), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == image.metadata
 
 
 @pytest.mark.parametrize(("args", "message"), [

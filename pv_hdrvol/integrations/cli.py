@@ -12,6 +12,7 @@ argparse-style message on stderr and exit status 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import pathlib
 import sys
@@ -107,9 +108,13 @@ def build_parser():
     _add_preview_options(p, "demo.png")
     p.set_defaults(handler=_cmd_demo, subparser=p)
 
-    p = sub.add_parser("info", help="print the statistics and metadata of an image",
-                       description="Print the statistics and metadata of an image written by pv-hdrvol (.exr, .npy).")
-    p.add_argument("file", metavar="FILE.exr", help="image file (.exr or .npy)")
+    p = sub.add_parser("info", help="print the statistics, render settings and metadata of an image",
+                       description="Print the statistics, render settings and metadata of an image written by "
+                                   "pv-hdrvol (.exr, .hdr, .npy). The settings re-render the image in Python: "
+                                   "pv_hdrvol.load(FILE).settings().render(data).")
+    p.add_argument("file", metavar="FILE.exr", help="image file (.exr, .hdr or .npy)")
+    p.add_argument("--json", action="store_true",
+                   help="print the metadata as JSON instead (all of the settings: every control point)")
     p.set_defaults(handler=_cmd_info, subparser=p)
     return parser
 
@@ -222,12 +227,19 @@ def _cmd_info(args):
         raise UserError(str(exc)) from None
     except Exception as exc:  # anything else a corrupt or foreign file may cause
         raise UserError(f"cannot read {str(path)!r}: {exc}") from None
+    if args.json:
+        print(json.dumps(image.metadata, indent=2, sort_keys=True))
+        return
     _print_stats(image, path.name)
-    if image.metadata:
+    settings = image.metadata.get("settings")
+    if isinstance(settings, dict):
+        _print_settings(settings)
+    rest = {k: v for k, v in image.metadata.items() if k != "settings"}
+    if rest:
         print("metadata:")
-        for key in sorted(image.metadata):
-            print(f"  {key}: {image.metadata[key]}")
-    else:
+        for key in sorted(rest):
+            print(f"  {key}: {rest[key]}")
+    elif not settings:
         print("metadata: none")
 
 
@@ -349,6 +361,41 @@ def _write_preview(image, png, args, tf, label):
         from ..image.hdr import _write_png
 
         _write_png(png, picture)
+
+
+def _print_settings(stored):
+    """The ``"settings"`` metadata entry, readably (``info --json`` prints all of it)."""
+    from ..settings import RenderSettings
+
+    try:
+        s = RenderSettings.from_dict(stored)
+    except (ValueError, TypeError) as exc:
+        print(f"render settings: unreadable ({exc})")
+        return
+    tf, cam = s.tf, s.camera
+    print("render settings (pv_hdrvol.load(FILE).settings()):")
+    print(f"  size:               {s.size[0]}x{s.size[1]}")
+    if cam is None:
+        print("  camera:             none (rendered from rays)")
+    else:
+        projection = (f"parallel, scale {cam.parallel_scale!r}" if cam.parallel_projection
+                      else f"perspective, view angle {cam.view_angle!r} degrees")
+        print(f"  camera:             position {_vec(cam.position)}, focal point {_vec(cam.focal_point)}, "
+              f"view up {_vec(cam.view_up)}, {projection}")
+    print(f"  transfer function:  {tf.values.size} control points over [{tf.vmin!r}, {tf.vmax!r}], "
+          f"scale {tf.scale}" + (f" (linthresh {tf.linthresh!r})" if tf.scale == "symlog" else "")
+          + f", colours in {tf.color_space}, opacity {tf.opacities.min():.6g} to {tf.opacities.max():.6g}, "
+          f"table of {tf.table_size} entries")
+    options = stored.get("options", {})
+    print(f"  options:            {', '.join(f'{k}={v!r}' for k, v in options.items())}")
+    if s.keywords:
+        print(f"  keywords:           {', '.join(f'{k}={v!r}' for k, v in s.keywords.items())}")
+    if stored.get("not_stored"):
+        print(f"  not stored:         {', '.join(stored['not_stored'])} (settings() needs partial=True)")
+
+
+def _vec(v):
+    return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
 
 
 def _print_stats(image, title):

@@ -58,6 +58,6 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 __all__ = [
     "datasets", "BlockGrid", "Camera", "DepthLayers", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Magnifier",
     "PRECISIONS", "Rays", "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh",
-    "ToneMapped", "TransferFunction", "depth_layers", "load", "render", "render_tets", "render_volume", "tetmesh_from_arrays",
-    "tetmesh_from_dataset", "tonemap", "upsample", "volume_from_array", "volume_from_dataset",
+    "ToneMapped", "TransferFunction", "depth_layers", "load", "render", "render_tets", "render_volume",
+    "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample", "volume_from_array", "volume_from_dataset",
 ]

@@ -134,6 +134,16 @@ def test_inputs_settings_cannot_hold_are_named(grid):
         by_rays.settings(partial=True).render(grid)
 
 
+def test_settings_of_an_image_resized_after_the_render(grid):
+    low = hv.render(grid, None, hv.Camera.fit(grid.bounds, "iso"), (6, 4), scalars="density")
+    big = hv.upsample(low, factor=2, method="nearest")
+    with pytest.raises(ValueError, match=re.escape("the settings are those of a 6x4 render; this image is 12x8 "
+                                                   "(changed after the render, e.g. by pv_hdrvol.upsample); "
+                                                   "settings(partial=True) returns them anyway")):
+        big.settings()
+    assert big.settings(partial=True).size == (6, 4) == low.settings().size
+
+
 def test_images_without_settings(tmp_path):
     img = hv.HDRImage(np.zeros((2, 2, 4), np.float32))
     img.save(tmp_path / "plain.npy")

@@ -128,7 +128,8 @@ class HDRImage:
         ValueError
             When the metadata hold no settings (an image from ``.npy``, or not rendered
             by pv_hdrvol), or when the render also used inputs settings do not hold
-            (a lens, labels, a block mask, rays instead of a camera), unless
+            (a lens, labels, a block mask, rays instead of a camera) or the image is
+            not the size rendered (upsampled or resized after the render), unless
             ``partial=True``.
         """
         from ..settings import RenderSettings
@@ -141,7 +142,13 @@ class HDRImage:
         if not_stored and not partial:
             raise ValueError(f"the render also used {', '.join(not_stored)}, which the settings do not hold; "
                              f"settings(partial=True) returns the rest")
-        return RenderSettings.from_dict(stored)
+        settings = RenderSettings.from_dict(stored)
+        rows, cols = self.shape
+        if settings.size != (cols, rows) and not partial:
+            raise ValueError(f"the settings are those of a {settings.size[0]}x{settings.size[1]} render; this image "
+                             f"is {cols}x{rows} (changed after the render, e.g. by pv_hdrvol.upsample); "
+                             f"settings(partial=True) returns them anyway")
+        return settings
 
     # -- display -----------------------------------------------------------------
     def to_display(self, exposure_stops=None, background=(0.0, 0.0, 0.0)):

@@ -3,6 +3,7 @@
 ::
 
     pv-hdrvol render volume.vti --scalars density -o out.exr --png out.png --size 800 600
+    pv-hdrvol render volume.vti -o out.exr --png figure.png --tonemap drago --colorbar
     pv-hdrvol demo -o outdir --size 128
     pv-hdrvol info out.exr
 
@@ -163,12 +164,13 @@ def _cmd_render(args):
         dataset = pv.read(path)
     except Exception as exc:  # readers raise anything from OSError to ValueError
         raise UserError(f"cannot read {str(path)!r}: {exc}") from None
-    if path.suffix.lower() == ".cube":
-        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
     if not isinstance(dataset, (pv.ImageData, pv.UnstructuredGrid)):
         kind = type(dataset).__name__
         raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) and "
                         f"tetrahedral meshes (UnstructuredGrid)")
+    if path.suffix.lower() == ".cube" and tuple(dataset.spacing) == (1.0, 1.0, 1.0) \
+            and tuple(dataset.origin) == (0.0, 0.0, 0.0):  # index units: what pyvista 0.4x's reader gives
+        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
     try:
         if isinstance(dataset, pv.UnstructuredGrid):
             from ..data.tets import tetmesh_from_dataset

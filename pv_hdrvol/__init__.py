@@ -18,6 +18,7 @@ from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
 from .raycast.grid import BlockGrid, render_volume
 from .raycast.layers import DepthLayers, depth_layers
 from .raycast.tets import render_tets
+from .settings import RenderSettings
 
 __version__ = "0.1.0"
 
@@ -55,8 +56,8 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 
 __all__ = [
-    "datasets", "BlockGrid", "Camera", "DepthLayers", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens", "Light", "Magnifier",
-    "PRECISIONS", "Rays", "RenderOptions", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
-    "TransferFunction", "depth_layers", "load", "render", "render_tets", "render_volume", "tetmesh_from_arrays",
-    "tetmesh_from_dataset", "tonemap", "upsample", "volume_from_array", "volume_from_dataset",
+    "datasets", "BlockGrid", "Camera", "DepthLayers", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens",
+    "Light", "Magnifier", "PRECISIONS", "Rays", "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError",
+    "TetMesh", "ToneMapped", "TransferFunction", "depth_layers", "load", "render", "render_tets", "render_volume",
+    "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample", "volume_from_array", "volume_from_dataset",
 ]

@@ -42,13 +42,14 @@ class Light:
     ----------
     direction : "headlight" or sequence of 3 floats
         ``"headlight"``: light from the eye along each ray (the default light). Else the
-        world direction from the scene *towards* the light (normalised here).
+        world direction from the scene *towards* the light, any non-zero length
+        (kept as given; :attr:`unit_direction` is the normalised one).
     intensity : float or sequence of 3 floats
         Linear RGB intensity, ``>= 0``; HDR: values above 1 are kept.
 
     Examples
     --------
-    >>> Light((0, 0, 2)).direction
+    >>> Light((0, 0, 2)).unit_direction
     (0.0, 0.0, 1.0)
     """
 
@@ -61,10 +62,9 @@ class Light:
             as_choice("Light direction", d, ("headlight",))
         else:
             v = as_vector("Light direction", d)
-            norm = float(np.sqrt(np.dot(v, v)))
-            if norm == 0.0:
+            if not np.any(v):
                 raise ValueError(f"Light direction must not be the zero vector; got {d!r}")
-            object.__setattr__(self, "direction", tuple(float(x) for x in v / norm))
+            object.__setattr__(self, "direction", tuple(float(x) for x in v))
         i = self.intensity
         if isinstance(i, (int, float, np.integer, np.floating)) and not isinstance(i, bool):
             i = (i, i, i)
@@ -76,6 +76,14 @@ class Light:
     @property
     def is_headlight(self):
         return self.direction == "headlight"
+
+    @property
+    def unit_direction(self):
+        """The direction towards the light, of length 1 (``None`` for a headlight)."""
+        if self.is_headlight:
+            return None
+        v = np.array(self.direction)
+        return tuple(float(x) for x in v / np.sqrt(v @ v))
 
 
 def _as_lights(value):

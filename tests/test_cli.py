@@ -1,4 +1,5 @@
 """The pv-hdrvol command, in-process and once as a real subprocess."""
+import json
 import os
 import shutil
 import struct
@@ -129,6 +130,15 @@ def test_info(volume_file, tmp_path, capsys):
     assert out.startswith("i.exr: 8x8 float32\n")  # EXR stores float32
     assert _stat_line(out, "peak luminance") == f"{image.peak_luminance:.6g}"
     assert "  precision: float64\n" in out and f"  source_file: {volume_file}\n" in out
+    # the render settings, readably; all of them with --json
+    settings = image.settings()
+    assert "render settings (pv_hdrvol.load(FILE).settings()):\n  size:               8x8\n" in out
+    assert (f"  transfer function:  64 control points over [{settings.tf.vmin!r}, {settings.tf.vmax!r}], scale "
+            f"{settings.tf.scale}, colours in rgb, opacity 0 to 1, table of 65536 entries\n") in out
+    assert "  options:            step=0.5, precision='float64', global_alpha=1.0, " in out
+    assert "  settings: " not in out  # not repeated as a raw dict
+    assert main(["info", str(exr), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == image.metadata
 
 
 @pytest.mark.parametrize(("args", "message"), [
@@ -154,11 +164,19 @@ def test_info(volume_file, tmp_path, capsys):
     (["demo", "--orbital", "2", "2", "0"], "pv-hdrvol demo: error: l must satisfy 0 <= l < n = 2; got l=2"),
     (["info", "{tmp}/missing.exr"], "pv-hdrvol info: error: file not found: '{tmp}/missing.exr'"),
     (["info", "{tmp}/notes.txt"], "pv-hdrvol info: error: unknown image extension '.txt'; use .exr, .hdr or .npy"),
-    (["info", "{tmp}/fake.exr"], "pv-hdrvol info: error: cannot read '{tmp}/fake.exr': "),
+    (["info", "{tmp}/fake.exr"], "pv-hdrvol info: error: '{tmp}/fake.exr' is not a readable OpenEXR image: it "
+                                 "does not start with the OpenEXR magic number"),
+    (["render", "{vol}", "-o", "{tmp}/nodir/x.exr"],
+     "pv-hdrvol render: error: -o/--output: cannot write '{tmp}/nodir/x.exr': no such folder: '{tmp}/nodir'"),
+    (["render", "{vol}", "-o", "{tmp}/x.exr", "--png", "{tmp}/notes.txt/x.png"],
+     "pv-hdrvol render: error: --png: cannot write '{tmp}/notes.txt/x.png': not a folder: '{tmp}/notes.txt'"),
+    (["demo", "-o", "{tmp}/out", "--size", "8"], "pv-hdrvol demo: error: --output-dir: cannot write an image over a "
+                                                 "folder: '{tmp}/out/demo.png'"),
     (["paint"], "pv-hdrvol: error: argument COMMAND: invalid choice: 'paint'"),
 ])
 def test_user_errors_exit_2_without_traceback(args, message, volume_file, tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("not a volume")
+    (tmp_path / "out" / "demo.png").mkdir(parents=True)
     (tmp_path / "fake.exr").write_bytes(b"not an exr")
     pv.Sphere().save(tmp_path / "sphere.vtk")
     tets = pv.ImageData(dimensions=(3, 3, 3)).triangulate()
@@ -195,3 +213,116 @@ def test_transfer_function_options_on_a_constant_volume(tmp_path):
             "--no-progress"]
     assert main(args) == 0
     assert hv.load(out).rgba[..., 3].max() > 0
+
+
+def test_output_folders_are_checked_before_reading_and_rendering(volume_file, tmp_path, monkeypatch, capsys):
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("rendered although the output cannot be written")
+
+    monkeypatch.setattr(pv, "read", must_not_run)
+    monkeypatch.setattr(hv, "render", must_not_run)
+    for args in (["-o", str(tmp_path / "missing" / "x.exr")], ["--png", str(tmp_path / "missing" / "x.png")]):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["render", str(volume_file), "--no-progress", *args])
+        assert exit_info.value.code == 2
+        assert f"no such folder: '{tmp_path / 'missing'}'" in capsys.readouterr().err
+
+
+def test_render_help_lists_every_readable_extension(capsys):
+    from pv_hdrvol.integrations.cli import READABLE
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", "--help"])
+    assert exit_info.value.code == 0
+    help_text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
+    assert f"one of {', '.join(READABLE)} (meshes: .vtu, .vtk)" in help_text
+    assert ".vtu" in READABLE and ".cube" in READABLE
+
+
+@pytest.mark.data
+def test_render_gaussian_cube_as_pyvista_reads_it(shared_data, tmp_path, capsys):
+    cube = shared_data / "hdr" / "m4_TotalDensity.cube"
+    out = tmp_path / "cube.exr"
+    assert main(["render", str(cube), "-o", str(out), "--size", "16", "12", "--no-progress"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ("pv-hdrvol render: note: m4_TotalDensity.cube is rendered as pyvista.read gives it, in "
+                            "grid index units (spacing 1, origin 0, axis-aligned); the cube's origin, step (steps "
+                            "0.566918, 0.566917, 0.566918) and axis directions are not applied\n")
+    assert "m4_TotalDensity.cube (SCF Total Density, 25x22x31): 16x12 float32" in captured.out
+    # the same image as pyvista.read + the accessor give
+    ref = pv.read(cube).hdrvol.render(size=(16, 12), camera="iso")
+    np.testing.assert_array_equal(hv.load(out).rgba, ref.rgba)
+    assert ref.peak_luminance > 0  # not an empty picture
+
+
+def _png_pixels(path):
+    """RGB pixels of a PNG written by pv_hdrvol's own writer (8-bit RGB, filter 0 on every row)."""
+    import zlib
+
+    data = path.read_bytes()
+    width, height = _png_size(path)
+    pos, idat = 8, b""
+    while pos < len(data):
+        length, tag = struct.unpack(">I4s", data[pos:pos + 8])
+        if tag == b"IDAT":
+            idat += data[pos + 8:pos + 8 + length]
+        pos += 12 + length
+    raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(height, 1 + 3 * width)
+    assert np.all(raw[:, 0] == 0)
+    return raw[:, 1:].reshape(height, width, 3)
+
+
+@pytest.mark.parametrize("tonemap", [None, "drago", "linear"])
+def test_png_preview_tonemap(volume_file, tmp_path, tonemap):
+    out_exr, out_png = tmp_path / "t.exr", tmp_path / "t.png"
+    args = ["render", str(volume_file), "-o", str(out_exr), "--png", str(out_png), "--size", "20", "16",
+            "--no-progress"] + (["--tonemap", tonemap] if tonemap else [])
+    assert main(args) == 0
+    image = hv.load(out_exr)  # float32 both in the render and in the file
+    expected = image.to_display() if tonemap is None else image.tonemap(tonemap).rgb8
+    np.testing.assert_array_equal(_png_pixels(out_png), expected)
+    if tonemap == "drago":
+        assert not np.array_equal(expected, image.to_display())  # the option changes the picture
+
+
+def test_png_preview_with_colorbar(volume_file, tmp_path):
+    import matplotlib.image
+
+    out_exr, out_png = tmp_path / "c.exr", tmp_path / "c.png"
+    args = ["render", str(volume_file), "-o", str(out_exr), "--png", str(out_png), "--size", "20", "16",
+            "--vmin", "1e-9", "--vmax", "1e-3", "--scale", "log", "--colorbar", "--no-progress"]
+    assert main(args) == 0
+    preview = hv.load(out_exr).to_display()
+    figure = np.round(matplotlib.image.imread(out_png)[..., :3] * 255).astype(np.uint8)
+    assert figure.shape[1] > 20 + 60 and figure.shape[0] >= 16  # room for the bar and its labels
+    # the preview sits pixel for pixel at the left edge
+    rows = [r for r in range(figure.shape[0] - 15) if np.array_equal(figure[r:r + 16, :20], preview)]
+    assert len(rows) == 1, rows
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--colorbar"], "pv-hdrvol render: error: --colorbar styles the PNG preview; add --png OUT.png"),
+    (["--tonemap", "drago"], "pv-hdrvol render: error: --tonemap styles the PNG preview; add --png OUT.png"),
+    # (argparse quotes the choices from Python 3.12.8 on: the list is not pinned)
+    (["--png", "{tmp}/x.png", "--tonemap", "aces"],
+     "pv-hdrvol render: error: argument --tonemap: invalid choice: 'aces' (choose from "),
+])
+def test_preview_option_errors(args, message, volume_file, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", str(volume_file), "-o", str(tmp_path / "x.exr"), "--no-progress",
+              *[a.format(tmp=tmp_path) for a in args]])
+    assert exit_info.value.code == 2
+    assert message.format(tmp=tmp_path) in capsys.readouterr().err
+
+
+def test_matplotlib_stays_out_of_a_render_without_colorbar(volume_file, tmp_path):
+    # pyvista itself imports parts of matplotlib (colors); the figure machinery stays out
+    code = ("import sys; from pv_hdrvol.integrations.cli import main; "
+            f"main(['render', {str(volume_file)!r}, '-o', {str(tmp_path / 'g.exr')!r}, '--png', "
+            f"{str(tmp_path / 'g.png')!r}, '--cmap', 'gray', '--size', '8', '--no-progress']); "
+            "print(sorted(m for m in ('pv_hdrvol.image.colorbar', 'matplotlib.figure', 'matplotlib.pyplot') "
+            "if m in sys.modules))")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[-1] == "[]"

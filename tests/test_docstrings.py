@@ -15,6 +15,8 @@ MODULES = [
     "pv_hdrvol.image.views",
     "pv_hdrvol.image.sequence",
     "pv_hdrvol.image.upsample",
+    "pv_hdrvol.image.colorbar",
+    "pv_hdrvol.settings",
     "pv_hdrvol.datasets",
 ]
 

@@ -245,7 +245,7 @@ def test_shading_options_are_validated():
         hv.RenderOptions(lights=[(0, 0, 1)] * 9)
     opts = hv.RenderOptions(shade=True, lights=(1, 2, 2))
     assert opts.lights == (hv.Light((1, 2, 2)),)
-    np.testing.assert_allclose(opts.lights[0].direction, (1 / 3, 2 / 3, 2 / 3), rtol=1e-15)
+    np.testing.assert_allclose(opts.lights[0].unit_direction, (1 / 3, 2 / 3, 2 / 3), rtol=1e-15)
     assert hv.RenderOptions(shade=True).light_list == (hv.Light(),)
 
 

@@ -145,6 +145,16 @@ def _content_digest(dataset, scalars, preference):
     return content_digest(*arrays)
 
 
+def check_has_cells(dataset):
+    """Raise ``ValueError("the mesh has no cells to render (...)")`` for an unstructured
+    grid without points or cells: its bounds are VTK's "unset" (1, -1, ...), which would
+    otherwise surface as a puzzling message about bounds when a camera is fitted."""
+    n_points = int(dataset.GetNumberOfPoints())
+    n_cells = int(dataset.GetNumberOfCells())
+    if n_points == 0 or n_cells == 0:
+        raise ValueError(f"the mesh has no cells to render ({n_points} points, {n_cells} cells)")
+
+
 def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
     """Prepare an unstructured grid for ray casting; the dataset itself is not modified.
 
@@ -170,10 +180,7 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
         raise TypeError(f"expected a pyvista.UnstructuredGrid / vtkUnstructuredGrid; got {type(dataset).__name__}")
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
-    n_points = int(dataset.GetNumberOfPoints())
-    n_cells = int(dataset.GetNumberOfCells())
-    if n_points == 0 or n_cells == 0:
-        raise ValueError(f"the mesh has no cells to render ({n_points} points, {n_cells} cells)")
+    check_has_cells(dataset)
     name, use_cell = choose_scalars(dataset, scalars, preference, "mesh")
     ug = dataset
     types = _cell_types(ug)

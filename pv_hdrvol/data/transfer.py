@@ -230,9 +230,52 @@ class TransferFunction:
             self._tables = {key: (np.ascontiguousarray(rgb, dtype=dtype), np.ascontiguousarray(sigma, dtype=dtype))}
         return self._tables[key]
 
+    # -- plain values (JSON) ---------------------------------------------------------
+    def to_dict(self):
+        """The function as plain Python values (lists, floats, str, int), ready for JSON.
+
+        :meth:`from_dict` gives back an equal function: JSON keeps every float64
+        exactly, so renders from the copy are bit-identical.
+
+        Examples
+        --------
+        >>> import json
+        >>> tf = TransferFunction([0.0, 0.1], [[1, 0, 0], [0, 0, 1]], [0.0, 1 / 3], scale="symlog")
+        >>> back = TransferFunction.from_dict(json.loads(json.dumps(tf.to_dict())))
+        >>> back.opacities.tolist() == tf.opacities.tolist(), back.scale
+        (True, 'symlog')
+        """
+        return {"values": self.values.tolist(), "colors": self.colors.tolist(), "opacities": self.opacities.tolist(),
+                "scale": self.scale, "linthresh": float(self.linthresh), "color_space": self.color_space,
+                "table_size": int(self.table_size)}
+
+    @classmethod
+    def from_dict(cls, data):
+        """A function from :meth:`to_dict`'s form: keys ``values``, ``colors`` and
+        ``opacities``, optionally ``scale``, ``linthresh``, ``color_space``,
+        ``table_size`` (the constructor's defaults when absent)."""
+        keywords = _check_keys("TransferFunction", data, required=("values", "colors", "opacities"),
+                               optional=("scale", "linthresh", "color_space", "table_size"))
+        return cls(keywords.pop("values"), keywords.pop("colors"), keywords.pop("opacities"), **keywords)
+
     def __repr__(self):
         return (f"TransferFunction({self.values.size} points, range [{self.vmin:.6g}, {self.vmax:.6g}], "
                 f"scale={self.scale!r}, color_space={self.color_space!r}, table_size={self.table_size})")
+
+
+def _check_keys(kind, data, required, optional=()):
+    """``dict(data)`` after checking it is a mapping with all ``required`` keys and no
+    others than ``optional``; errors name the missing or unknown keys."""
+    if not hasattr(data, "keys"):
+        raise TypeError(f"{kind}.from_dict needs a dict; got {type(data).__name__}")
+    data = dict(data)
+    missing = [k for k in required if k not in data]
+    if missing:
+        raise ValueError(f"{kind}.from_dict: missing keys {missing}; needs {list(required)}")
+    unknown = sorted(set(data) - set(required) - set(optional))
+    if unknown:
+        raise ValueError(f"{kind}.from_dict: unknown keys {unknown}; allowed: {list(required) + list(optional)}")
+    return data
 
 
 def _scale_inverse(axis, scale, linthresh):

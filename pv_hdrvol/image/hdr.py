@@ -113,6 +113,43 @@ class HDRImage:
         return (f"HDRImage({c}x{r}, {self.rgba.dtype}, peak luminance {self.peak_luminance:.4g}, "
                 f"{self.dynamic_range_decades:.2f} decades, {self.metadata.get('precision', '?')} compositing)")
 
+    def settings(self, partial=False):
+        """The settings this image was rendered with, from ``metadata["settings"]``.
+
+        Returns
+        -------
+        RenderSettings
+            ``(tf, camera, size, options, keywords)``; ``settings.render(data)`` renders
+            ``data`` with them again, bit-identical on the same data and machine
+            (see :mod:`pv_hdrvol.settings`).
+
+        Raises
+        ------
+        ValueError
+            When the metadata hold no settings (an image from ``.npy``, or not rendered
+            by pv_hdrvol), or when the render also used inputs settings do not hold
+            (a lens, labels, a block mask, rays instead of a camera) or the image is
+            not the size rendered (upsampled or resized after the render), unless
+            ``partial=True``.
+        """
+        from ..settings import RenderSettings
+
+        stored = self.metadata.get("settings")
+        if not isinstance(stored, dict):
+            raise ValueError("this image's metadata hold no render settings (images keep them from a pv_hdrvol "
+                             "render, in .exr, .hdr and VTK files; .npy files keep no metadata)")
+        not_stored = stored.get("not_stored") or []
+        if not_stored and not partial:
+            raise ValueError(f"the render also used {', '.join(not_stored)}, which the settings do not hold; "
+                             f"settings(partial=True) returns the rest")
+        settings = RenderSettings.from_dict(stored)
+        rows, cols = self.shape
+        if settings.size != (cols, rows) and not partial:
+            raise ValueError(f"the settings are those of a {settings.size[0]}x{settings.size[1]} render; this image "
+                             f"is {cols}x{rows} (changed after the render, e.g. by pv_hdrvol.upsample); "
+                             f"settings(partial=True) returns them anyway")
+        return settings
+
     # -- display -----------------------------------------------------------------
     def to_display(self, exposure_stops=None, background=(0.0, 0.0, 0.0)):
         """8-bit sRGB (rows, cols, 3) by exposure and clamp; ``None``: auto exposure."""
@@ -157,9 +194,21 @@ class HDRImage:
           ``pixel_type`` is ignored. See :func:`pv_hdrvol.image.rgbe.write_hdr`.
         - ``.npy``: RGBA and depth, bit-exact, no metadata.
         - ``.png``: the default 8-bit display mapping (:meth:`save_png`).
+
+        Raises
+        ------
+        ValueError
+            For an unknown extension or ``pixel_type``.
+        OSError
+            Naming the file or folder: ``FileNotFoundError`` when the folder does not
+            exist, ``IsADirectoryError``, ``PermissionError`` (see
+            :func:`pv_hdrvol.image.io.check_writable`).
         """
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()
+        if ext not in (".exr", ".hdr", ".npy", ".png"):
+            raise ValueError(f"unknown image extension {ext!r}; use .exr, .hdr, .npy or .png")
+        _fileio.check_writable(path)
         if ext == ".exr":
             _fileio.write_exr(path, self.rgba, self.depth, self.metadata, pixel_type, self.value)
         elif ext == ".hdr":
@@ -168,10 +217,8 @@ class HDRImage:
             _rgbe.write_hdr(path, self.rgba[..., :3], metadata)
         elif ext == ".npy":
             _fileio.write_npy(path, self.rgba, self.depth)
-        elif ext == ".png":
-            self.save_png(path)
         else:
-            raise ValueError(f"unknown image extension {ext!r}; use .exr, .hdr, .npy or .png")
+            self.save_png(path)
         return path
 
     @classmethod
@@ -181,6 +228,14 @@ class HDRImage:
         ``.exr`` and ``.npy`` give back what was saved. ``.hdr`` gives an opaque
         picture: RGB as stored (``EXPOSURE`` not applied), alpha 1.0 everywhere, depth
         ``inf``, metadata from the ``PV_HDRVOL`` header line.
+
+        Raises
+        ------
+        FileNotFoundError, IsADirectoryError, PermissionError
+            As ``open(path)`` does, naming the path.
+        ValueError
+            For an unknown extension, or a file that is not a readable image of its
+            extension's format (another format, truncated, corrupt), naming the path.
         """
         path = pathlib.Path(os.fspath(path))
         ext = path.suffix.lower()

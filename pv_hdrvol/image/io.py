@@ -1,12 +1,39 @@
 """OpenEXR and numpy storage of HDR images."""
 from __future__ import annotations
 
+import errno
 import json
 import os
+import pathlib
 
 import numpy as np
 
 EXR_TYPES = ("float32", "float16")
+#: The first four bytes of every OpenEXR file.
+EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+
+def check_writable(path):
+    """Raise the ``OSError`` that writing ``path`` would meet, naming the file or folder.
+
+    ``FileNotFoundError`` when the folder does not exist, ``NotADirectoryError`` when
+    it is a file, ``IsADirectoryError`` when ``path`` is a folder, ``PermissionError``
+    when the folder (or an existing file) is not writable. Nothing is created.
+    OpenEXR reports these as ``RuntimeError``; this check lets every format, and the
+    command line before a long render, report them as Python does.
+    """
+    path = pathlib.Path(os.fspath(path))
+    folder = path.parent
+    if not folder.exists():
+        raise FileNotFoundError(errno.ENOENT, f"cannot write {str(path)!r}: no such folder", str(folder))
+    if not folder.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, f"cannot write {str(path)!r}: not a folder", str(folder))
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "cannot write an image over a folder", str(path))
+    if path.exists() and not os.access(path, os.W_OK):
+        raise PermissionError(errno.EACCES, "cannot write: the file is read-only", str(path))
+    if not path.exists() and not os.access(folder, os.W_OK | os.X_OK):
+        raise PermissionError(errno.EACCES, f"cannot write {str(path)!r}: the folder is not writable", str(folder))
 
 
 def _openexr():
@@ -34,25 +61,45 @@ def write_exr(path, rgba, depth, metadata, pixel_type="float32", value=None):
     channels = {"RGBA": rgba_out, "Z": np.ascontiguousarray(depth, dtype=np.float32)}
     if value is not None:
         channels["V"] = np.ascontiguousarray(value, dtype=np.float32)
-    with OpenEXR.File(header, channels) as f:
-        f.write(os.fspath(path))
+    check_writable(path)
+    try:
+        with OpenEXR.File(header, channels) as f:
+            f.write(os.fspath(path))
+    except RuntimeError as exc:  # OpenEXR's errors, e.g. a full disk
+        raise OSError(f"cannot write {os.fspath(path)!r}: {exc}") from None
 
 
 def read_exr(path):
-    """Return ``(rgba float32 (rows, cols, 4), depth or None, metadata dict, value or None)``."""
+    """Return ``(rgba float32 (rows, cols, 4), depth or None, metadata dict, value or None)``.
+
+    Raises
+    ------
+    FileNotFoundError, IsADirectoryError, PermissionError
+        As ``open(path)`` does.
+    ValueError
+        The file is not a readable OpenEXR image (another format, truncated, corrupt)
+        or has no RGB(A) channels.
+    """
     OpenEXR = _openexr()
-    with OpenEXR.File(os.fspath(path)) as f:
-        ch = f.channels()
-        header = dict(f.header())
-        if "RGBA" in ch:
-            rgba = np.asarray(ch["RGBA"].pixels, dtype=np.float32)
-        elif "RGB" in ch:
-            rgb = np.asarray(ch["RGB"].pixels, dtype=np.float32)
-            rgba = np.concatenate([rgb, np.ones(rgb.shape[:2] + (1,), np.float32)], axis=2)
-        else:
-            raise ValueError(f"{path}: no RGB(A) channels (found {sorted(ch)})")
-        depth = np.asarray(ch["Z"].pixels, dtype=np.float32) if "Z" in ch else None
-        value = np.asarray(ch["V"].pixels, dtype=np.float32) if "V" in ch else None
+    with open(path, "rb") as f:  # Python's own errors for missing files, folders, permissions
+        magic = f.read(4)
+    if magic != EXR_MAGIC:
+        raise ValueError(f"{os.fspath(path)!r} is not a readable OpenEXR image: it does not start with the OpenEXR "
+                         f"magic number (another format, or empty)")
+    try:
+        with OpenEXR.File(os.fspath(path)) as f:
+            header = dict(f.header())
+            ch = {name: np.asarray(c.pixels, dtype=np.float32) for name, c in f.channels().items()}
+    except (RuntimeError, ValueError) as exc:  # OpenEXR: "Invalid part index '0': file has 0 parts." and the like
+        raise ValueError(f"{os.fspath(path)!r} is not a readable OpenEXR image (truncated or corrupt): {exc}") \
+            from None
+    if "RGBA" in ch:
+        rgba = ch["RGBA"]
+    elif "RGB" in ch:
+        rgba = np.concatenate([ch["RGB"], np.ones(ch["RGB"].shape[:2] + (1,), np.float32)], axis=2)
+    else:
+        raise ValueError(f"{os.fspath(path)!r}: no RGB(A) channels (found {sorted(ch)})")
+    depth, value = ch.get("Z"), ch.get("V")
     meta = {}
     raw = header.get("pv_hdrvol")
     if isinstance(raw, (bytes, str)):
@@ -70,7 +117,11 @@ def write_npy(path, rgba, depth):
 
 
 def read_npy(path):
-    arr = np.load(os.fspath(path), allow_pickle=False)
+    """``(rgba, depth or None)`` of a file written by :func:`write_npy`; ``ValueError`` if it is not one."""
+    try:
+        arr = np.load(os.fspath(path), allow_pickle=False)
+    except (ValueError, EOFError) as exc:  # not a .npy file (numpy talks of pickles), or an empty one
+        raise ValueError(f"{os.fspath(path)!r} is not a readable .npy image: {exc}") from None
     if arr.ndim != 3 or arr.shape[2] not in (4, 5):
         raise ValueError(f"{path}: expected a (rows, cols, 4 or 5) array; got {arr.shape}")
     depth = arr[..., 4].astype(np.float64) if arr.shape[2] == 5 else None

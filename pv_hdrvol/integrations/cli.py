@@ -3,6 +3,7 @@
 ::
 
     pv-hdrvol render volume.vti --scalars density -o out.exr --png out.png --size 800 600
+    pv-hdrvol render volume.vti -o out.exr --png figure.png --tonemap drago --colorbar
     pv-hdrvol demo -o outdir --size 128
     pv-hdrvol info out.exr
 
@@ -12,15 +13,21 @@ argparse-style message on stderr and exit status 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import pathlib
 import sys
 
 from .. import __version__
 from ..data.transfer import SCALES
+from ..image.tonemap import OPERATORS
 from ..params import BLENDINGS, PRECISIONS
 
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
-READABLE = (".vti", ".vtk", ".vtu", ".nrrd", ".nhdr", ".mha", ".mhd")
+#: Extensions ``pv-hdrvol render`` reads (with ``pyvista.read``); the help is made from it.
+READABLE = (".vti", ".vtk", ".vtu", ".nrrd", ".nhdr", ".mha", ".mhd", ".cube")
+#: Of those, the ones that hold tetrahedral meshes (``.vtk`` holds either kind).
+MESH_FORMATS = (".vtu", ".vtk")
 
 
 class UserError(Exception):
@@ -49,20 +56,37 @@ def _add_render_options(p):
                    help="show a progress bar (default: when stderr is a terminal)")
 
 
+def _add_preview_options(p, png_option):
+    g = p.add_argument_group(f"PNG preview ({png_option})")
+    g.add_argument("--tonemap", choices=sorted(OPERATORS), default=None, metavar="NAME",
+                   help=f"tone-mapping operator of the preview, one of {', '.join(sorted(OPERATORS))} "
+                        f"(pv_hdrvol.tonemap with its default parameters; default: auto exposure and clamp)")
+    g.add_argument("--colorbar", action="store_true",
+                   help="add the transfer function's colour bar, ticks in data units (log ticks on a log axis), "
+                        "to the right of the preview (needs matplotlib)")
+
+
 def build_parser():
     """The ``argparse`` parser of ``pv-hdrvol`` (sub-commands render, demo, info)."""
     parser = argparse.ArgumentParser(prog="pv-hdrvol", description="High-dynamic-range volume rendering to OpenEXR.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    p = sub.add_parser("render", help="render a volume file (.vti, .vtk, .nrrd, ...)",
-                       description="Render an image volume read with pyvista.read to a float OpenEXR image.")
-    p.add_argument("file", metavar="FILE", help="volume file (.vti, .vtk, .nrrd, .nhdr, .mha, .mhd)")
+    p = sub.add_parser("render", help=f"render a volume or mesh file ({', '.join(READABLE)})",
+                       description="Render an image volume or a tetrahedral mesh read with pyvista.read to a float "
+                                   "OpenEXR image. Gaussian cube files (.cube) are rendered as pyvista.read gives "
+                                   "them: in grid index units (spacing 1, origin 0, axis-aligned), without the "
+                                   "cube's own origin, step and axis directions (a note on stderr says so).")
+    p.add_argument("file", metavar="FILE",
+                   help=f"image volume or tetrahedral mesh, one of {', '.join(READABLE)} "
+                        f"(meshes: {', '.join(MESH_FORMATS)})")
     p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
     p.add_argument("-o", "--output", default=None, metavar="OUT.exr",
                    help="output image, .exr or .npy (default: FILE's stem + .exr in the current directory)")
-    p.add_argument("--png", default=None, metavar="OUT.png", help="also write an 8-bit preview (auto exposure)")
+    p.add_argument("--png", default=None, metavar="OUT.png",
+                   help="also write an 8-bit preview (auto exposure, or --tonemap)")
     _add_render_options(p)
+    _add_preview_options(p, "--png")
     tf = p.add_argument_group("transfer function (a colormap ramp; default: chosen from the data range)")
     tf.add_argument("--vmin", type=float, default=None, help="bottom of the range (default: data minimum, "
                     "smallest positive value for --scale log)")
@@ -82,11 +106,16 @@ def build_parser():
                    help="quantum numbers (default 3 2 0)")
     p.add_argument("--grid", type=int, default=64, metavar="N", help="volume points per axis (default 64)")
     _add_render_options(p)
+    _add_preview_options(p, "demo.png")
     p.set_defaults(handler=_cmd_demo, subparser=p)
 
-    p = sub.add_parser("info", help="print the statistics and metadata of an image",
-                       description="Print the statistics and metadata of an image written by pv-hdrvol (.exr, .npy).")
-    p.add_argument("file", metavar="FILE.exr", help="image file (.exr or .npy)")
+    p = sub.add_parser("info", help="print the statistics, render settings and metadata of an image",
+                       description="Print the statistics, render settings and metadata of an image written by "
+                                   "pv-hdrvol (.exr, .hdr, .npy). The settings re-render the image in Python: "
+                                   "pv_hdrvol.load(FILE).settings().render(data).")
+    p.add_argument("file", metavar="FILE.exr", help="image file (.exr, .hdr or .npy)")
+    p.add_argument("--json", action="store_true",
+                   help="print the metadata as JSON instead (all of the settings: every control point)")
     p.set_defaults(handler=_cmd_info, subparser=p)
     return parser
 
@@ -126,6 +155,11 @@ def _cmd_render(args):
     if path.suffix.lower() not in READABLE:
         raise UserError(f"cannot read {str(path)!r}: unknown extension {path.suffix!r}; "
                         f"use one of {', '.join(READABLE)}")
+    output = pathlib.Path(args.output) if args.output else pathlib.Path(path.stem + ".exr")
+    png = _check_outputs(output, args.png)
+    if png is None and (args.colorbar or args.tonemap):
+        option = "--colorbar" if args.colorbar else "--tonemap"
+        raise UserError(f"{option} styles the PNG preview; add --png OUT.png")
     try:
         dataset = pv.read(path)
     except Exception as exc:  # readers raise anything from OSError to ValueError
@@ -134,6 +168,9 @@ def _cmd_render(args):
         kind = type(dataset).__name__
         raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) and "
                         f"tetrahedral meshes (UnstructuredGrid)")
+    if path.suffix.lower() == ".cube" and tuple(dataset.spacing) == (1.0, 1.0, 1.0) \
+            and tuple(dataset.origin) == (0.0, 0.0, 0.0):  # index units: what pyvista 0.4x's reader gives
+        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
     try:
         if isinstance(dataset, pv.UnstructuredGrid):
             from ..data.tets import tetmesh_from_dataset
@@ -144,13 +181,16 @@ def _cmd_render(args):
     except (ScalarsError, ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
     tf = _transfer_function(args, volume)
-    output = pathlib.Path(args.output) if args.output else pathlib.Path(path.stem + ".exr")
-    png = _check_outputs(output, args.png)
+    if tf is None and args.colorbar:  # the bar needs the function the core would choose
+        from ..raycast.grid import default_transfer_function
+
+        tf = default_transfer_function(volume)
     image = _render(args, volume, tf, default_view="iso")
     image.metadata["source_file"] = str(path)
-    _write(image, output, png)
+    _write(image, output, png, args, tf, volume.name.strip())
     shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
-    _print_stats(image, f"{path.name} ({volume.name}, {shape})")
+    # .strip(): pyvista names a cube's array after its comment line (" SCF Total Density\n")
+    _print_stats(image, f"{path.name} ({volume.name.strip()}, {shape})")
 
 
 def _cmd_demo(args):
@@ -164,13 +204,18 @@ def _cmd_demo(args):
     out_dir = pathlib.Path(args.output_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise UserError(f"--output-dir {str(out_dir)!r} exists and is not a directory")
-    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--output-dir: cannot create {str(out_dir)!r}: {exc.strerror}") from None
+    for name in ("demo.exr", "demo.png"):
+        _check_writable("--output-dir", out_dir / name)
     tf = demo_transfer_function(vmax=float(grid["probability_density"].max()))
     # the side view shows the nodal cones of the default 3d_z2 orbital as dark wedges;
     # zoom: the cube's corners hold almost nothing visible
     image = _render(args, grid, tf, default_view="xz", zoom=1.5)
     image.metadata["source"] = f"pv_hdrvol.datasets.hydrogen_orbital(n={n}, l={l}, m={m}, size={args.grid})"
-    _write(image, out_dir / "demo.exr", out_dir / "demo.png")
+    _write(image, out_dir / "demo.exr", out_dir / "demo.png", args, tf, "probability density")
     _print_stats(image, f"hydrogen orbital n={n} l={l} m={m} on {args.grid}^3 points")
 
 
@@ -180,16 +225,23 @@ def _cmd_info(args):
     path = _existing_file(args.file)
     try:
         image = HDRImage.load(path)
-    except ValueError as exc:
+    except ValueError as exc:  # names the file: unknown extension, not an EXR, truncated...
         raise UserError(str(exc)) from None
-    except Exception as exc:  # a corrupt or foreign file
+    except Exception as exc:  # anything else a corrupt or foreign file may cause
         raise UserError(f"cannot read {str(path)!r}: {exc}") from None
+    if args.json:
+        print(json.dumps(image.metadata, indent=2, sort_keys=True))
+        return
     _print_stats(image, path.name)
-    if image.metadata:
+    settings = image.metadata.get("settings")
+    if isinstance(settings, dict):
+        _print_settings(settings)
+    rest = {k: v for k, v in image.metadata.items() if k != "settings"}
+    if rest:
         print("metadata:")
-        for key in sorted(image.metadata):
-            print(f"  {key}: {image.metadata[key]}")
-    else:
+        for key in sorted(rest):
+            print(f"  {key}: {rest[key]}")
+    elif not settings:
         print("metadata: none")
 
 
@@ -249,26 +301,103 @@ def _render(args, volume, tf, default_view, zoom=1.0):
 
 
 def _check_outputs(output, png):
-    """Check the output names before spending time on a render; returns ``png`` as a path."""
+    """Check the output names and folders before spending time on a render; returns
+    ``png`` as a path."""
     if output.suffix.lower() not in (".exr", ".npy"):
         raise UserError(f"output {str(output)!r} must end in .exr or .npy")
+    _check_writable("-o/--output", output)
     if png is None:
         return None
     png = pathlib.Path(png)
     if png.suffix.lower() != ".png":
         raise UserError(f"--png {str(png)!r} must end in .png")
+    _check_writable("--png", png)
     return png
 
 
-def _write(image, output, png):
+def _check_writable(option, path):
+    from ..image.io import check_writable
+
+    try:
+        check_writable(path)
+    except OSError as exc:  # e.g. "cannot write 'a/b.exr': no such folder: 'a'"
+        raise UserError(f"{option}: {exc.strerror}: {exc.filename!r}") from None
+
+
+def _cube_note(path):
+    """What ``pyvista.read`` leaves out of a Gaussian cube file's geometry."""
+    detail = ""
+    try:  # lines 4-6 of the header: points along each axis and that axis's step vector
+        with open(path) as f:
+            lines = [f.readline() for _ in range(6)]
+        steps = [math.hypot(*(float(x) for x in line.split()[1:4])) for line in lines[3:6]]
+        detail = f" (steps {', '.join(f'{s:.6g}' for s in steps)})"
+    except (OSError, ValueError, TypeError):
+        pass
+    return (f"{path.name} is rendered as pyvista.read gives it, in grid index units (spacing 1, origin 0, "
+            f"axis-aligned); the cube's origin, step{detail} and axis directions are not applied")
+
+
+def _write(image, output, png, args, tf, label):
     try:
         image.save(output)
         print(f"wrote {output}")
         if png is not None:
-            image.save_png(png)
+            _write_preview(image, png, args, tf, label)
             print(f"wrote {png}")
     except OSError as exc:
         raise UserError(f"cannot write: {exc}") from None
+
+
+def _write_preview(image, png, args, tf, label):
+    """The PNG preview: auto exposure and clamp (default) or ``--tonemap``, with ``--colorbar``."""
+    if args.tonemap is None and not args.colorbar:
+        image.save_png(png)
+        return
+    picture = image.tonemap(args.tonemap).rgb8 if args.tonemap else image.to_display()
+    if args.colorbar:
+        from ..image.colorbar import save_png_with_colorbar  # matplotlib only when asked for
+
+        save_png_with_colorbar(png, picture, tf, label=label or None)
+    else:
+        from ..image.hdr import _write_png
+
+        _write_png(png, picture)
+
+
+def _print_settings(stored):
+    """The ``"settings"`` metadata entry, readably (``info --json`` prints all of it)."""
+    from ..settings import RenderSettings
+
+    try:
+        s = RenderSettings.from_dict(stored)
+    except (ValueError, TypeError) as exc:
+        print(f"render settings: unreadable ({exc})")
+        return
+    tf, cam = s.tf, s.camera
+    print("render settings (pv_hdrvol.load(FILE).settings()):")
+    print(f"  size:               {s.size[0]}x{s.size[1]}")
+    if cam is None:
+        print("  camera:             none (rendered from rays)")
+    else:
+        projection = (f"parallel, scale {cam.parallel_scale!r}" if cam.parallel_projection
+                      else f"perspective, view angle {cam.view_angle!r} degrees")
+        print(f"  camera:             position {_vec(cam.position)}, focal point {_vec(cam.focal_point)}, "
+              f"view up {_vec(cam.view_up)}, {projection}")
+    print(f"  transfer function:  {tf.values.size} control points over [{tf.vmin!r}, {tf.vmax!r}], "
+          f"scale {tf.scale}" + (f" (linthresh {tf.linthresh!r})" if tf.scale == "symlog" else "")
+          + f", colours in {tf.color_space}, opacity {tf.opacities.min():.6g} to {tf.opacities.max():.6g}, "
+          f"table of {tf.table_size} entries")
+    options = stored.get("options", {})
+    print(f"  options:            {', '.join(f'{k}={v!r}' for k, v in options.items())}")
+    if s.keywords:
+        print(f"  keywords:           {', '.join(f'{k}={v!r}' for k, v in s.keywords.items())}")
+    if stored.get("not_stored"):
+        print(f"  not stored:         {', '.join(stored['not_stored'])} (settings() needs partial=True)")
+
+
+def _vec(v):
+    return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
 
 
 def _print_stats(image, title):

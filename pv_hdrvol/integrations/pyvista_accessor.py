@@ -104,6 +104,10 @@ class HDRVolAccessor:
         from ..raycast.grid import render_volume
 
         self._check_renderable()
+        if self._dataset.GetClassName() == "vtkUnstructuredGrid":
+            from ..data.tets import check_has_cells
+
+            check_has_cells(self._dataset)  # before its (unset) bounds frame a camera
         cam = resolve_camera(camera, self._dataset.bounds)
         if self._dataset.GetClassName() == "vtkUnstructuredGrid":
             from ..raycast.tets import render_tets

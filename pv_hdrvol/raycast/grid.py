@@ -14,6 +14,7 @@ from ..image.hdr import HDRImage
 from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays
+from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
 from .shading import shading_arrays, shading_metadata
@@ -462,6 +463,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         "depth_threshold": opts.depth_threshold,
         "transfer_function": repr(tf),
         "camera": repr(camera) if isinstance(camera, Camera) else "rays",
+        "settings": settings_metadata(tf, camera, (width, height), opts, lens=lens, labels=labels,
+                                      label_styles=label_styles, block_mask=block_mask),
         "render_seconds": elapsed,
         "samples": int(samples.sum()),
     }

@@ -35,7 +35,7 @@ def shading_arrays(opts, spacing):
         if light.is_headlight:
             lights[k, 6] = 1.0
         else:
-            lights[k, :3] = light.direction
+            lights[k, :3] = light.unit_direction
         lights[k, 3:6] = light.intensity
     return shading, lights
 

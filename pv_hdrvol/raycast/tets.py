@@ -17,6 +17,7 @@ from ..image.hdr import HDRImage
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
+from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
 from .grid import _TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function, run_in_chunks
@@ -171,6 +172,7 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
         "depth_threshold": opts.depth_threshold,
         "transfer_function": repr(tf),
         "camera": repr(camera),
+        "settings": settings_metadata(tf, camera, (width, height), opts, {"tau_max": tau_max}),
         "boundary_seconds": t_hits,
         "render_seconds": elapsed,
         "cells": int(cells.sum()),
@@ -229,6 +231,9 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     t2 = time.perf_counter()
     out = upsample(low, layers, factor)
     t3 = time.perf_counter()
+    # the settings of the whole render, not of its low-resolution part
+    out.metadata["settings"] = {**low.metadata["settings"], "size": [width, height],
+                                "keywords": {**low.metadata["settings"]["keywords"], "upsample": factor}}
     out.metadata.update({"low_render_seconds": t1 - t0, "reference_seconds": t2 - t1, "upsample_seconds": t3 - t2,
                          "reference_layers": layers.n_layers, "layers_needed": layers.layers_needed})
     return out

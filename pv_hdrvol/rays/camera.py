@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import NamedTuple, Optional
 
 import numpy as np
@@ -226,6 +226,32 @@ class Camera:
             raise ValueError("cameras with UseHorizontalViewAngle are not supported; switch it off")
         return cls(cam.GetPosition(), cam.GetFocalPoint(), cam.GetViewUp(), view_angle=cam.GetViewAngle(),
                    parallel_projection=bool(cam.GetParallelProjection()), parallel_scale=cam.GetParallelScale())
+
+    # -- plain values (JSON) ---------------------------------------------------------
+    def to_dict(self):
+        """The camera as plain Python values (lists, floats, a bool), ready for JSON;
+        :meth:`from_dict` gives back an equal camera (JSON keeps float64 exactly).
+
+        Examples
+        --------
+        >>> cam = Camera((0.1, 0, 10), (0, 0, 0), (0, 1, 0), view_angle=1 / 3)
+        >>> cam.to_dict()["position"], Camera.from_dict(cam.to_dict()) == cam
+        ([0.1, 0.0, 10.0], True)
+        """
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        return {name: list(v) if isinstance(v, tuple) else v for name, v in values.items()}
+
+    @classmethod
+    def from_dict(cls, data):
+        """A camera from :meth:`to_dict`'s form; absent keys take the constructor's
+        defaults, unknown keys raise ``ValueError``."""
+        if not hasattr(data, "keys"):
+            raise TypeError(f"Camera.from_dict needs a dict; got {type(data).__name__}")
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(data) - set(names))
+        if unknown:
+            raise ValueError(f"Camera.from_dict: unknown keys {unknown}; allowed: {names}")
+        return cls(**data)
 
     def to_vtk(self):
         """A ``vtkCamera`` with the same parameters."""

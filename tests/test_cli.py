@@ -67,6 +67,20 @@ def test_render_matches_library(volume_file, tmp_path, capsys):
     assert _png_size(out_png) == (20, 16)
 
 
+def test_render_shaded_matches_library(volume_file, tmp_path):
+    out_exr = tmp_path / "s.exr"
+    args = ["render", str(volume_file), "-o", str(out_exr), "--size", "18", "--shade", "--specular", "0.6",
+            "--specular-power", "20", "--ambient", "0.05", "--diffuse", "0.9", "--light", "0", "0", "1",
+            "--light", "1", "1", "0", "--no-progress"]
+    assert main(args) == 0
+    grid = pv.read(volume_file)
+    ref = hv.render(grid, None, hv.Camera.fit(grid.bounds, "iso"), (18, 18), shade=True, specular=0.6,
+                    specular_power=20.0, ambient=0.05, diffuse=0.9, lights=[(0, 0, 1), (1, 1, 0)])
+    image = hv.load(out_exr)
+    np.testing.assert_array_equal(image.rgba, ref.rgba)
+    assert image.settings().options.lights == (hv.Light((0, 0, 1)), hv.Light((1, 1, 0)))
+
+
 def test_render_maximum_projection_keeps_the_value(volume_file, tmp_path, capsys):
     out_exr = tmp_path / "mip.exr"
     args = ["render", str(volume_file), "-o", str(out_exr), "--size", "12", "--blending", "maximum",

@@ -52,6 +52,14 @@ def _add_render_options(p):
                    help="composite (default), maximum/minimum intensity projection, average, or additive (X-ray); "
                         "projections also store the projected value (EXR channel V)")
     p.add_argument("--view", default=None, metavar="VIEW", help=f"camera direction, one of {', '.join(VIEWS)}")
+    g = p.add_argument_group("shading (Blinn-Phong by the gradient; composite blending)")
+    g.add_argument("--shade", action="store_true", default=None, help="light the volume (default: unlit)")
+    g.add_argument("--ambient", type=float, default=None, help="ambient weight (default 0.1)")
+    g.add_argument("--diffuse", type=float, default=None, help="diffuse weight (default 0.7)")
+    g.add_argument("--specular", type=float, default=None, help="specular weight (default 0.2)")
+    g.add_argument("--specular-power", type=float, default=None, help="specular exponent (default 10)")
+    g.add_argument("--light", type=float, nargs=3, action="append", default=None, metavar=("X", "Y", "Z"),
+                   help="a white light from this world direction (repeatable; default: a headlight)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
 
@@ -288,9 +296,11 @@ def _transfer_function(args, volume):
 def _render(args, volume, tf, default_view, zoom=1.0):
     from .. import Camera, render
 
-    options = {name: value for name, value in (("step", args.step), ("precision", args.precision),
-                                               ("global_alpha", args.global_alpha), ("blending", args.blending))
-               if value is not None}
+    names = ("step", "precision", "global_alpha", "blending", "shade", "ambient", "diffuse", "specular",
+             "specular_power")
+    options = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
+    if args.light is not None:
+        options["lights"] = [tuple(d) for d in args.light]
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         size = _size(args.size)

@@ -306,3 +306,206 @@ def colormap_rgb(cmap, t):
     else:
         raise TypeError(f"cmap must be a colormap name or a matplotlib colormap; got {cmap!r}")
     return np.asarray(cm(t), dtype=np.float64)[:, :3]
+
+
+# -- the default transfer function -----------------------------------------------------------
+#: Colormap of the default transfer function, and the part of it used: its darkest
+#: eighth would vanish against a black background.
+DEFAULT_CMAP = "magma"
+_CMAP_START = 0.125
+#: Transmittance left by a ray through the whole volume if every voxel it crossed were
+#: an average voxel of the data: the default opacity keeps the average ray from saturating.
+DEFAULT_TRANSMITTANCE = 0.25
+_HIST_BINS = 256
+
+
+def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin=None, vmax=None,
+                           cmap=DEFAULT_CMAP, opacity=None):
+    """The default transfer function of ``values``: what a careful user would set by hand.
+
+    - **Axis**: ``log`` when the data are not negative and their positive values span
+      more than 3 decades from the 1st percentile to the maximum (zeros are empty; a
+      few stray tiny values do not count), ``symlog`` when they have both signs and
+      their magnitudes span more than 3 decades, else ``linear`` (``scale``
+      overrides).
+    - **Background**: the histogram's dominant mode (air in CT, the floor of a density
+      field) stays transparent when it lies in the lower half of the axis: opacity
+      starts at the first valley of the smoothed histogram after the mode (or where it
+      falls below 5 % of the mode), ``vmin``. Otherwise ``vmin`` is the 0.5th
+      percentile.
+    - **Structure**: the colormap and the opacity ramp span ``[vmin, vmax]``,
+      ``vmax`` the 99.9th percentile of the values above ``vmin``.
+    - **Opacity**: 0 at ``vmin``, rising to ``a`` at ``vmax``: linearly along a linear
+      or symlog axis; on a log axis in proportion to the value (a density: faint
+      decades get little opacity and stay visible in the HDR image, instead of
+      fogging the view). ``a`` is chosen so that rays through the data keep a
+      transmittance of :data:`DEFAULT_TRANSMITTANCE` (the HDR VolVis rule
+      ``alpha = 1 - exp(ln(r) / n)`` for ``n`` samples, applied to the data's mix of
+      values; ``s(v)`` is the opacity's shape). On a grid (3-D ``values`` with
+      ``spacing``) the rays are the grid's columns along its three axes, and the 95th
+      percentile of their optical depths ``sum a s(v) spacing`` (in unit distances, to
+      first order in ``a``) is held to ``-ln(0.25)``: the densest rays stay readable.
+      Elsewhere a ray of ``ray_length`` through average voxels is:
+      ``ray_length * mean(-ln(1 - a s(v))) = -ln(0.25)``.
+
+    Parameters
+    ----------
+    values : array of real numbers
+        The data (any shape; NaN and inf ignored).
+    ray_length : float
+        The longest ray through the data in unit distances (voxels of the smallest
+        spacing; cells for a mesh).
+    spacing : sequence of 3 floats, optional
+        With 3-D ``values`` (z, y, x) of a grid: its (x, y, z) spacing in unit
+        distances; the opacity then follows from the grid's columns.
+    scale, vmin, vmax, cmap : optional
+        Override the axis, the range and the colormap.
+    opacity : (float, float), optional
+        Override the opacity at ``vmin`` and at ``vmax``.
+
+    Returns
+    -------
+    TransferFunction
+
+    Examples
+    --------
+    >>> v = np.concatenate([np.zeros(9000), np.linspace(50, 200, 1000)])  # 90 % background
+    >>> tf = auto_transfer_function(v, ray_length=30)
+    >>> tf.scale, float(tf.opacity_at(0.0)), tf.vmin > 0, tf.vmax > 190
+    ('linear', 0.0, True, True)
+    """
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return TransferFunction.ramp(0.0, 1.0, cmap=_cmap_colors(cmap), opacity=(0.0, 0.0))
+    lo, hi = float(v.min()), float(v.max())
+    if scale is None:
+        scale = _default_scale(v, lo, hi)
+    scale = as_choice("scale", scale, SCALES)
+    linthresh = 1.0
+    if scale == "log":
+        v = v[v > 0]
+        if v.size == 0:
+            raise ValueError(f"scale='log' needs positive data; the values span [{lo:g}, {hi:g}]")
+        lo = float(v.min())
+    elif scale == "symlog":
+        nonzero = np.abs(v[v != 0])
+        linthresh = float(nonzero.min()) if nonzero.size else 1.0
+    axis = scale_forward(v, scale, linthresh)
+    a_lo, a_hi = float(axis.min()), float(axis.max())
+    if vmin is None or vmax is None:
+        t0, t1 = _structure_range(axis, a_lo, a_hi)
+        if vmin is None:
+            vmin = float(_scale_inverse([t0], scale, linthresh)[0]) if t0 > a_lo else lo
+        if vmax is None:
+            vmax = float(_scale_inverse([t1], scale, linthresh)[0]) if t1 < a_hi else hi
+    vmin, vmax = float(vmin), float(vmax)
+    if not vmax > vmin:  # constant data, or a range collapsed by the overrides
+        pad = max(abs(vmin), 1.0) * 1e-3 if scale != "log" else vmin * 1e-3
+        vmin, vmax = (vmin - pad, vmax + pad) if scale != "log" else (vmin, vmax + pad)
+        if scale == "log" and vmin <= 0:
+            vmin = vmax * 1e-3
+    n = 128 if scale == "log" else 64
+    if opacity is None:
+        # the opacity's shape at the ramp's control points: linear along the axis, or on a
+        # log axis proportional to the value (a density: every decade keeps its share
+        # of the light, faint ones faint, and the HDR image keeps them)
+        axis_points = np.linspace(*scale_forward([vmin, vmax], scale, linthresh), n)
+        if scale == "log":
+            points = 10.0 ** axis_points / vmax
+            points[0] = 0.0  # the background stays transparent
+        else:
+            points = np.linspace(0.0, 1.0, n)
+        raw = np.asarray(values)
+        if spacing is not None and raw.ndim == 3:
+            opacity = _column_opacity(raw, scale, linthresh, axis_points, points, spacing) * points
+        else:
+            shape = np.interp(axis, axis_points, points)
+            if scale == "log":  # values <= 0 (dropped above) are empty: they count as transparent voxels
+                shape = np.concatenate([shape, np.zeros(int(np.count_nonzero(raw <= 0)))])
+            opacity = _ray_opacity(shape, float(ray_length)) * points
+    return TransferFunction.ramp(vmin, vmax, scale=scale, cmap=_cmap_colors(cmap), opacity=opacity, n_colors=n,
+                                 linthresh=linthresh)
+
+
+def _default_scale(v, lo, hi):
+    """``log`` for non-negative data whose positive values span more than 3 decades
+    (zeros are then empty), ``symlog`` for data of both signs whose magnitudes do,
+    else ``linear``."""
+    if lo >= 0 and hi > 0:
+        positive = v[v > 0]
+        return "log" if hi / np.percentile(positive, 1.0) > 1e3 else "linear"
+    if lo < 0 < hi:
+        mags = np.abs(v[v != 0])
+        if mags.size and mags.max() / mags.min() > 1e3:
+            return "symlog"
+    return "linear"
+
+
+def _structure_range(axis, a_lo, a_hi):
+    """``(t0, t1)`` on the axis: past the dominant low mode, to the 99.9th percentile."""
+    if not a_hi > a_lo:
+        return a_lo, a_hi
+    counts, edges = np.histogram(axis, bins=_HIST_BINS, range=(a_lo, a_hi))
+    smooth = np.convolve(counts, np.ones(3) / 3.0, mode="same")
+    mode = int(np.argmax(counts))
+    t0 = float(np.percentile(axis, 0.5))
+    if mode < _HIST_BINS // 2:
+        peak = smooth[mode]
+        end = mode + 1
+        while end < _HIST_BINS - 1 and smooth[end] >= 0.05 * peak and not (
+                smooth[end] < smooth[end - 1] and smooth[end] <= smooth[end + 1]):
+            end += 1
+        t0 = float(edges[end])
+    above = axis[axis > t0]
+    t1 = float(np.percentile(above, 99.9)) if above.size else a_hi
+    return t0, max(t1, t0)
+
+
+def _ray_opacity(shape, ray_length):
+    """The largest opacity ``a`` (per unit distance) with
+    ``ray_length * mean(-ln(1 - a shape)) <= -ln(DEFAULT_TRANSMITTANCE)``, by bisection."""
+    target = -np.log(DEFAULT_TRANSMITTANCE) / max(ray_length, 1.0)
+    if shape.size == 0 or not np.any(shape > 0):
+        return 1.0
+    # bin the shape: the mean over millions of voxels, cheaply
+    hist, edges = np.histogram(shape, bins=1024, range=(0.0, 1.0))
+    centers = 0.5 * (edges[:-1] + edges[1:])
+    weights = hist / shape.size
+
+    def depth(a):
+        return float(weights @ -np.log1p(-np.minimum(a * centers, _ALPHA_MAX)))
+
+    if depth(1.0) <= target:
+        return 1.0
+    lo, hi = 0.0, 1.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if depth(mid) <= target else (lo, mid)
+    return lo
+
+
+def _column_opacity(values, scale, linthresh, axis_points, points, spacing):
+    """The opacity ``a`` (per unit distance) whose 95th percentile of column optical
+    depths ``sum a s(v) spacing`` along the grid's three axes is ``-ln(r)``."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        axis = scale_forward(values, scale, linthresh)
+    shape = np.interp(axis, axis_points, points)
+    shape[~np.isfinite(axis)] = 0.0  # NaN, and values <= 0 on a log axis: empty
+    depths = [shape.sum(axis=2).ravel() * spacing[0], shape.sum(axis=1).ravel() * spacing[1],
+              shape.sum(axis=0).ravel() * spacing[2]]
+    d95 = float(np.percentile(np.concatenate(depths), 95.0))
+    if not d95 > 0:
+        return 1.0
+    return float(min(-np.log(DEFAULT_TRANSMITTANCE) / d95, 1.0))
+
+
+def _cmap_colors(cmap):
+    """``cmap`` as a callable colormap without its darkest part, or as given (a name
+    other than the default, or a colormap object, is used whole)."""
+    if cmap != DEFAULT_CMAP:
+        return cmap
+
+    def start_above_black(t):
+        return colormap_rgb(DEFAULT_CMAP, _CMAP_START + (1.0 - _CMAP_START) * np.asarray(t))
+    return start_above_black

@@ -175,11 +175,12 @@ def _central(bricks, g, x, y, z, ax):
 
 
 @kernel
-def _shade(bricks, gvec, g, shading, lights, axis, v, x, y, z, dx, dy, dz, r, gg, b):
+def _shade(bricks, gvec, g, shading, lights, axis, v, x, y, z, ex, ey, ez, r, gg, b):
     """The lit colour ``(r, g, b)`` (float64, not clamped: HDR) of the sample of value
-    ``v`` at voxel position ``(x, y, z)`` on the ray of voxel direction ``(dx, dy, dz)``
-    (``_shading_kernels``). ``axis`` is the sample's transfer-function axis
-    ``(scale, lo, 1 / range, linthresh)``, over which the lighting fades in."""
+    ``v`` at voxel position ``(x, y, z)`` seen from the unit world direction
+    ``(ex, ey, ez)`` (towards the eye; ``_eye``) (``_shading_kernels``). ``axis`` is
+    the sample's transfer-function axis ``(scale, lo, 1 / range, linthresh)``, over
+    which the lighting fades in."""
     if shading[SH_SAMPLED] != 0.0:
         gx = _central(bricks, g, x, y, z, 0) * shading[SH_INV_SPACING]
         gy = _central(bricks, g, x, y, z, 1) * shading[SH_INV_SPACING + 1]
@@ -190,13 +191,18 @@ def _shade(bricks, gvec, g, shading, lights, axis, v, x, y, z, dx, dy, dz, r, gg
         gy = _trilinear(gvec, n3, g[0], g[1], g[2], g[9], g[10], x, y, z)
         gz = _trilinear(gvec, 2 * n3, g[0], g[1], g[2], g[9], g[10], x, y, z)
     w = fade_weight(math.sqrt(gx * gx + gy * gy + gz * gz), v, int(axis[0]), axis[2], axis[3], shading[SH_FADE])
-    # towards the eye, in world units (the ray runs in voxel coordinates)
+    mr, mg, mb, kr, kg, kb = light_factors(gx, gy, gz, ex, ey, ez, w, shading, lights)
+    return np.float64(r) * mr + kr, np.float64(gg) * mg + kg, np.float64(b) * mb + kb
+
+
+@kernel
+def _eye(shading, dx, dy, dz):
+    """The unit world direction towards the eye of a ray of voxel direction ``(dx, dy, dz)``."""
     ex = -dx * shading[SH_SPACING]
     ey = -dy * shading[SH_SPACING + 1]
     ez = -dz * shading[SH_SPACING + 2]
     el = math.sqrt(ex * ex + ey * ey + ez * ez)
-    mr, mg, mb, kr, kg, kb = light_factors(gx, gy, gz, ex / el, ey / el, ez / el, w, shading, lights)
-    return np.float64(r) * mr + kr, np.float64(gg) * mg + kg, np.float64(b) * mb + kb
+    return ex / el, ey / el, ez / el
 
 
 # -- projections ------------------------------------------------------------------------------
@@ -379,6 +385,7 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
     stopped = False
     # full segment k has its midpoint at (bx0, by0, bz0) + k (sx, sy, sz), as _kernels._march_plain
     bx0, by0, bz0, sx, sy, sz = midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step)
+    ex, ey, ez = _eye(shading, dx, dy, dz) if e.shade else (0.0, 0.0, 1.0)
     while k < n_seg and not stopped:
         ta = t0 + k * step
         last = k == n_seg - 1
@@ -454,7 +461,7 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
         if a_i <= 0.0:
             continue
         if e.shade:
-            r, gg, b = _shade(bricks, gvec, g, shading, lights, axes[slot], v, xm, ym, zm, dx, dy, dz, r, gg, b)
+            r, gg, b = _shade(bricks, gvec, g, shading, lights, axes[slot], v, xm, ym, zm, ex, ey, ez, r, gg, b)
         state = _accumulate(marker, prec, state, a_i, r, gg, b)
         alpha = _opacity(marker, state)
         if depth == math.inf and alpha >= p.depth_alpha:

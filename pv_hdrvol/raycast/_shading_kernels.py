@@ -68,6 +68,7 @@ def light_factors(gx, gy, gz, ex, ey, ez, w, shading, lights):
     sg = 0.0
     sb = 0.0
     power = shading[SH_POWER]
+    ks = shading[SH_SPECULAR]
     for k in range(lights.shape[0]):
         if lights[k, 6] != 0.0:
             lx = ex
@@ -83,6 +84,8 @@ def light_factors(gx, gy, gz, ex, ey, ez, w, shading, lights):
         dr += lights[k, 3] * ndl
         dg += lights[k, 4] * ndl
         db += lights[k, 5] * ndl
+        if ks == 0.0:
+            continue
         hx = lx + ex
         hy = ly + ey
         hz = lz + ez
@@ -96,6 +99,5 @@ def light_factors(gx, gy, gz, ex, ey, ez, w, shading, lights):
                 sb += lights[k, 5] * s
     ka = shading[SH_AMBIENT]
     kd = shading[SH_DIFFUSE]
-    ks = shading[SH_SPECULAR]
     return (1.0 + w * (ka + kd * dr - 1.0), 1.0 + w * (ka + kd * dg - 1.0), 1.0 + w * (ka + kd * db - 1.0),
             w * ks * sr, w * ks * sg, w * ks * sb)

@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, volume_from_array
-from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, scale_forward
+from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, auto_transfer_function, scale_forward
 from ..image.hdr import HDRImage
 from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
@@ -39,17 +39,16 @@ def as_volume(data, scalars=None, preference="point"):
 
 
 def default_transfer_function(volume):
-    """A magma ramp over the data range, on a log axis when positive data spans > 3 decades."""
-    lo, hi = volume.value_range
-    v = volume.values
-    if hi > 0 and np.issubdtype(v.dtype, np.floating):
-        pos = v[v > 0]
-        pmin = float(pos.min()) if pos.size else hi
-        if lo >= 0 and pmin > 0 and hi / pmin > 1e3:
-            return TransferFunction.ramp(pmin, hi, scale="log", cmap="magma")
-    if hi <= lo:
-        hi = lo + 1.0
-    return TransferFunction.ramp(lo, hi, cmap="magma")
+    """The default transfer function of an image volume or a tetrahedral mesh:
+    :func:`~pv_hdrvol.data.transfer.auto_transfer_function` of its values, for a ray
+    as long as the bounding box's diagonal in unit distances (the smallest spacing; a
+    mesh's typical cell size)."""
+    b = np.asarray(volume.bounds, dtype=np.float64)
+    diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
+    if isinstance(volume, GridVolume):
+        unit = float(volume.spacing.min())
+        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit)
+    return auto_transfer_function(volume.values, diagonal / volume.default_unit_distance())
 
 
 def _grid_shape(dims, size):

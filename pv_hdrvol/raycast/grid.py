@@ -37,10 +37,11 @@ def as_volume(data, scalars=None, preference="point"):
 
 
 def default_transfer_function(volume):
-    """A magma ramp over the data range, on a log axis when positive data spans > 3 decades."""
+    """A magma ramp over the data range, on a log axis when positive floating-point data
+    spans > 3 decades (integer data, such as CT, keeps a linear axis)."""
     lo, hi = volume.value_range
     v = volume.values
-    if hi > 0 and np.issubdtype(v.dtype, np.floating):
+    if hi > 0 and np.issubdtype(v.dtype, np.floating) and not getattr(volume, "integer", False):
         pos = v[v > 0]
         pmin = float(pos.min()) if pos.size else hi
         if lo >= 0 and pmin > 0 and hi / pmin > 1e3:

@@ -130,12 +130,15 @@ def test_constant_and_all_zero_volumes(value):
     tf = hv.TransferFunction.ramp(-5.0, 5.0, cmap="gray", opacity=(0.1, 0.1))
     img = hv.render(vals, tf, None, (16, 16), precision="float64")
     assert np.isfinite(img.rgba).all() and img.rgba[..., 3].max() > 0
-    # default transfer function of a constant volume: a valid picture, not an error
-    assert np.isfinite(hv.render(vals, None, None, (8, 8)).rgba).all()
+    # default transfer function of a constant volume: a valid (empty) picture, not an
+    # error, and a warning that says why it is empty
+    with pytest.warns(hv.EmptyRenderWarning, match=r"the data is constant"):
+        assert np.isfinite(hv.render(vals, None, None, (8, 8)).rgba).all()
 
 
 def test_one_voxel_volume_has_no_thickness():
-    img = hv.render(np.ones((1, 1, 1)), hv.TransferFunction.ramp(0, 2, cmap="gray"), None, (8, 8))
+    with pytest.warns(hv.EmptyRenderWarning, match="the volume is flat"):
+        img = hv.render(np.ones((1, 1, 1)), hv.TransferFunction.ramp(0, 2, cmap="gray"), None, (8, 8))
     assert not img.rgba.any()
     assert np.isinf(img.depth).all()
 
@@ -145,7 +148,8 @@ def test_a_flat_volume_renders_nothing_even_edge_on():
     tf = hv.TransferFunction.ramp(0, 2, cmap="gray", opacity=(1, 1))
     edge_on = hv.Camera((0.0, 2.0, 10.0), (0.0, 2.0, 0.0), (0, 1, 0), parallel_projection=True, parallel_scale=3)
     seen = []
-    img = hv.render(vals, tf, edge_on, (8, 8), progress=seen.append)
+    with pytest.warns(hv.EmptyRenderWarning, match="the volume is flat"):
+        img = hv.render(vals, tf, edge_on, (8, 8), progress=seen.append)
     assert not img.rgba.any() and seen == [1.0]
 
 

@@ -37,6 +37,9 @@ class GridVolume:
         Finite minimum and maximum (NaN ignored).
     has_nan : bool
         Whether NaN points exist: samples touching them are empty.
+    any_finite : bool
+        Whether any point was finite (False for all-NaN or all-inf data, whose
+        ``value_range`` is then a placeholder ``(0.0, 0.0)``).
     integer : bool
         Whether the caller's values were integers (``values`` may be a float copy).
     """
@@ -47,6 +50,7 @@ class GridVolume:
     value_range: tuple
     has_nan: bool
     name: str = ""
+    any_finite: bool = True
     integer: bool = False
     #: Derived arrays (bricks, block ranges) built on first render and reused.
     cache: dict = field(default_factory=dict, repr=False, compare=False)
@@ -80,6 +84,7 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     NaN points are kept and treated as empty space by the kernels (a sample whose
     interpolation stencil touches a NaN contributes nothing). ``+inf``/``-inf`` are
     clamped to the largest/smallest finite value, on a copy.
+
     Only uint8, float32 and float64 values are kept as they are; other dtypes are
     copied once to float32 where that holds every value exactly (float16, integers
     of up to 16 bits, wider integers within +-2**24), else to float64. The kernels
@@ -104,12 +109,14 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     if arr.dtype.type not in _NATIVE:
         arr = arr.astype(_kernel_dtype(arr))
     has_nan = False
+    any_finite = True
     if np.issubdtype(arr.dtype, np.floating):
         finite = np.isfinite(arr)
         if not finite.all():
             has_nan = bool(np.isnan(arr).any())
             fin = arr[finite]
             lo, hi = (float(fin.min()), float(fin.max())) if fin.size else (0.0, 0.0)
+            any_finite = bool(fin.size)
             arr = np.array(arr, copy=True)  # never touch the caller's data
             arr[np.isposinf(arr)] = hi
             arr[np.isneginf(arr)] = lo
@@ -119,7 +126,7 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     else:
         vr = (float(arr.min()), float(arr.max()))
     arr = np.ascontiguousarray(arr)
-    return GridVolume(arr, origin, spacing, vr, has_nan, name, integer=integer)
+    return GridVolume(arr, origin, spacing, vr, has_nan, name, any_finite, integer)
 
 
 def _kernel_dtype(arr):
@@ -251,6 +258,12 @@ def _image_array(dataset, scalars, preference):
         origin = origin + 0.5 * spacing * (np.array(dims) > 1)
     else:
         shape = dims[::-1]
+    if min(shape) < 2:
+        # as volume_from_array refuses 2-D arrays: such an image has no thickness, so
+        # every render of it would be empty
+        got = f"{shape[::-1]} cells of cell data {scalars!r}" if use_cell else f"dimensions {dims}"
+        raise ValueError(f"image data must be 3-D, with at least 2 {'cells' if use_cell else 'points'} along "
+                         f"every axis; got {got}: a 2-D image or a single voxel has no thickness to render")
     return arr.reshape(shape), spacing, origin, scalars
 
 

@@ -51,6 +51,42 @@ def default_transfer_function(volume):
     return TransferFunction.ramp(lo, hi, cmap="magma")
 
 
+class EmptyRenderWarning(RuntimeWarning):
+    """A render will give an empty (all transparent) image, for the reason named."""
+
+
+def empty_render_reason(value_range, any_finite, tf, *, flat=False, visible=True, default_tf=False, what="volume"):
+    """Why a render is bound to be empty, or None.
+
+    ``visible``: whether any block (cell) can meet a non-zero opacity of ``tf``;
+    ``default_tf``: whether ``tf`` was :func:`default_transfer_function`.
+    """
+    if flat:
+        return (f"the {what} is flat (one point thick along an axis): rays cross no thickness, so the image is "
+                "empty; a 2-D image cannot be volume rendered")
+    if not any_finite:
+        return f"the {what} has no finite value (all NaN or +-inf), so the image is empty"
+    if visible:
+        return None
+    lo, hi = value_range
+    why = (f"the transfer function's opacity is 0 over the whole data range [{lo:.6g}, {hi:.6g}] (transfer "
+           f"function range [{tf.vmin:.6g}, {tf.vmax:.6g}], scale={tf.scale!r}), so the image is empty")
+    if tf.scale == "log" and hi <= 0:
+        why += "; a log axis maps values <= 0 below its range and the data has no positive value"
+    elif default_tf and lo == hi:
+        why += (f"; the data is constant ({lo:.6g}) and the default transfer function's opacity is 0 there: "
+                "pass a tf with opacity at that value")
+    return why
+
+
+def warn_empty(reason):
+    """Warn (:class:`EmptyRenderWarning`) that a render is empty, when ``reason`` is given."""
+    if reason is not None:
+        import warnings
+
+        warnings.warn(reason, EmptyRenderWarning, stacklevel=4)
+
+
 def _grid_shape(dims, size):
     """Blocks of ``size`` cells along (z, y, x) covering a volume of ``dims`` (x, y, z) points."""
     return tuple(max(1, -(-max(n - 1, 1) // size)) for n in dims[::-1])
@@ -321,6 +357,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     """
     volume = as_volume(volume)
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
+    default_tf = tf is None
     if tf is None:
         tf = default_transfer_function(volume)
     if not isinstance(tf, TransferFunction):
@@ -411,6 +448,12 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     # a volume with one point along an axis has no thickness: nothing to integrate
     flat = min(volume.dims) < 2
+    # an image bound to be empty says why (label styles have tables of their own; a
+    # (a projection keeps its value image (HDRImage.value) whatever the opacity)
+    visible = styles is not None or opts.blending != "composite" or \
+        bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
+    warn_empty(empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
+                                   default_tf=default_tf))
     lanes = _lanes()
 
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \

@@ -19,7 +19,8 @@ from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import _TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function, run_in_chunks
+from .grid import (_TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function,
+                   empty_render_reason, run_in_chunks, warn_empty)
 
 #: extinction columns whose active-cell masks a mesh keeps
 _ACTIVE_CACHE = 4
@@ -99,6 +100,7 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     if opts.gradient_opacity is not None:
         raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
     tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
+    default_tf = tf is None
     if tf is None:
         tf = default_transfer_function(mesh)
     if not isinstance(tf, TransferFunction):
@@ -120,6 +122,8 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
         float(mesh.scale), tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64),
     )
     active = _active_cells(mesh, sigma, params)
+    warn_empty(empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf, visible=bool(active.any()),
+                                   default_tf=default_tf, what="mesh"))
 
     # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
     cam = camera_array(camera, mesh, width, height)
@@ -387,6 +391,11 @@ def _boundary_normals(mesh):
         a, b, c = (pts[tri[:, i]] for i in range(3))
         mesh.cache["boundary_normals"] = np.ascontiguousarray(np.cross(b - a, c - a))
     return mesh.cache["boundary_normals"]
+
+
+def _any_finite_cell(mesh):
+    """Whether any cell has four finite corner values (after ``_active_cells``)."""
+    return bool(np.isfinite(mesh.cache["cell_ranges"][0]).any())
 
 
 def _active_cells(mesh, sigma, params):

@@ -177,3 +177,95 @@ def test_the_cli_prints_the_warning_on_stderr(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "EmptyRenderWarning: the transfer function's opacity is 0 over the whole data range [2, 2]" \
         in result.stderr
+
+
+# -- memory ---------------------------------------------------------------------------
+from pv_hdrvol.raycast import memory  # noqa: E402
+from pv_hdrvol.raycast.grid import render_bytes  # noqa: E402
+
+# a (16, 16, 16) float32 volume rendered at 100x100 in float32:
+IMAGE_BYTES = 100 * 100 * (4 * 4 + 8 + 8)  # rgba float32, depth float64, samples int64
+BLOCK_BYTES = 4**3 * 16  # 4 blocks of 4 cells along each axis, min and max in float64
+BRICK_BYTES = 3**3 * 9**3 * 4  # 16 // 8 + 1 bricks along each axis of 9**3 float32 points
+
+
+def test_a_render_larger_than_the_free_memory_is_refused_before_it_starts(monkeypatch):
+    vol = hv.volume_from_array(np.zeros((16, 16, 16), np.float32))
+    needed = IMAGE_BYTES + BLOCK_BYTES + BRICK_BYTES
+    assert needed == 399756
+    monkeypatch.setattr(memory, "available_memory", lambda: needed - 1)
+    with pytest.raises(memory.RenderMemoryError, match=re.escape(
+            "this render needs about 390.4 KiB (399756 bytes: image 312.5 KiB, block ranges 1.0 KiB, bricks "
+            "76.9 KiB) but only 390.4 KiB of memory is available; try a smaller size (now 100x100) or a "
+            "subvolume (e.g. values[::2, ::2, ::2])")) as err:
+        hv.render(vol, GRAY_TF, None, (100, 100))
+    assert (err.value.needed, err.value.available) == (needed, needed - 1)
+    assert isinstance(err.value, MemoryError)
+    assert vol.cache == {}  # refused before building anything
+    monkeypatch.setattr(memory, "available_memory", lambda: needed)
+    hv.render(vol, GRAY_TF, None, (100, 100))
+    # what the first render built stays on the volume: the next one needs the image only
+    monkeypatch.setattr(memory, "available_memory", lambda: IMAGE_BYTES)
+    hv.render(vol, GRAY_TF, None, (100, 100))
+    monkeypatch.setattr(memory, "available_memory", lambda: IMAGE_BYTES - 1)
+    with pytest.raises(memory.RenderMemoryError, match=r"^this render needs about 312.5 KiB \(320000 bytes: "
+                                                      r"image 312.5 KiB\)"):
+        hv.render(vol, GRAY_TF, None, (100, 100))
+
+
+def test_the_estimate_names_every_copy_a_float64_render_makes():
+    vol = hv.volume_from_array(np.zeros((16, 16, 16)))
+    opts = hv.RenderOptions()
+    assert render_bytes(vol, GRAY_TF, opts, 100, 100) == {
+        "image": IMAGE_BYTES, "float32 copy of the volume": 16**3 * 4, "block ranges": BLOCK_BYTES,
+        "bricks": BRICK_BYTES}
+    assert render_bytes(vol, GRAY_TF, opts.replace(precision="float64"), 100, 100) == {
+        "image": 100 * 100 * (4 * 8 + 8 + 8), "block ranges": BLOCK_BYTES, "bricks": BRICK_BYTES * 2}
+    # the image the newcomer asked for: 16,384 squared pixels need 8 GiB before any volume
+    assert render_bytes(vol, GRAY_TF, opts, 16384, 16384)["image"] == 8 * 2**30
+
+
+def test_the_advice_names_float64_data_and_precision(monkeypatch):
+    monkeypatch.setattr(memory, "available_memory", lambda: 0)
+    with pytest.raises(memory.RenderMemoryError, match=re.escape(
+            "try a smaller size (now 8x6), a subvolume (e.g. values[::2, ::2, ::2]), float32 data instead of "
+            "float64 or precision='float32'")):
+        hv.render(np.zeros((4, 4, 4)), GRAY_TF, None, (8, 6), precision="float64")
+
+
+def test_without_a_memory_figure_there_is_no_check(monkeypatch):
+    monkeypatch.setattr(memory, "available_memory", lambda: None)
+    assert hv.render(np.ones((4, 4, 4)), GRAY_TF, None, (8, 8)).shape == (8, 8)
+
+
+def test_available_memory_reads_memavailable(tmp_path, monkeypatch):
+    path = tmp_path / "meminfo"
+    path.write_text("MemTotal:       16318408 kB\nMemFree:          512000 kB\nMemAvailable:    8000000 kB\n")
+    monkeypatch.setattr(memory.sys, "platform", "linux")
+    assert memory.available_memory(str(path)) == 8000000 * 1024
+
+
+def test_a_mesh_render_larger_than_the_free_memory_is_refused(monkeypatch):
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.raycast import tets
+
+    grid = pv.ImageData(dimensions=(3, 3, 3)).triangulate()
+    grid["s"] = np.linspace(0, 1, grid.n_points)
+    mesh = hv.tetmesh_from_dataset(grid)
+    parts = tets.render_bytes(mesh, "float32", 8, 8)
+    assert parts["image"] == 64 * (16 + 25) and parts["cell records"] == mesh.n_cells * 64 + 64
+    needed = sum(parts.values())
+    monkeypatch.setattr(memory, "available_memory", lambda: needed - 1)
+    with pytest.raises(memory.RenderMemoryError, match=r"try a smaller size \(now 8x8\) or a part of the mesh"):
+        hv.render(mesh, None, None, (8, 8))
+    monkeypatch.setattr(memory, "available_memory", lambda: needed)
+    assert hv.render(mesh, None, None, (8, 8)).shape == (8, 8)
+
+
+def test_the_2048_cubed_volume_of_the_issue_needs_its_11_5_gib_of_bricks():
+    # a uint8 2048**3 volume (a zero-stride view: no memory) rendered at 512x512
+    values = np.broadcast_to(np.zeros(1, np.uint8), (2048, 2048, 2048))
+    vol = hv.GridVolume(values, np.zeros(3), np.ones(3), (0.0, 0.0), False)
+    parts = render_bytes(vol, GRAY_TF, hv.RenderOptions(), 512, 512)
+    assert parts == {"image": 512 * 512 * 32, "block ranges": 512**3 * 16, "bricks": 257**3 * 9**3}
+    assert memory.format_bytes(parts["bricks"]) == "11.5 GiB"

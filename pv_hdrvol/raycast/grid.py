@@ -16,6 +16,7 @@ from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays
 from . import _kernels as K
 from . import _kernels_ext as KX
+from .memory import check_memory
 
 # Rays are cast in square tiles of this many pixels a side (cache locality).
 _TILE = 8
@@ -398,6 +399,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     table = np.ascontiguousarray(np.column_stack([rgb, alpha_step]), dtype=table_dtype)
     sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
 
+    check_memory(render_bytes(volume, tf, opts, width, height, rays, lod, labels),
+                 _memory_advice(volume, prec, width, height))
     values = volume.values
     if prec != "float64" and values.dtype == np.float64:
         volume = _derived(volume, "float32", lambda: values.astype(np.float32))
@@ -521,6 +524,58 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     if value is not None:
         value = value.reshape(height, width)
     return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+
+
+def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=None):
+    """``{what: bytes}``: what :func:`render_volume` will allocate for these arguments
+    (``rays``: the Rays it is given; ``lod``: their level of detail), not counting
+    what ``volume.cache`` already holds. Checked against the free memory before a
+    render starts (:func:`~pv_hdrvol.raycast.memory.check_memory`)."""
+    prec = opts.precision
+    n_pix = width * height
+    n = volume.values.size
+    out_item = 8 if prec == "float64" else 4
+    extended = opts.blending != "composite" or opts.gradient_opacity is not None or labels is not None \
+        or lod is not None
+    parts = {"image": n_pix * (4 * out_item + 8 + 8 + (8 if opts.blending != "composite" else 0))}
+    if rays is not None or extended:
+        # origins and directions in voxel units (and the camera's rays they come from)
+        parts["rays"] = n_pix * 48 * (2 if rays is None else 1)
+    cache, item = volume.cache, volume.values.itemsize
+    if prec != "float64" and volume.values.dtype == np.float64:
+        derived = cache.get(("derived", "float32"))
+        if derived is None:
+            parts["float32 copy of the volume"] = 4 * n
+        cache, item = ({} if derived is None else derived.cache), 4
+    if prec == "uint8":
+        derived = cache.get(("derived", ("u8", tf.scale, tf.linthresh, tf.axis_range)))
+        if derived is None:
+            parts["8-bit levels of the volume"] = 4 * n + 24 * n  # the float32 levels, float64 temporaries
+        cache, item = ({} if derived is None else derived.cache), 4
+    if ("blocks", opts.block_size) not in cache:
+        parts["block ranges"] = 16 * int(np.prod(_grid_shape(volume.dims, opts.block_size)))
+    brick_points = int(np.prod(_brick_shape(volume.dims))) * ((1 << K.BRICK_SHIFT) + 1) ** 3
+    if "bricks" not in cache:
+        parts["bricks"] = brick_points * item
+    kernel_item = 8 if prec == "float64" else 4
+    kernel_dtype = np.dtype(np.float64 if prec == "float64" else np.float32).str
+    if opts.gradient_opacity is not None and ("gradient", kernel_dtype) not in cache:
+        parts["gradient bricks"] = (n + brick_points) * kernel_item
+    if lod is not None and ("mip", kernel_dtype) not in cache:
+        # levels of 1, 1/8, 1/64, ... of the volume, bricked, then joined into one array
+        parts["mip-map"] = int((n + 2 * brick_points) * kernel_item * 8 / 7)
+    if labels is not None:
+        parts["label slots"] = 8 * n + n + brick_points
+    return parts
+
+
+def _memory_advice(volume, prec, width, height):
+    advice = [f"a smaller size (now {width}x{height})", "a subvolume (e.g. values[::2, ::2, ::2])"]
+    if volume.values.dtype == np.float64:
+        advice.append("float32 data instead of float64")
+    if prec == "float64":
+        advice.append("precision='float32'")
+    return "try " + ", ".join(advice[:-1]) + " or " + advice[-1]
 
 
 def _check_lod(rays):

@@ -286,6 +286,9 @@ def test_progress_bar_appears_only_when_asked_or_for_slow_renders(capsys, monkey
     pytest.importorskip("tqdm")
     monkeypatch.setattr(grid, "_AUTO_BAR_SECONDS", 0.0)  # every render now counts as slow
     slow = hv.render(vol, None, None, (64, 64))
+    assert capsys.readouterr().err == ""  # stderr is no terminal here: no bar in logs
+    monkeypatch.setattr(grid, "_auto_bar_wanted", lambda: True)  # as on a terminal
+    slow = hv.render(vol, None, None, (64, 64))
     assert "Rendering" in capsys.readouterr().err
     np.testing.assert_array_equal(slow.rgba, plain.rgba)  # chunking changes no pixel
     hv.render(vol, None, None, (16, 16), progress_bar=True)

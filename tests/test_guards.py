@@ -269,3 +269,151 @@ def test_the_2048_cubed_volume_of_the_issue_needs_its_11_5_gib_of_bricks():
     parts = render_bytes(vol, GRAY_TF, hv.RenderOptions(), 512, 512)
     assert parts == {"image": 512 * 512 * 32, "block ranges": 512**3 * 16, "bricks": 257**3 * 9**3}
     assert memory.format_bytes(parts["bricks"]) == "11.5 GiB"
+
+
+# -- chunks, interrupts, the automatic bar ---------------------------------------------
+import sys  # noqa: E402
+import types  # noqa: E402
+
+from pv_hdrvol.raycast import grid as G  # noqa: E402
+
+
+class FakeCast:
+    """A render of ``height`` rows taking ``seconds_per_row`` each on a fake clock."""
+
+    def __init__(self, monkeypatch, seconds_per_row, interrupt_at=None):
+        self.now, self.calls, self.per_row, self.interrupt_at = 0.0, [], seconds_per_row, interrupt_at
+        monkeypatch.setattr(G, "_clock", lambda: self.now)
+
+    def __call__(self, tile_rows):
+        if self.interrupt_at is not None and len(self.calls) == self.interrupt_at:
+            raise KeyboardInterrupt  # what Ctrl-C raises once a chunk returns
+        self.calls.append(tile_rows.tolist())
+        self.now += self.per_row * tile_rows.size * G._TILE
+        return tile_rows.size * G._TILE
+
+
+class FakeBar:
+    made = []
+
+    def __init__(self, *args, **kwargs):
+        self.updates, self.closed = [], False
+        FakeBar.made.append(self)
+
+    def update(self, n):
+        self.updates.append(n)
+
+    def close(self):
+        self.closed = True
+
+
+@pytest.fixture
+def fake_bar(monkeypatch):
+    FakeBar.made = []
+    monkeypatch.setattr(G, "_progress_bar", lambda enabled, total, quiet_without_tqdm=False:
+                        FakeBar() if enabled else None)
+    return FakeBar.made
+
+
+def _covered(calls):
+    rows = sorted(r for call in calls for r in call)
+    return rows
+
+
+@pytest.mark.parametrize("progress_bar", [None, False])
+def test_a_quick_render_runs_in_two_calls_and_shows_no_bar(monkeypatch, fake_bar, progress_bar):
+    cast = FakeCast(monkeypatch, 1e-4)  # 512 rows: 0.05 s
+    monkeypatch.setattr(G, "_auto_bar_wanted", lambda: True)
+    G.run_in_chunks(cast, 512, progress_bar=progress_bar)
+    assert cast.calls[0] == [0] and len(cast.calls) == 2 and _covered(cast.calls) == list(range(64))
+    assert fake_bar == []
+
+
+@pytest.mark.parametrize("progress_bar", [None, False])
+def test_a_slow_render_runs_in_quarter_second_chunks_whatever_the_bar(monkeypatch, fake_bar, progress_bar):
+    cast = FakeCast(monkeypatch, 1e-3)  # 8 ms a tile row, 0.512 s in all: quick
+    G.run_in_chunks(cast, 512, progress_bar=progress_bar)
+    assert len(cast.calls) == 2
+    cast = FakeCast(monkeypatch, 0.01)  # 80 ms a tile row, 5.12 s in all: 63 rows left
+    G.run_in_chunks(cast, 512, progress_bar=progress_bar)
+    # ceil(0.08 * 63 / 0.25) = 21 chunks of 3 rows (0.24 s) after the first row
+    assert len(cast.calls) == 22 and [len(c) for c in cast.calls[1:]] == [3] * 21
+    assert cast.calls[1] == [1, 22, 43] and _covered(cast.calls) == list(range(64))
+    assert fake_bar == []  # stderr is no terminal under pytest
+
+
+def test_the_automatic_bar_shows_for_slow_renders_on_a_terminal_only(monkeypatch, fake_bar):
+    monkeypatch.setattr(G, "_auto_bar_wanted", lambda: True)
+    cast = FakeCast(monkeypatch, 0.01)
+    G.run_in_chunks(cast, 512)
+    (bar,) = fake_bar
+    assert bar.updates == [8] + [24] * 21 and bar.closed
+    G.run_in_chunks(FakeCast(monkeypatch, 0.01), 512, progress_bar=False)
+    assert len(fake_bar) == 1
+
+
+def test_auto_bar_wanted_on_a_terminal_or_in_a_jupyter_kernel(monkeypatch):
+    class Stream:
+        def __init__(self, tty):
+            self.tty = tty
+
+        def isatty(self):
+            return self.tty
+
+    monkeypatch.delitem(sys.modules, "IPython", raising=False)
+    monkeypatch.setattr(sys, "stderr", Stream(False))
+    assert G._auto_bar_wanted() is False
+    monkeypatch.setattr(sys, "stderr", Stream(True))
+    assert G._auto_bar_wanted() is True
+    monkeypatch.setattr(sys, "stderr", None)
+    assert G._auto_bar_wanted() is False
+    # IPython in a terminal (no kernel) and in a Jupyter kernel, stderr not a terminal
+    monkeypatch.setattr(sys, "stderr", Stream(False))
+    fake = types.ModuleType("IPython")
+    fake.get_ipython = lambda: types.SimpleNamespace()
+    monkeypatch.setitem(sys.modules, "IPython", fake)
+    assert G._auto_bar_wanted() is False
+    fake.get_ipython = lambda: types.SimpleNamespace(kernel=object())
+    assert G._auto_bar_wanted() is True
+    fake.get_ipython = lambda: None
+    assert G._auto_bar_wanted() is False
+
+
+def test_an_interrupt_between_chunks_propagates_and_closes_the_bar(monkeypatch, fake_bar):
+    cast = FakeCast(monkeypatch, 0.01, interrupt_at=5)
+    with pytest.raises(KeyboardInterrupt):
+        G.run_in_chunks(cast, 512, progress_bar=True)
+    assert len(cast.calls) == 5 and fake_bar[0].closed
+
+
+def test_an_interrupted_render_leaves_nothing_half_done():
+    vals = np.linspace(0, 1, 10 * 11 * 12).reshape(10, 11, 12)
+    vol = hv.volume_from_array(vals)
+    seen = []
+
+    def hook(fraction):
+        seen.append(fraction)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        hv.render(vol, GRAY_TF, None, (40, 256), progress=hook)
+    # 32 rows of tiles: the first, then 7 chunks of the other 31 (5 rows of tiles first)
+    assert seen == [8 / 256, 48 / 256]
+    # the interrupted render's volume renders as a fresh one: no half-built state
+    again = hv.render(vol, GRAY_TF, None, (40, 256))
+    fresh = hv.render(hv.volume_from_array(vals), GRAY_TF, None, (40, 256), progress_bar=False)
+    np.testing.assert_array_equal(again.rgba, fresh.rgba)
+    np.testing.assert_array_equal(again.depth, fresh.depth)
+
+
+@pytest.mark.parametrize("seconds_per_row", [0.0, 1.0])
+def test_chunking_changes_no_pixel(monkeypatch, seconds_per_row):
+    # every row of tiles alone (slow clock) or the rest in one call (no time at all)
+    vals = np.linspace(0, 1, 10 * 11 * 12).reshape(10, 11, 12)
+    ref = hv.render(vals, GRAY_TF, None, (40, 72), progress_bar=False, precision="float64")
+    clock = iter(np.arange(0, 1000, seconds_per_row * 8 * 72) if seconds_per_row else [0.0] * 1000)
+    monkeypatch.setattr(G, "_clock", lambda: next(clock))
+    img = hv.render(vals, GRAY_TF, None, (40, 72), progress_bar=False, precision="float64")
+    np.testing.assert_array_equal(img.rgba, ref.rgba)
+    np.testing.assert_array_equal(img.depth, ref.depth)

@@ -77,8 +77,9 @@ class HDRVolAccessor:
         label_styles : dict, optional
             ``{label: TransferFunction | blending | (tf, blending)}``.
         progress_bar : bool or None
-            ``None`` (default): a tqdm bar once the render has taken 1 s; ``True``:
-            always; ``False``: never.
+            ``None`` (default): a tqdm bar for a render that will take over 1 s, on a
+            terminal or in a notebook only; ``True``: always; ``False``: never. Slow
+            renders run in short chunks either way, so Ctrl-C stops them.
         progress : callable, optional
             ``progress(fraction)``; returning ``False`` aborts with ``RuntimeError``.
         **options

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import time
 from typing import NamedTuple
 
@@ -20,8 +21,13 @@ from .memory import check_memory
 
 # Rays are cast in square tiles of this many pixels a side (cache locality).
 _TILE = 8
-# progress_bar=None shows a bar for renders expected to take longer than this (seconds).
+# Renders expected to take longer than this (seconds) run in chunks of about
+# _CHUNK_SECONDS, so that Ctrl-C stops them soon; progress_bar=None then shows a bar on a
+# terminal or in a notebook.
 _AUTO_BAR_SECONDS = 1.0
+_CHUNK_SECONDS = 0.25
+# the clock that times the first chunk (tests replace it)
+_clock = time.perf_counter
 # empty-space structures kept per volume (one per transfer function and block mask)
 _SKIP_CACHE = 4
 
@@ -327,8 +333,11 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         ``False`` the render stops and raises ``RuntimeError("render aborted")``.
     progress_bar : bool or None
         ``None`` (default): a tqdm progress bar for renders that will take over 1 s,
-        judged from the time of the first chunk (every n-th row of tiles); quicker
-        renders print nothing and run unchunked. ``True``: always; ``False``: never.
+        judged from the time of the first chunk (every 64th row of tiles), when stderr
+        is a terminal or in a Jupyter notebook (never into a log file or a pipe);
+        quicker renders print nothing. ``True``: always; ``False``: never. Whatever
+        it is, a render that will take over 1 s runs in chunks of about 0.25 s, so
+        Ctrl-C stops it soon after; chunks change no pixel.
 
     Returns
     -------
@@ -865,43 +874,73 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
     """Call ``cast(tile_rows)`` (which renders those rows of ``_TILE``-pixel tiles and
     returns how many pixel rows it did) over all rows of tiles, with progress.
 
-    Chunks are every n-th row of tiles, each a uniform sample of the image. Each chunk
-    ends in a thread barrier, so a render is split only when someone watches it: with
-    ``progress_bar=None`` the first chunk is timed and the rest goes on in chunks with
-    a bar only when the whole render would take over a second, else in one call.
-    ``progress(fraction)`` returning ``False`` raises ``RuntimeError("render aborted")``.
+    A first chunk (every 64th row of tiles, a uniform sample of the image) is timed.
+    When the whole render would take over ``_AUTO_BAR_SECONDS``, the rest runs in
+    chunks of about ``_CHUNK_SECONDS`` each (every m-th remaining row), whatever
+    ``progress_bar`` says: a kernel call cannot be interrupted, so Ctrl-C
+    (KeyboardInterrupt) takes effect when the chunk running ends. A quicker render
+    runs its rest in one call, or in as many chunks as ``progress``/``progress_bar=True``
+    report. Tile rows are rendered independently, so the chunks change no pixel.
+
+    ``progress_bar=None`` shows a tqdm bar for a slow render only on a terminal or in a
+    Jupyter kernel (:func:`_auto_bar_wanted`). ``progress(fraction)`` returning
+    ``False`` raises ``RuntimeError("render aborted")``; any exception (KeyboardInterrupt
+    too) closes the bar and propagates.
     """
-    t_start = time.perf_counter()
     tile_count_y = -(-height // _TILE)
     all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
-    bar = None
+    first = max(1, min(tile_count_y, 64))
+    bar = _progress_bar(progress_bar, height) if progress_bar else None
     done = 0
-    n = max(1, min(tile_count_y // 4, 64))
-    if progress is None and progress_bar is None:
-        done = cast(all_tile_rows[::n])
-        if (time.perf_counter() - t_start) * n > _AUTO_BAR_SECONDS and n > 1:
-            bar = _progress_bar(True, height, quiet_without_tqdm=True)
-            chunks = [all_tile_rows[c::n] for c in range(1, n)]
-        else:
-            chunks = [all_tile_rows[all_tile_rows % n != 0]]
-    elif progress is None and not progress_bar:
-        chunks = [all_tile_rows]
-    else:
-        bar = _progress_bar(progress_bar, height)
-        chunks = [all_tile_rows[c::n] for c in range(n)]
+
+    def report(rows):
+        nonlocal done
+        done += rows
+        if bar is not None:
+            bar.update(rows)
+        if progress is not None and progress(done / height) is False:
+            raise RuntimeError("render aborted")
+
     try:
-        if bar is not None and done:
-            bar.update(done)
-        for tile_rows in chunks:
-            rows = cast(tile_rows) if tile_rows.size else 0
-            done += rows
-            if bar is not None:
-                bar.update(rows)
-            if progress is not None and progress(done / height) is False:
-                raise RuntimeError("render aborted")
+        t_start = _clock()
+        report(cast(all_tile_rows[::first]))
+        seconds = _clock() - t_start
+        rest = all_tile_rows[all_tile_rows % first != 0]
+        if not rest.size:
+            return
+        # as many reports as a watched render always gave (a quarter of the tile rows, <= 64)
+        chunks = max(1, min(tile_count_y // 4, 64) - 1) if progress is not None or bar is not None else 1
+        if seconds * first > _AUTO_BAR_SECONDS:
+            chunks = max(chunks, math.ceil(seconds * (first - 1) / _CHUNK_SECONDS))
+            if bar is None and progress_bar is None and _auto_bar_wanted():
+                bar = _progress_bar(True, height, quiet_without_tqdm=True)
+                if bar is not None:
+                    bar.update(done)
+        chunks = min(chunks, rest.size)
+        for c in range(chunks):
+            report(cast(rest[c::chunks]))
     finally:
         if bar is not None:
             bar.close()
+
+
+def _auto_bar_wanted():
+    """Whether ``progress_bar=None`` may show a bar: when stderr is a terminal or the code
+    runs in a Jupyter (IPython) kernel; never into a log file or a pipe, where tqdm's
+    carriage-return lines would pile up."""
+    try:
+        if sys.stderr is not None and sys.stderr.isatty():
+            return True
+    except (AttributeError, ValueError, OSError):  # a replaced or closed stderr
+        pass
+    ipython = sys.modules.get("IPython")  # never imported here: only if already in use
+    if ipython is None:
+        return False
+    try:
+        shell = ipython.get_ipython()
+    except Exception:  # noqa: BLE001 - any failure means: not in a kernel
+        return False
+    return shell is not None and getattr(shell, "kernel", None) is not None
 
 
 def _check_progress_bar(value):

@@ -321,25 +321,49 @@ def _covered(calls):
 
 
 @pytest.mark.parametrize("progress_bar", [None, False])
-def test_a_quick_render_runs_in_two_calls_and_shows_no_bar(monkeypatch, fake_bar, progress_bar):
+def test_a_quick_render_runs_in_a_few_calls_and_shows_no_bar(monkeypatch, fake_bar, progress_bar):
     cast = FakeCast(monkeypatch, 1e-4)  # 512 rows: 0.05 s
     monkeypatch.setattr(G, "_auto_bar_wanted", lambda: True)
     G.run_in_chunks(cast, 512, progress_bar=progress_bar)
-    assert cast.calls[0] == [0] and len(cast.calls) == 2 and _covered(cast.calls) == list(range(64))
+    # the middle row, chunks doubling until 15 >= 64 / 8 rows are timed, then the rest
+    assert [len(c) for c in cast.calls] == [1, 2, 4, 8, 49] and cast.calls[:2] == [[32], [0, 33]]
+    assert _covered(cast.calls) == list(range(64))
     assert fake_bar == []
 
 
 @pytest.mark.parametrize("progress_bar", [None, False])
 def test_a_slow_render_runs_in_quarter_second_chunks_whatever_the_bar(monkeypatch, fake_bar, progress_bar):
-    cast = FakeCast(monkeypatch, 1e-3)  # 8 ms a tile row, 0.512 s in all: quick
-    G.run_in_chunks(cast, 512, progress_bar=progress_bar)
-    assert len(cast.calls) == 2
     cast = FakeCast(monkeypatch, 0.01)  # 80 ms a tile row, 5.12 s in all: 63 rows left
     G.run_in_chunks(cast, 512, progress_bar=progress_bar)
-    # ceil(0.08 * 63 / 0.25) = 21 chunks of 3 rows (0.24 s) after the first row
-    assert len(cast.calls) == 22 and [len(c) for c in cast.calls[1:]] == [3] * 21
-    assert cast.calls[1] == [1, 22, 43] and _covered(cast.calls) == list(range(64))
+    # the middle row, then chunks of at most int(0.25 / 0.08) = 3 rows (0.24 s), spread out
+    assert [len(c) for c in cast.calls] == [1, 2] + [3] * 20 + [1]
+    assert cast.calls[:3] == [[32], [0, 33], [16, 49, 8]] and _covered(cast.calls) == list(range(64))
     assert fake_bar == []  # stderr is no terminal under pytest
+
+
+def test_chunks_follow_the_rate_measured_so_far(monkeypatch):
+    # the middle row looks cheap (1 ms), the others cost 0.1 s: after one chunk of all
+    # the rest would be 6.3 s, the chunks shrink to what 0.25 s allows at the rate seen
+    cast = FakeCast(monkeypatch, 0.0)
+    costs = {32: 0.001}
+
+    def timed(tile_rows):
+        cast.now += sum(costs.get(r, 0.1) for r in tile_rows.tolist())
+        cast.calls.append(tile_rows.tolist())
+        return tile_rows.size * G._TILE
+
+    monkeypatch.setattr(G, "_AUTO_BAR_SECONDS", 0.0)
+    G.run_in_chunks(timed, 512, progress_bar=False)
+    sizes = [len(c) for c in cast.calls]
+    # 0.001 s a row would allow 250 rows: the chunks double instead (2 rows, 0.2 s); then
+    # the rate is 0.1 s a row, and int(0.25 / 0.1) = 2 rows a chunk
+    assert sizes == [1] + [2] * 31 + [1] and _covered(cast.calls) == list(range(64))
+
+
+def test_spread_order_is_bit_reversed():
+    assert G._spread_order(np.arange(8)).tolist() == [0, 4, 2, 6, 1, 5, 3, 7]
+    order = G._spread_order(np.arange(100) * 2)
+    assert sorted(order.tolist()) == list(range(0, 200, 2))
 
 
 def test_the_automatic_bar_shows_for_slow_renders_on_a_terminal_only(monkeypatch, fake_bar):
@@ -347,7 +371,7 @@ def test_the_automatic_bar_shows_for_slow_renders_on_a_terminal_only(monkeypatch
     cast = FakeCast(monkeypatch, 0.01)
     G.run_in_chunks(cast, 512)
     (bar,) = fake_bar
-    assert bar.updates == [8] + [24] * 21 and bar.closed
+    assert bar.updates == [8, 16] + [24] * 20 + [8] and bar.closed
     G.run_in_chunks(FakeCast(monkeypatch, 0.01), 512, progress_bar=False)
     assert len(fake_bar) == 1
 
@@ -398,8 +422,8 @@ def test_an_interrupted_render_leaves_nothing_half_done():
 
     with pytest.raises(KeyboardInterrupt):
         hv.render(vol, GRAY_TF, None, (40, 256), progress=hook)
-    # 32 rows of tiles: the first, then 7 chunks of the other 31 (5 rows of tiles first)
-    assert seen == [8 / 256, 48 / 256]
+    # 32 rows of tiles: the middle one, then 2 (chunks double while 8 * rows < 32)
+    assert seen == [8 / 256, 24 / 256]
     # the interrupted render's volume renders as a fresh one: no half-built state
     again = hv.render(vol, GRAY_TF, None, (40, 256))
     fresh = hv.render(hv.volume_from_array(vals), GRAY_TF, None, (40, 256), progress_bar=False)
@@ -407,14 +431,25 @@ def test_an_interrupted_render_leaves_nothing_half_done():
     np.testing.assert_array_equal(again.depth, fresh.depth)
 
 
-@pytest.mark.parametrize("seconds_per_row", [0.0, 1.0])
-def test_chunking_changes_no_pixel(monkeypatch, seconds_per_row):
-    # every row of tiles alone (slow clock) or the rest in one call (no time at all)
+@pytest.mark.parametrize("seconds_per_tick,sizes", [(0.0, [1, 2, 6]), (1.0, [1] * 9)])
+def test_chunking_changes_no_pixel(monkeypatch, seconds_per_tick, sizes):
+    # a clock that stands still (the rest in one call once 8 * rows >= 9) or moves by
+    # 1 s a reading (every row of tiles alone)
+    import itertools
+
     vals = np.linspace(0, 1, 10 * 11 * 12).reshape(10, 11, 12)
     ref = hv.render(vals, GRAY_TF, None, (40, 72), progress_bar=False, precision="float64")
-    clock = iter(np.arange(0, 1000, seconds_per_row * 8 * 72) if seconds_per_row else [0.0] * 1000)
-    monkeypatch.setattr(G, "_clock", lambda: next(clock))
+    ticks = itertools.count(0.0, seconds_per_tick)
+    monkeypatch.setattr(G, "_clock", lambda: next(ticks))
+    calls = []
+    run = G.run_in_chunks
+
+    def spy(cast, *args):
+        return run(lambda rows: calls.append(rows.tolist()) or cast(rows), *args)
+
+    monkeypatch.setattr(G, "run_in_chunks", spy)
     img = hv.render(vals, GRAY_TF, None, (40, 72), progress_bar=False, precision="float64")
+    assert [len(c) for c in calls] == sizes
     np.testing.assert_array_equal(img.rgba, ref.rgba)
     np.testing.assert_array_equal(img.depth, ref.depth)
 

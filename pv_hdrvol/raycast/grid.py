@@ -333,7 +333,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         ``False`` the render stops and raises ``RuntimeError("render aborted")``.
     progress_bar : bool or None
         ``None`` (default): a tqdm progress bar for renders that will take over 1 s,
-        judged from the time of the first chunk (every 64th row of tiles), when stderr
+        judged from the time of the first chunk (the middle row of tiles), when stderr
         is a terminal or in a Jupyter notebook (never into a log file or a pipe);
         quicker renders print nothing. ``True``: always; ``False``: never. Whatever
         it is, a render that will take over 1 s runs in chunks of about 0.25 s, so
@@ -874,13 +874,15 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
     """Call ``cast(tile_rows)`` (which renders those rows of ``_TILE``-pixel tiles and
     returns how many pixel rows it did) over all rows of tiles, with progress.
 
-    A first chunk (every 64th row of tiles, a uniform sample of the image) is timed.
-    When the whole render would take over ``_AUTO_BAR_SECONDS``, the rest runs in
-    chunks of about ``_CHUNK_SECONDS`` each (every m-th remaining row), whatever
-    ``progress_bar`` says: a kernel call cannot be interrupted, so Ctrl-C
-    (KeyboardInterrupt) takes effect when the chunk running ends. A quicker render
-    runs its rest in one call, or in as many chunks as ``progress``/``progress_bar=True``
-    report. Tile rows are rendered independently, so the chunks change no pixel.
+    The middle row of tiles goes first, then the others in chunks that double in size
+    until an eighth of the rows is done, each limited to about ``_CHUNK_SECONDS`` at
+    the rate measured so far; then the rest in chunks of that limit (all of it, for a
+    quick render). A kernel call cannot be interrupted, so Ctrl-C (KeyboardInterrupt)
+    takes effect when the chunk running ends: within about ``_CHUNK_SECONDS``,
+    whatever ``progress_bar`` says. ``progress``/``progress_bar=True`` get at least as
+    many reports as a quarter of the tile rows (<= 64). The rows are taken in
+    bit-reversed order, so every chunk is spread over the image; tile rows are
+    rendered independently, so the chunks change no pixel.
 
     ``progress_bar=None`` shows a tqdm bar for a slow render only on a terminal or in a
     Jupyter kernel (:func:`_auto_bar_wanted`). ``progress(fraction)`` returning
@@ -888,8 +890,6 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
     too) closes the bar and propagates.
     """
     tile_count_y = -(-height // _TILE)
-    all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
-    first = max(1, min(tile_count_y, 64))
     bar = _progress_bar(progress_bar, height) if progress_bar else None
     done = 0
 
@@ -903,25 +903,48 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
 
     try:
         t_start = _clock()
-        report(cast(all_tile_rows[::first]))
-        seconds = _clock() - t_start
-        rest = all_tile_rows[all_tile_rows % first != 0]
-        if not rest.size:
-            return
-        # as many reports as a watched render always gave (a quarter of the tile rows, <= 64)
-        chunks = max(1, min(tile_count_y // 4, 64) - 1) if progress is not None or bar is not None else 1
-        if seconds * first > _AUTO_BAR_SECONDS:
-            chunks = max(chunks, math.ceil(seconds * (first - 1) / _CHUNK_SECONDS))
-            if bar is None and progress_bar is None and _auto_bar_wanted():
+        middle = tile_count_y // 2
+        report(cast(np.array([middle], dtype=np.int64)))
+        rest = _spread_order(np.delete(np.arange(tile_count_y, dtype=np.int64), middle))
+        # a watched render reports at least as often as it always did: after a quarter
+        # of the tile rows (<= 64 reports)
+        most = -(-rest.size // max(1, min(tile_count_y // 4, 64) - 1)) \
+            if progress is not None or bar is not None else rest.size
+        start, size, rows_done = 0, 1, 1
+        t_first = _clock()  # the first call may have compiled the kernel: not a rate
+        while start < rest.size:
+            # seconds a row of tiles, so far
+            rate = (t_first - t_start) if rows_done == 1 else (_clock() - t_first) / (rows_done - 1)
+            if bar is None and progress_bar is None and rate * tile_count_y > _AUTO_BAR_SECONDS \
+                    and _auto_bar_wanted():
                 bar = _progress_bar(True, height, quiet_without_tqdm=True)
                 if bar is not None:
                     bar.update(done)
-        chunks = min(chunks, rest.size)
-        for c in range(chunks):
-            report(cast(rest[c::chunks]))
+            fits = max(1, int(_CHUNK_SECONDS / rate)) if rate > 0 else rest.size
+            # double the chunks until an eighth of the rows is timed (the middle row
+            # alone may be cheap), and keep each to about _CHUNK_SECONDS
+            size = min(fits if 8 * rows_done >= tile_count_y else 2 * size, fits, most)
+            part = rest[start:start + size]
+            report(cast(part))
+            start += part.size
+            rows_done += part.size
     finally:
         if bar is not None:
             bar.close()
+
+
+def _spread_order(rows):
+    """``rows`` in bit-reversed (van der Corput) order of their positions: any run of
+    consecutive entries is spread evenly over the image."""
+    n = rows.size
+    if n < 3:
+        return rows
+    bits = int(n - 1).bit_length()
+    i = np.arange(n, dtype=np.int64)
+    rev = np.zeros(n, dtype=np.int64)
+    for b in range(bits):
+        rev |= ((i >> b) & 1) << (bits - 1 - b)
+    return rows[np.argsort(rev, kind="stable")]
 
 
 def _auto_bar_wanted():

@@ -544,3 +544,20 @@ def test_pyvista_keywords_reject_bad_input(kwargs, exc, msg):
     pv = pytest.importorskip("pyvista")
     with pytest.raises(exc, match=msg):
         _grid(pv).hdrvol.render(size=8, **kwargs)
+
+
+def test_chunking_changes_no_pixel_of_a_mesh(monkeypatch):
+    pv = pytest.importorskip("pyvista")
+    import itertools
+
+    mesh = pv.ImageData(dimensions=(5, 5, 5)).triangulate()
+    mesh["s"] = np.linspace(0.0, 1.0, mesh.n_points)
+    tf = hv.TransferFunction.ramp(0.0, 1.0, cmap="gray", opacity=(0.1, 0.6))
+    monkeypatch.setattr(G, "_clock", lambda: 0.0)
+    ref = hv.render(mesh, tf, None, (40, 72), progress_bar=False, precision="float64")
+    ticks = itertools.count(0.0, 1.0)  # every row of tiles alone
+    monkeypatch.setattr(G, "_clock", lambda: next(ticks))
+    img = hv.render(mesh, tf, None, (40, 72), progress_bar=False, precision="float64")
+    assert img.rgba[..., 3].max() > 0.5
+    np.testing.assert_array_equal(img.rgba, ref.rgba)
+    np.testing.assert_array_equal(img.depth, ref.depth)

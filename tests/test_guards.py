@@ -561,3 +561,22 @@ def test_chunking_changes_no_pixel_of_a_mesh(monkeypatch):
     assert img.rgba[..., 3].max() > 0.5
     np.testing.assert_array_equal(img.rgba, ref.rgba)
     np.testing.assert_array_equal(img.depth, ref.depth)
+
+
+def test_the_cli_reports_a_render_too_large_as_a_user_error(tmp_path, monkeypatch, capsys):
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.integrations.cli import main
+
+    grid = pv.ImageData(dimensions=(6, 6, 6))
+    grid["v"] = np.linspace(0.0, 1.0, grid.n_points)
+    grid.save(tmp_path / "v.vti")
+    monkeypatch.setattr(memory, "available_memory", lambda: 1000)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", str(tmp_path / "v.vti"), "-o", str(tmp_path / "v.npy"), "--size", "64", "--no-progress"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert ("pv-hdrvol render: error: this render needs about 131.8 KiB (134980 bytes: image 128.0 KiB, "
+            "float32 copy of the volume 864 bytes, block ranges 128 bytes, bricks 2.8 KiB) but only 1000 bytes "
+            "of memory is available; try a smaller size (now 64x64), a subvolume (e.g. values[::2, ::2, ::2]) or "
+            "float32 data instead of float64\n") in err
+    assert "Traceback" not in err

@@ -235,6 +235,7 @@ def _transfer_function(args, volume):
 
 def _render(args, volume, tf, default_view, zoom=1.0):
     from .. import Camera, render
+    from ..raycast.memory import RenderMemoryError
 
     options = {name: value for name, value in (("step", args.step), ("precision", args.precision),
                                                ("global_alpha", args.global_alpha), ("blending", args.blending))
@@ -244,7 +245,7 @@ def _render(args, volume, tf, default_view, zoom=1.0):
         size = _size(args.size)
         camera = Camera.fit(volume.bounds, args.view or default_view, zoom=zoom)
         return render(volume, tf, camera, size, progress_bar=progress, **options)
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, RenderMemoryError) as exc:  # a too large --size is a user error too
         raise UserError(str(exc)) from None
 
 

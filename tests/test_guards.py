@@ -580,3 +580,12 @@ def test_the_cli_reports_a_render_too_large_as_a_user_error(tmp_path, monkeypatc
             "of memory is available; try a smaller size (now 64x64), a subvolume (e.g. values[::2, ::2, ::2]) or "
             "float32 data instead of float64\n") in err
     assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"skip_empty": False}, {"block_mask": "all"}, {"gradient_opacity": (0, 1)}])
+def test_the_empty_warning_does_not_depend_on_skipping(kwargs):
+    vol = hv.volume_from_array(np.full((6, 7, 8), 3.0))
+    if kwargs.get("block_mask") == "all":
+        kwargs = {"block_mask": np.ones(hv.BlockGrid.of(vol, 4).shape, bool)}
+    with pytest.warns(EmptyRenderWarning, match=r"the data is constant \(3\)"):
+        assert not hv.render(vol, None, None, (8, 8), **kwargs).rgba.any()

@@ -460,10 +460,15 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     # a volume with one point along an axis has no thickness: nothing to integrate
     flat = min(volume.dims) < 2
-    # an image bound to be empty says why (label styles have tables of their own; a
-    # (a projection keeps its value image (HDRImage.value) whatever the opacity)
-    visible = styles is not None or opts.blending != "composite" or \
-        bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
+    # an image bound to be empty says why. Label styles have tables of their own, and a
+    # projection keeps its value image (HDRImage.value) whatever the opacity; without a
+    # mask the skip structure already holds the visible blocks
+    if styles is not None or opts.blending != "composite":
+        visible = True
+    elif opts.skip_empty and mask is None:
+        visible = bool(active.any())
+    else:
+        visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
     warn_empty(empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
                                    default_tf=default_tf))
     lanes = _lanes()

@@ -18,10 +18,10 @@ from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera
 from . import _layer_kernels as LK
-from .memory import check_memory
 from . import _tet_kernels as TK
 from .grid import (_TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function,
                    empty_render_reason, run_in_chunks, warn_empty)
+from .memory import check_memory
 
 #: extinction columns whose active-cell masks a mesh keeps
 _ACTIVE_CACHE = 4

@@ -469,8 +469,11 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         visible = bool(active.any())
     else:
         visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
-    warn_empty(empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
-                                   default_tf=default_tf))
+    reason = empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
+                                 default_tf=default_tf)
+    if reason is not None and not visible and prec == "uint8":
+        reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
+    warn_empty(reason)
     lanes = _lanes()
 
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \

@@ -15,7 +15,7 @@ from .image.upsample import upsample
 from .params import PRECISIONS, Light, RenderOptions
 from .rays.camera import Camera, Rays
 from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
-from .raycast.grid import BlockGrid, render_volume
+from .raycast.grid import BlockGrid, EmptyRenderWarning, render_volume
 from .raycast.layers import DepthLayers, depth_layers
 from .raycast.tets import render_tets
 from .settings import RenderSettings
@@ -56,8 +56,9 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 
 __all__ = [
-    "datasets", "BlockGrid", "Camera", "DepthLayers", "FeatureLens", "Fisheye", "GridVolume", "HDRImage", "Lens",
-    "Light", "Magnifier", "PRECISIONS", "Rays", "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError",
-    "TetMesh", "ToneMapped", "TransferFunction", "depth_layers", "load", "render", "render_tets", "render_volume",
-    "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample", "volume_from_array", "volume_from_dataset",
+    "datasets", "BlockGrid", "Camera", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye", "GridVolume",
+    "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "Rays", "RenderOptions", "RenderSettings",
+    "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped", "TransferFunction", "depth_layers", "load", "render",
+    "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
+    "volume_from_array", "volume_from_dataset",
 ]

@@ -205,7 +205,8 @@ def test_second_render_reuses_the_prepared_volume_until_the_dataset_changes():
     np.testing.assert_array_equal(first.rgba, again.rgba)
     grid["v"][:] = 0.0  # in-place edit, then tell VTK, as its pipelines require
     grid.Modified()
-    changed = grid.hdrvol.render(tf=tf, size=(8, 8), precision="float64")
+    with pytest.warns(hv.EmptyRenderWarning, match=r"opacity is 0 over the whole data range \[0, 0\]"):
+        changed = grid.hdrvol.render(tf=tf, size=(8, 8), precision="float64")
     assert grid.hdrvol._volumes.get(grid, None, "point") is not volume
     assert not changed.rgba.any()
 

@@ -127,11 +127,16 @@ def test_render_rejects_bad_spacing_and_arguments():
         hv.render(np.ones((3, 3, 3)), scalars="density")
 
 
-def test_progress_callback_and_abort():
+def test_progress_callback_and_abort(monkeypatch):
+    import pv_hdrvol.raycast.grid as grid
+
+    # a clock that stands still: the chunks do not depend on how fast this machine is
+    monkeypatch.setattr(grid, "_clock", lambda: 0.0)
     seen = []
-    hv.render(np.ones((8, 8, 8)), None, None, (16, 64), progress=seen.append)
+    with pytest.warns(hv.EmptyRenderWarning):  # constant data, default transfer function
+        hv.render(np.ones((8, 8, 8)), None, None, (16, 64), progress=seen.append)
     assert seen[-1] == 1.0 and seen == sorted(seen) and len(seen) == 2
-    with pytest.raises(RuntimeError, match="render aborted"):
+    with pytest.raises(RuntimeError, match="render aborted"), pytest.warns(hv.EmptyRenderWarning):
         hv.render(np.ones((8, 8, 8)), None, None, (16, 64), progress=lambda f: False)
 
 
@@ -285,6 +290,9 @@ def test_progress_bar_appears_only_when_asked_or_for_slow_renders(capsys, monkey
     np.testing.assert_array_equal(fast.rgba, plain.rgba)
     pytest.importorskip("tqdm")
     monkeypatch.setattr(grid, "_AUTO_BAR_SECONDS", 0.0)  # every render now counts as slow
+    slow = hv.render(vol, None, None, (64, 64))
+    assert capsys.readouterr().err == ""  # stderr is no terminal here: no bar in logs
+    monkeypatch.setattr(grid, "_auto_bar_wanted", lambda: True)  # as on a terminal
     slow = hv.render(vol, None, None, (64, 64))
     assert "Rendering" in capsys.readouterr().err
     np.testing.assert_array_equal(slow.rgba, plain.rgba)  # chunking changes no pixel

@@ -51,7 +51,10 @@ def test_4096_samples_of_1e_7_in_float32():
 def test_conventional_buffers_lose_tiny_opacities():
     """A documented comparison: 16-bit float and 8-bit `over` buffers lose this signal."""
     half = tiny_opacity_render("float16").rgba[0, 0]
-    u8 = tiny_opacity_render("uint8").rgba[0, 0]
+    with pytest.warns(hv.EmptyRenderWarning, match=r"opacity is 0 over the whole data range \[1, 1\] .*; "
+                                                   r"precision='uint8' rounds the opacity of each step to a "
+                                                   r"multiple of 1/255$"):
+        u8 = tiny_opacity_render("uint8").rgba[0, 0]
     # half: alpha stalls at 2**-12 = 2.44e-4 (exact 4.10e-4), once a sample's 1.19e-7 is
     # below half an ulp of the accumulated opacity: 40% of the signal is lost
     assert half[3] == 2.0**-12
@@ -181,12 +184,15 @@ def test_constant_and_all_zero_volumes(value):
     tf = hv.TransferFunction.ramp(-5.0, 5.0, cmap="gray", opacity=(0.1, 0.1))
     img = hv.render(vals, tf, None, (16, 16), precision="float64")
     assert np.isfinite(img.rgba).all() and img.rgba[..., 3].max() > 0
-    # default transfer function of a constant volume: a valid picture, not an error
-    assert np.isfinite(hv.render(vals, None, None, (8, 8)).rgba).all()
+    # default transfer function of a constant volume: a valid (empty) picture, not an
+    # error, and a warning that says why it is empty
+    with pytest.warns(hv.EmptyRenderWarning, match=r"the data is constant"):
+        assert np.isfinite(hv.render(vals, None, None, (8, 8)).rgba).all()
 
 
 def test_one_voxel_volume_has_no_thickness():
-    img = hv.render(np.ones((1, 1, 1)), hv.TransferFunction.ramp(0, 2, cmap="gray"), None, (8, 8))
+    with pytest.warns(hv.EmptyRenderWarning, match="the volume is flat"):
+        img = hv.render(np.ones((1, 1, 1)), hv.TransferFunction.ramp(0, 2, cmap="gray"), None, (8, 8))
     assert not img.rgba.any()
     assert np.isinf(img.depth).all()
 
@@ -196,7 +202,8 @@ def test_a_flat_volume_renders_nothing_even_edge_on():
     tf = hv.TransferFunction.ramp(0, 2, cmap="gray", opacity=(1, 1))
     edge_on = hv.Camera((0.0, 2.0, 10.0), (0.0, 2.0, 0.0), (0, 1, 0), parallel_projection=True, parallel_scale=3)
     seen = []
-    img = hv.render(vals, tf, edge_on, (8, 8), progress=seen.append)
+    with pytest.warns(hv.EmptyRenderWarning, match="the volume is flat"):
+        img = hv.render(vals, tf, edge_on, (8, 8), progress=seen.append)
     assert not img.rgba.any() and seen == [1.0]
 
 

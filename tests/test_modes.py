@@ -66,7 +66,8 @@ def test_uint8_mip_is_the_max_of_the_8bit_levels(random_volume):
 
 
 def test_flat_volume_projection_has_an_empty_value_image():
-    img = hv.render(np.ones((1, 4, 4)), GRAY, size=3, blending="maximum")
+    with pytest.warns(hv.EmptyRenderWarning, match="the volume is flat"):
+        img = hv.render(np.ones((1, 4, 4)), GRAY, size=3, blending="maximum")
     assert img.value.shape == (3, 3) and np.isnan(img.value).all()
 
 

@@ -9,8 +9,13 @@ import numpy as np
 
 from .._validate import as_choice, as_vector
 
-# Dtypes the kernels read natively (no copy); anything else is converted once.
-_NATIVE = (np.uint8, np.int8, np.uint16, np.int16, np.float32, np.float64)
+# Dtypes the kernels read natively (no copy); anything else is converted once, so that
+# numba compiles each kernel for these three only (every other integer type would cost
+# another 30-60 s of compilation on first use). The kernels read every value as float64,
+# so an exact conversion changes no pixel.
+_NATIVE = (np.uint8, np.float32, np.float64)
+# float32 holds every integer of magnitude <= 2**24 exactly
+_FLOAT32_EXACT = 2**24
 
 
 class ScalarsError(ValueError):
@@ -32,6 +37,11 @@ class GridVolume:
         Finite minimum and maximum (NaN ignored).
     has_nan : bool
         Whether NaN points exist: samples touching them are empty.
+    any_finite : bool
+        Whether any point was finite (False for all-NaN or all-inf data, whose
+        ``value_range`` is then a placeholder ``(0.0, 0.0)``).
+    integer : bool
+        Whether the caller's values were integers (``values`` may be a float copy).
     """
 
     values: np.ndarray
@@ -40,6 +50,8 @@ class GridVolume:
     value_range: tuple
     has_nan: bool
     name: str = ""
+    any_finite: bool = True
+    integer: bool = False
     #: Derived arrays (bricks, block ranges) built on first render and reused.
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
@@ -72,6 +84,12 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     NaN points are kept and treated as empty space by the kernels (a sample whose
     interpolation stencil touches a NaN contributes nothing). ``+inf``/``-inf`` are
     clamped to the largest/smallest finite value, on a copy.
+
+    Only uint8, float32 and float64 values are kept as they are; other dtypes are
+    copied once to float32 where that holds every value exactly (float16, integers
+    of up to 16 bits, wider integers within +-2**24), else to float64. The kernels
+    read each value as float64, so the picture is the same as for the original dtype,
+    and the kernels are compiled for three dtypes only.
     """
     as_choice("order", order, ("zyx", "xyz"))
     arr = np.asarray(values)
@@ -87,15 +105,18 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     if np.any(spacing <= 0):
         raise ValueError(f"spacing must be > 0 on every axis; got {tuple(spacing.tolist())}")
     origin = as_vector("origin", origin)
+    integer = bool(np.issubdtype(arr.dtype, np.integer))
     if arr.dtype.type not in _NATIVE:
-        arr = arr.astype(np.float32 if arr.dtype.itemsize <= 4 and np.issubdtype(arr.dtype, np.floating) else np.float64)
+        arr = arr.astype(_kernel_dtype(arr))
     has_nan = False
+    any_finite = True
     if np.issubdtype(arr.dtype, np.floating):
         finite = np.isfinite(arr)
         if not finite.all():
             has_nan = bool(np.isnan(arr).any())
             fin = arr[finite]
             lo, hi = (float(fin.min()), float(fin.max())) if fin.size else (0.0, 0.0)
+            any_finite = bool(fin.size)
             arr = np.array(arr, copy=True)  # never touch the caller's data
             arr[np.isposinf(arr)] = hi
             arr[np.isneginf(arr)] = lo
@@ -105,7 +126,19 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     else:
         vr = (float(arr.min()), float(arr.max()))
     arr = np.ascontiguousarray(arr)
-    return GridVolume(arr, origin, spacing, vr, has_nan, name)
+    return GridVolume(arr, origin, spacing, vr, has_nan, name, any_finite, integer)
+
+
+def _kernel_dtype(arr):
+    """The dtype a non-native array is converted to: float32 where it holds every value
+    exactly (floats of <= 4 bytes, integers of <= 2 bytes, wider integers whose values
+    lie within +-2**24), else float64."""
+    if np.issubdtype(arr.dtype, np.floating):
+        return np.float32 if arr.dtype.itemsize <= 4 else np.float64
+    if arr.dtype.itemsize <= 2:
+        return np.float32
+    lo, hi = int(arr.min()), int(arr.max())
+    return np.float32 if -_FLOAT32_EXACT <= lo and hi <= _FLOAT32_EXACT else np.float64
 
 
 def content_digest(*arrays):
@@ -225,6 +258,12 @@ def _image_array(dataset, scalars, preference):
         origin = origin + 0.5 * spacing * (np.array(dims) > 1)
     else:
         shape = dims[::-1]
+    if min(shape) < 2:
+        # as volume_from_array refuses 2-D arrays: such an image has no thickness, so
+        # every render of it would be empty
+        got = f"{shape[::-1]} cells of cell data {scalars!r}" if use_cell else f"dimensions {dims}"
+        raise ValueError(f"image data must be 3-D, with at least 2 {'cells' if use_cell else 'points'} along "
+                         f"every axis; got {got}: a 2-D image or a single voxel has no thickness to render")
     return arr.reshape(shape), spacing, origin, scalars
 
 

@@ -295,6 +295,7 @@ def _transfer_function(args, volume):
 
 def _render(args, volume, tf, default_view, zoom=1.0):
     from .. import Camera, render
+    from ..raycast.memory import RenderMemoryError
 
     names = ("step", "precision", "global_alpha", "blending", "shade", "ambient", "diffuse", "specular",
              "specular_power")
@@ -306,7 +307,7 @@ def _render(args, volume, tf, default_view, zoom=1.0):
         size = _size(args.size)
         camera = Camera.fit(volume.bounds, args.view or default_view, zoom=zoom)
         return render(volume, tf, camera, size, progress_bar=progress, **options)
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, RenderMemoryError) as exc:  # a too large --size is a user error too
         raise UserError(str(exc)) from None
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pyvista as pv
 
-from . import VolumeCache, resolve_camera
+from . import VolumeCache, resolve_camera, resolve_transfer_function
 
 _IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
 
@@ -45,7 +45,8 @@ class HDRVolAccessor:
                         "with dataset.sample())")
 
     def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point", lens=None,
-               labels=None, label_styles=None, progress_bar=None, progress=None, **options):
+               labels=None, label_styles=None, progress_bar=None, progress=None, *, cmap=None, clim=None,
+               opacity=None, **options):
         """Ray cast the dataset into a linear float :class:`~pv_hdrvol.HDRImage`.
 
         The dataset is not modified.
@@ -58,6 +59,15 @@ class HDRVolAccessor:
         tf : TransferFunction, optional
             Default: a magma ramp over the data range, on a log axis when positive
             data spans more than 3 decades.
+        cmap, clim, opacity : optional
+            PyVista's ``add_volume`` keywords, in place of ``tf``: a colormap name
+            (default ``"magma"``), the value range (default: the data range; a
+            number ``c`` means ``(-c, c)``) and an opacity: a name of
+            ``pyvista.opacity_transfer_function`` (``"linear"`` (default),
+            ``"sigmoid"``, ``"geom_r"``, ...), one number, or opacities spread over
+            ``clim``. They make a 256-point transfer function on a linear axis (see
+            :func:`~pv_hdrvol.integrations.resolve_transfer_function`); giving
+            ``tf`` too is a ``TypeError``.
         camera : None, str, Camera, pyvista.Plotter, pyvista.Camera or vtkCamera
             A view name (``"iso"`` (default), ``"xy"``, ``"xz"``, ``"yz"``, ``"yx"``,
             ``"zx"``, ``"zy"``) frames the dataset; a Plotter or camera renders what
@@ -77,8 +87,9 @@ class HDRVolAccessor:
         label_styles : dict, optional
             ``{label: TransferFunction | blending | (tf, blending)}``.
         progress_bar : bool or None
-            ``None`` (default): a tqdm bar once the render has taken 1 s; ``True``:
-            always; ``False``: never.
+            ``None`` (default): a tqdm bar for a render that will take over 1 s, on a
+            terminal or in a notebook only; ``True``: always; ``False``: never. Slow
+            renders run in short chunks either way, so Ctrl-C stops them.
         progress : callable, optional
             ``progress(fraction)``; returning ``False`` aborts with ``RuntimeError``.
         **options
@@ -110,14 +121,18 @@ class HDRVolAccessor:
             check_has_cells(self._dataset)  # before its (unset) bounds frame a camera
         cam = resolve_camera(camera, self._dataset.bounds)
         if self._dataset.GetClassName() == "vtkUnstructuredGrid":
+            from ..data.tets import as_tetmesh
             from ..raycast.tets import render_tets
 
             for name, value in (("lens", lens), ("labels", labels), ("label_styles", label_styles)):
                 if value is not None:
                     raise ValueError(f"{name}= is not supported for tetrahedral meshes")
+            tf = resolve_transfer_function(
+                tf, lambda: as_tetmesh(self._dataset, scalars, preference).value_range, cmap, clim, opacity)
             return render_tets(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
                                progress_bar=progress_bar, progress=progress, **options)
         volume = self._volumes.get(self._dataset, scalars, preference)
+        tf = resolve_transfer_function(tf, volume.value_range, cmap, clim, opacity)
         if isinstance(labels, str):
             from ..data.grid import labels_from_dataset
 

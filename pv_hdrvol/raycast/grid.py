@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import time
 from typing import NamedTuple
 
@@ -17,12 +18,18 @@ from ..rays.camera import Camera, Rays
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
+from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
 
 # Rays are cast in square tiles of this many pixels a side (cache locality).
 _TILE = 8
-# progress_bar=None shows a bar for renders expected to take longer than this (seconds).
+# Renders expected to take longer than this (seconds) run in chunks of about
+# _CHUNK_SECONDS, so that Ctrl-C stops them soon; progress_bar=None then shows a bar on a
+# terminal or in a notebook.
 _AUTO_BAR_SECONDS = 1.0
+_CHUNK_SECONDS = 0.25
+# the clock that times the first chunk (tests replace it)
+_clock = time.perf_counter
 # empty-space structures kept per volume (one per transfer function and block mask)
 _SKIP_CACHE = 4
 
@@ -42,13 +49,50 @@ def default_transfer_function(volume):
     """The default transfer function of an image volume or a tetrahedral mesh:
     :func:`~pv_hdrvol.data.transfer.auto_transfer_function` of its values, for a ray
     as long as the bounding box's diagonal in unit distances (the smallest spacing; a
-    mesh's typical cell size)."""
+    mesh's typical cell size). Integer data (CT) keeps a linear axis."""
     b = np.asarray(volume.bounds, dtype=np.float64)
     diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
     if isinstance(volume, GridVolume):
         unit = float(volume.spacing.min())
-        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit)
+        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit,
+                                      scale="linear" if volume.integer else None)
     return auto_transfer_function(volume.values, diagonal / volume.default_unit_distance())
+
+
+class EmptyRenderWarning(RuntimeWarning):
+    """A render will give an empty (all transparent) image, for the reason named."""
+
+
+def empty_render_reason(value_range, any_finite, tf, *, flat=False, visible=True, default_tf=False, what="volume"):
+    """Why a render is bound to be empty, or None.
+
+    ``visible``: whether any block (cell) can meet a non-zero opacity of ``tf``;
+    ``default_tf``: whether ``tf`` was :func:`default_transfer_function`.
+    """
+    if flat:
+        return (f"the {what} is flat (one point thick along an axis): rays cross no thickness, so the image is "
+                "empty; a 2-D image cannot be volume rendered")
+    if not any_finite:
+        return f"the {what} has no finite value (all NaN or +-inf), so the image is empty"
+    if visible:
+        return None
+    lo, hi = value_range
+    why = (f"the transfer function's opacity is 0 over the whole data range [{lo:.6g}, {hi:.6g}] (transfer "
+           f"function range [{tf.vmin:.6g}, {tf.vmax:.6g}], scale={tf.scale!r}), so the image is empty")
+    if tf.scale == "log" and hi <= 0:
+        why += "; a log axis maps values <= 0 below its range and the data has no positive value"
+    elif default_tf and lo == hi:
+        why += (f"; the data is constant ({lo:.6g}) and the default transfer function's opacity is 0 there: "
+                "pass a tf with opacity at that value")
+    return why
+
+
+def warn_empty(reason):
+    """Warn (:class:`EmptyRenderWarning`) that a render is empty, when ``reason`` is given."""
+    if reason is not None:
+        import warnings
+
+        warnings.warn(reason, EmptyRenderWarning, stacklevel=4)
 
 
 def _grid_shape(dims, size):
@@ -290,8 +334,11 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         ``False`` the render stops and raises ``RuntimeError("render aborted")``.
     progress_bar : bool or None
         ``None`` (default): a tqdm progress bar for renders that will take over 1 s,
-        judged from the time of the first chunk (every n-th row of tiles); quicker
-        renders print nothing and run unchunked. ``True``: always; ``False``: never.
+        judged from the time of the first chunk (the middle row of tiles), when stderr
+        is a terminal or in a Jupyter notebook (never into a log file or a pipe);
+        quicker renders print nothing. ``True``: always; ``False``: never. Whatever
+        it is, a render that will take over 1 s runs in chunks of about 0.25 s, so
+        Ctrl-C stops it soon after; chunks change no pixel.
 
     Returns
     -------
@@ -321,6 +368,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     """
     volume = as_volume(volume)
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
+    default_tf = tf is None
     if tf is None:
         tf = default_transfer_function(volume)
     if not isinstance(tf, TransferFunction):
@@ -361,6 +409,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     table = np.ascontiguousarray(np.column_stack([rgb, alpha_step]), dtype=table_dtype)
     sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
 
+    check_memory(render_bytes(volume, tf, opts, width, height, rays, lod, labels),
+                 _memory_advice(volume, prec, width, height))
     values = volume.values
     if prec != "float64" and values.dtype == np.float64:
         volume = _derived(volume, "float32", lambda: values.astype(np.float32))
@@ -411,6 +461,20 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
     # a volume with one point along an axis has no thickness: nothing to integrate
     flat = min(volume.dims) < 2
+    # an image bound to be empty says why. Label styles have tables of their own, and a
+    # projection keeps its value image (HDRImage.value) whatever the opacity; without a
+    # mask the skip structure already holds the visible blocks
+    if styles is not None or opts.blending != "composite":
+        visible = True
+    elif opts.skip_empty and mask is None:
+        visible = bool(active.any())
+    else:
+        visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
+    reason = empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
+                                 default_tf=default_tf)
+    if reason is not None and not visible and prec == "uint8":
+        reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
+    warn_empty(reason)
     lanes = _lanes()
 
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
@@ -482,6 +546,61 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     if value is not None:
         value = value.reshape(height, width)
     return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+
+
+def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=None):
+    """``{what: bytes}``: what :func:`render_volume` will allocate for these arguments
+    (``rays``: the Rays it is given; ``lod``: their level of detail), not counting
+    what ``volume.cache`` already holds. Checked against the free memory before a
+    render starts (:func:`~pv_hdrvol.raycast.memory.check_memory`)."""
+    prec = opts.precision
+    n_pix = width * height
+    n = volume.values.size
+    out_item = 8 if prec == "float64" else 4
+    extended = opts.blending != "composite" or opts.gradient_opacity is not None or labels is not None \
+        or lod is not None or opts.shade
+    parts = {"image": n_pix * (4 * out_item + 8 + 8 + (8 if opts.blending != "composite" else 0))}
+    if rays is not None or extended:
+        # origins and directions in voxel units (and the camera's rays they come from)
+        parts["rays"] = n_pix * 48 * (2 if rays is None else 1)
+    cache, item = volume.cache, volume.values.itemsize
+    if prec != "float64" and volume.values.dtype == np.float64:
+        derived = cache.get(("derived", "float32"))
+        if derived is None:
+            parts["float32 copy of the volume"] = 4 * n
+        cache, item = ({} if derived is None else derived.cache), 4
+    if prec == "uint8":
+        derived = cache.get(("derived", ("u8", tf.scale, tf.linthresh, tf.axis_range)))
+        if derived is None:
+            parts["8-bit levels of the volume"] = 4 * n + 24 * n  # the float32 levels, float64 temporaries
+        cache, item = ({} if derived is None else derived.cache), 4
+    if ("blocks", opts.block_size) not in cache:
+        parts["block ranges"] = 16 * int(np.prod(_grid_shape(volume.dims, opts.block_size)))
+    brick_points = int(np.prod(_brick_shape(volume.dims))) * ((1 << K.BRICK_SHIFT) + 1) ** 3
+    if "bricks" not in cache:
+        parts["bricks"] = brick_points * item
+    kernel_item = 8 if prec == "float64" else 4
+    kernel_dtype = np.dtype(np.float64 if prec == "float64" else np.float32).str
+    if opts.gradient_opacity is not None and ("gradient", kernel_dtype) not in cache:
+        parts["gradient bricks"] = (n + brick_points) * kernel_item
+    if opts.shade and opts.shade_gradient == "interpolated" and ("gradient_vectors", kernel_dtype) not in cache:
+        # three components per point as float64, then bricked in the kernel precision
+        parts["gradient vector bricks"] = 3 * (8 * n + brick_points * kernel_item)
+    if lod is not None and ("mip", kernel_dtype) not in cache:
+        # levels of 1, 1/8, 1/64, ... of the volume, bricked, then joined into one array
+        parts["mip-map"] = int((n + 2 * brick_points) * kernel_item * 8 / 7)
+    if labels is not None:
+        parts["label slots"] = 8 * n + n + brick_points
+    return parts
+
+
+def _memory_advice(volume, prec, width, height):
+    advice = [f"a smaller size (now {width}x{height})", "a subvolume (e.g. values[::2, ::2, ::2])"]
+    if volume.values.dtype == np.float64:
+        advice.append("float32 data instead of float64")
+    if prec == "float64":
+        advice.append("precision='float32'")
+    return "try " + ", ".join(advice[:-1]) + " or " + advice[-1]
 
 
 def _check_lod(rays):
@@ -794,43 +913,97 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
     """Call ``cast(tile_rows)`` (which renders those rows of ``_TILE``-pixel tiles and
     returns how many pixel rows it did) over all rows of tiles, with progress.
 
-    Chunks are every n-th row of tiles, each a uniform sample of the image. Each chunk
-    ends in a thread barrier, so a render is split only when someone watches it: with
-    ``progress_bar=None`` the first chunk is timed and the rest goes on in chunks with
-    a bar only when the whole render would take over a second, else in one call.
-    ``progress(fraction)`` returning ``False`` raises ``RuntimeError("render aborted")``.
+    The middle row of tiles goes first, then the others in chunks that double in size
+    until an eighth of the rows is done, each limited to about ``_CHUNK_SECONDS`` at
+    the rate measured so far; then the rest in chunks of that limit (all of it, for a
+    quick render). A kernel call cannot be interrupted, so Ctrl-C (KeyboardInterrupt)
+    takes effect when the chunk running ends: within about ``_CHUNK_SECONDS``,
+    whatever ``progress_bar`` says. ``progress``/``progress_bar=True`` get at least as
+    many reports as a quarter of the tile rows (<= 64). The rows are taken in
+    bit-reversed order, so every chunk is spread over the image; tile rows are
+    rendered independently, so the chunks change no pixel.
+
+    ``progress_bar=None`` shows a tqdm bar for a slow render only on a terminal or in a
+    Jupyter kernel (:func:`_auto_bar_wanted`). ``progress(fraction)`` returning
+    ``False`` raises ``RuntimeError("render aborted")``; any exception (KeyboardInterrupt
+    too) closes the bar and propagates.
     """
-    t_start = time.perf_counter()
     tile_count_y = -(-height // _TILE)
-    all_tile_rows = np.arange(tile_count_y, dtype=np.int64)
-    bar = None
+    bar = _progress_bar(progress_bar, height) if progress_bar else None
     done = 0
-    n = max(1, min(tile_count_y // 4, 64))
-    if progress is None and progress_bar is None:
-        done = cast(all_tile_rows[::n])
-        if (time.perf_counter() - t_start) * n > _AUTO_BAR_SECONDS and n > 1:
-            bar = _progress_bar(True, height, quiet_without_tqdm=True)
-            chunks = [all_tile_rows[c::n] for c in range(1, n)]
-        else:
-            chunks = [all_tile_rows[all_tile_rows % n != 0]]
-    elif progress is None and not progress_bar:
-        chunks = [all_tile_rows]
-    else:
-        bar = _progress_bar(progress_bar, height)
-        chunks = [all_tile_rows[c::n] for c in range(n)]
+
+    def report(rows):
+        nonlocal done
+        done += rows
+        if bar is not None:
+            bar.update(rows)
+        if progress is not None and progress(done / height) is False:
+            raise RuntimeError("render aborted")
+
     try:
-        if bar is not None and done:
-            bar.update(done)
-        for tile_rows in chunks:
-            rows = cast(tile_rows) if tile_rows.size else 0
-            done += rows
-            if bar is not None:
-                bar.update(rows)
-            if progress is not None and progress(done / height) is False:
-                raise RuntimeError("render aborted")
+        t_start = _clock()
+        middle = tile_count_y // 2
+        report(cast(np.array([middle], dtype=np.int64)))
+        rest = _spread_order(np.delete(np.arange(tile_count_y, dtype=np.int64), middle))
+        # a watched render reports at least as often as it always did: after a quarter
+        # of the tile rows (<= 64 reports)
+        most = -(-rest.size // max(1, min(tile_count_y // 4, 64) - 1)) \
+            if progress is not None or bar is not None else rest.size
+        start, size, rows_done = 0, 1, 1
+        t_first = _clock()  # the first call may have compiled the kernel: not a rate
+        while start < rest.size:
+            # seconds a row of tiles, so far
+            rate = (t_first - t_start) if rows_done == 1 else (_clock() - t_first) / (rows_done - 1)
+            if bar is None and progress_bar is None and rate * tile_count_y > _AUTO_BAR_SECONDS \
+                    and _auto_bar_wanted():
+                bar = _progress_bar(True, height, quiet_without_tqdm=True)
+                if bar is not None:
+                    bar.update(done)
+            fits = max(1, int(_CHUNK_SECONDS / rate)) if rate > 0 else rest.size
+            # double the chunks until an eighth of the rows is timed (the middle row
+            # alone may be cheap), and keep each to about _CHUNK_SECONDS
+            size = min(fits if 8 * rows_done >= tile_count_y else 2 * size, fits, most)
+            # in image order inside a chunk: neighbouring rows share bricks (cells) in cache
+            part = np.sort(rest[start:start + size])
+            report(cast(part))
+            start += part.size
+            rows_done += part.size
     finally:
         if bar is not None:
             bar.close()
+
+
+def _spread_order(rows):
+    """``rows`` in bit-reversed (van der Corput) order of their positions: any run of
+    consecutive entries is spread evenly over the image."""
+    n = rows.size
+    if n < 3:
+        return rows
+    bits = int(n - 1).bit_length()
+    i = np.arange(n, dtype=np.int64)
+    rev = np.zeros(n, dtype=np.int64)
+    for b in range(bits):
+        rev |= ((i >> b) & 1) << (bits - 1 - b)
+    return rows[np.argsort(rev, kind="stable")]
+
+
+def _auto_bar_wanted():
+    """Whether ``progress_bar=None`` may show a bar: when stderr is a terminal or the code
+    runs in a Jupyter (IPython) kernel; never into a log file or a pipe, where tqdm's
+    carriage-return lines would pile up."""
+    try:
+        if sys.stderr is not None and sys.stderr.isatty():
+            return True
+    except (AttributeError, ValueError, OSError):  # a replaced or closed stderr
+        pass
+    ipython = sys.modules.get("IPython")  # never imported here: only if already in use
+    if ipython is None:
+        return False
+    try:
+        shell = ipython.get_ipython()
+    except Exception:  # noqa: BLE001 - any failure means: not in a kernel
+        return False
+    return shell is not None and getattr(shell, "kernel", None) is not None
 
 
 def _check_progress_bar(value):

@@ -20,7 +20,9 @@ from ..rays.camera import Camera
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import _TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function, run_in_chunks
+from .grid import (_TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function,
+                   empty_render_reason, run_in_chunks, warn_empty)
+from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
 
 #: extinction columns whose active-cell masks a mesh keeps
@@ -101,6 +103,7 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     if opts.gradient_opacity is not None:
         raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
     tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
+    default_tf = tf is None
     if tf is None:
         tf = default_transfer_function(mesh)
     if not isinstance(tf, TransferFunction):
@@ -112,6 +115,7 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
     _check_progress_bar(progress_bar)
     width, height = as_size(size)
     prec = opts.precision
+    check_memory(render_bytes(mesh, prec, width, height), _MEMORY_ADVICE.format(width=width, height=height))
 
     unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else mesh.default_unit_distance()
     table, sigma = _table(tf, prec, opts.global_alpha, unit)
@@ -122,6 +126,8 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
         float(mesh.scale), tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64), int(opts.shade),
     )
     active = _active_cells(mesh, sigma, params)
+    warn_empty(empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf, visible=bool(active.any()),
+                                   default_tf=default_tf, what="mesh"))
 
     # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
     cam = camera_array(camera, mesh, width, height)
@@ -221,6 +227,10 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
         raise ValueError(f"size {width}x{height} must be a multiple of upsample={factor}")
     if camera is None:
         camera = Camera.fit(mesh.bounds, "iso")
+    # the low render checks its own arrays; these are the full-size layers and output
+    out_item = 8 if RenderOptions.from_kwargs(options, **option_kwargs).precision == "float64" else 4
+    check_memory({"full-size thickness guide and upsampled image": width * height * (16 + 32 + 4 * out_item + 8)},
+                 _MEMORY_ADVICE.format(width=width, height=height))
     t0 = time.perf_counter()
     low, view = _render(mesh, tf, camera, (width // factor, height // factor), options, tau_max, progress,
                         progress_bar, option_kwargs)
@@ -237,6 +247,25 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     out.metadata.update({"low_render_seconds": t1 - t0, "reference_seconds": t2 - t1, "upsample_seconds": t3 - t2,
                          "reference_layers": layers.n_layers, "layers_needed": layers.layers_needed})
     return out
+
+
+_MEMORY_ADVICE = "try a smaller size (now {width}x{height}) or a part of the mesh (e.g. mesh.clip_box(...))"
+
+
+def render_bytes(mesh, precision, width, height):
+    """``{what: bytes}``: what a full-resolution :func:`render_tets` allocates, not
+    counting what ``mesh.cache`` already holds; the boundary crossings are counted as
+    two per pixel (one entry, one exit), their true number is known only after they
+    are found."""
+    n_pix = width * height
+    out_item = 8 if precision == "float64" else 4
+    parts = {"image": n_pix * (4 * out_item + 8 + 8 + 8 + 1),  # rgba, depth, cells, pieces, guard
+             "boundary crossings": n_pix * (8 + 8) + 8 + 2 * n_pix * (8 + 8 + 1),
+             "boundary faces in view": len(mesh.boundary) * (3 * 2 * 8 + 8 * LK.FACE_FIELDS + 4 * 8)}
+    if "cell_records" not in mesh.cache:
+        small = max(len(mesh.points), 4 * mesh.n_cells + 3) <= INT32_RECORDS
+        parts["cell records"] = mesh.n_cells * (8 if small else 12) * 8 + 64
+    return parts
 
 
 class BoundaryHits:
@@ -420,6 +449,11 @@ def _boundary_normals(mesh):
         a, b, c = (pts[tri[:, i]] for i in range(3))
         mesh.cache["boundary_normals"] = np.ascontiguousarray(np.cross(b - a, c - a))
     return mesh.cache["boundary_normals"]
+
+
+def _any_finite_cell(mesh):
+    """Whether any cell has four finite corner values (after ``_active_cells``)."""
+    return bool(np.isfinite(mesh.cache["cell_ranges"][0]).any())
 
 
 def _active_cells(mesh, sigma, params):

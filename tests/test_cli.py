@@ -13,6 +13,7 @@ import pyvista as pv
 import pv_hdrvol as hv
 from pv_hdrvol.datasets import hydrogen_orbital, hydrogen_orbital_array
 from pv_hdrvol.integrations.cli import main
+from pv_hdrvol.raycast.grid import default_transfer_function
 
 
 def _png_size(path):
@@ -115,7 +116,9 @@ def test_render_tetrahedral_mesh(tmp_path, capsys):
     assert main(["render", str(path), "-o", str(out), "--size", "14", "12", "--opacity", "0", "0.4",
                  "--no-progress"]) == 0
     assert f"part.vtu (pressure, {mesh.n_cells} tets): 14x12 float32" in capsys.readouterr().out
-    tf = hv.TransferFunction.ramp(1.0, 2.0, cmap="magma", opacity=(0.0, 0.4))
+    # the default transfer function of the mesh, with the opacity given
+    tf = default_transfer_function(hv.tetmesh_from_dataset(mesh), opacity=(0.0, 0.4))
+    assert tf.opacities[0] == 0.0 and tf.opacities[-1] == 0.4
     ref = hv.render(mesh, tf, hv.Camera.fit(mesh.bounds, "iso"), (14, 12))
     np.testing.assert_array_equal(hv.load(out).rgba, ref.rgba)
 
@@ -147,8 +150,9 @@ def test_info(volume_file, tmp_path, capsys):
     # the render settings, readably; all of them with --json
     settings = image.settings()
     assert "render settings (pv_hdrvol.load(FILE).settings()):\n  size:               8x8\n" in out
-    assert (f"  transfer function:  64 control points over [{settings.tf.vmin!r}, {settings.tf.vmax!r}], scale "
-            f"{settings.tf.scale}, colours in rgb, opacity 0 to 1, table of 65536 entries\n") in out
+    tf = settings.tf
+    assert (f"  transfer function:  {tf.values.size} control points over [{tf.vmin!r}, {tf.vmax!r}], scale "
+            f"{tf.scale}, colours in rgb, opacity 0 to {tf.opacities.max():.6g}, table of 65536 entries\n") in out
     assert "  options:            step=0.5, precision='float64', global_alpha=1.0, " in out
     assert "  settings: " not in out  # not repeated as a raw dict
     assert main(["info", str(exr), "--json"]) == 0

@@ -55,7 +55,7 @@ def test_integer_data_keeps_a_linear_default_transfer_function():
     # put on a log axis, only floating-point data is
     from pv_hdrvol.raycast.grid import default_transfer_function
 
-    vals = np.arange(1, 5001, dtype=np.int16).reshape(10, 20, 25)
+    vals = np.geomspace(1, 5000, 5000).round().astype(np.int16).reshape(10, 20, 25)
     assert default_transfer_function(hv.volume_from_array(vals)).scale == "linear"
     assert default_transfer_function(hv.volume_from_array(vals.astype(np.float32))).scale == "log"
 

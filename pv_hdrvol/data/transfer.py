@@ -324,17 +324,21 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
     """The default transfer function of ``values``: what a careful user would set by hand.
 
     - **Axis**: ``log`` when the data are not negative and their positive values span
-      more than 3 decades from the 1st percentile to the maximum (zeros are empty; a
-      few stray tiny values do not count), ``symlog`` when they have both signs and
+      more than 3 decades from the 5th percentile to the maximum (zeros are empty; a
+      few stray tiny values, or noise about zero, do not count), ``symlog`` when they have both signs and
       their magnitudes span more than 3 decades, else ``linear`` (``scale``
       overrides).
     - **Background**: the histogram's dominant mode (air in CT, the floor of a density
       field) stays transparent when it lies in the lower half of the axis: opacity
-      starts at the first valley of the smoothed histogram after the mode (or where it
-      falls below 5 % of the mode), ``vmin``. Otherwise ``vmin`` is the 0.5th
+      starts where the smoothed histogram (256 bins on the axis) falls below 5 % of the
+      mode's peak after it, or at its first valley below half the peak, ``vmin`` (when
+      the mode is a peak: over 3 times the median bin, and within a quarter of the
+      axis; evenly spread data has no background). Otherwise ``vmin`` is the 0.5th
       percentile.
     - **Structure**: the colormap and the opacity ramp span ``[vmin, vmax]``,
-      ``vmax`` the 99.9th percentile of the values above ``vmin``.
+      ``vmax`` the 99.9th percentile of the values above ``vmin``. Constant data has
+      none: its default is transparent (the renderers then warn that the image is
+      empty, and why).
     - **Opacity**: 0 at ``vmin``, rising to ``a`` at ``vmax``: linearly along a linear
       or symlog axis; on a log axis in proportion to the value (a density: faint
       decades get little opacity and stay visible in the HDR image, instead of
@@ -400,7 +404,11 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
         if vmax is None:
             vmax = float(_scale_inverse([t1], scale, linthresh)[0]) if t1 < a_hi else hi
     vmin, vmax = float(vmin), float(vmax)
-    if not vmax > vmin:  # constant data, or a range collapsed by the overrides
+    if lo == hi and opacity is None:
+        # constant data has no structure to show: an empty picture, which the renderers
+        # explain (EmptyRenderWarning), rather than a uniform fog
+        return TransferFunction.ramp(lo, lo + 1.0, cmap=_cmap_colors(cmap), opacity=(0.0, 0.0))
+    if not vmax > vmin:  # a range collapsed by the overrides
         pad = max(abs(vmin), 1.0) * 1e-3 if scale != "log" else vmin * 1e-3
         vmin, vmax = (vmin - pad, vmax + pad) if scale != "log" else (vmin, vmax + pad)
         if scale == "log" and vmin <= 0:
@@ -412,7 +420,7 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
         # of the light, faint ones faint, and the HDR image keeps them)
         axis_points = np.linspace(*scale_forward([vmin, vmax], scale, linthresh), n)
         if scale == "log":
-            points = 10.0 ** axis_points / vmax
+            points = 10.0 ** (axis_points - axis_points[-1])  # v / vmax, exactly 1 at the top
             points[0] = 0.0  # the background stays transparent
         else:
             points = np.linspace(0.0, 1.0, n)
@@ -434,7 +442,7 @@ def _default_scale(v, lo, hi):
     else ``linear``."""
     if lo >= 0 and hi > 0:
         positive = v[v > 0]
-        return "log" if hi / np.percentile(positive, 1.0) > 1e3 else "linear"
+        return "log" if hi / np.percentile(positive, 5.0) > 1e3 else "linear"
     if lo < 0 < hi:
         mags = np.abs(v[v != 0])
         if mags.size and mags.max() / mags.min() > 1e3:
@@ -447,16 +455,22 @@ def _structure_range(axis, a_lo, a_hi):
     if not a_hi > a_lo:
         return a_lo, a_hi
     counts, edges = np.histogram(axis, bins=_HIST_BINS, range=(a_lo, a_hi))
-    smooth = np.convolve(counts, np.ones(3) / 3.0, mode="same")
-    mode = int(np.argmax(counts))
+    smooth = np.convolve(counts, np.ones(5) / 5.0, mode="same")
+    mode = int(np.argmax(smooth))
     t0 = float(np.percentile(axis, 0.5))
     if mode < _HIST_BINS // 2:
+        # the mode ends where the histogram falls below 5 % of its peak, or at a valley
+        # below half of it (a plateau of noise has no such valley inside)
         peak = smooth[mode]
         end = mode + 1
         while end < _HIST_BINS - 1 and smooth[end] >= 0.05 * peak and not (
-                smooth[end] < smooth[end - 1] and smooth[end] <= smooth[end + 1]):
+                smooth[end] < 0.5 * peak and smooth[end] < smooth[end - 1] and smooth[end] <= smooth[end + 1]):
             end += 1
-        t0 = float(edges[end])
+        # a background is a peak: well above the typical bin, and narrow (evenly spread
+        # data has no background to hide)
+        typical = float(np.median(smooth[smooth > 0]))
+        if peak > 3.0 * typical and end - mode <= _HIST_BINS // 4:
+            t0 = float(edges[end])
     above = axis[axis > t0]
     t1 = float(np.percentile(above, 99.9)) if above.size else a_hi
     return t0, max(t1, t0)
@@ -468,8 +482,9 @@ def _ray_opacity(shape, ray_length):
     target = -np.log(DEFAULT_TRANSMITTANCE) / max(ray_length, 1.0)
     if shape.size == 0 or not np.any(shape > 0):
         return 1.0
-    # bin the shape: the mean over millions of voxels, cheaply
-    hist, edges = np.histogram(shape, bins=1024, range=(0.0, 1.0))
+    # bin the shape: the mean over millions of voxels, cheaply (transparent voxels,
+    # most of them, exactly: they add nothing)
+    hist, edges = np.histogram(shape[shape > 0], bins=4096, range=(0.0, 1.0))
     centers = 0.5 * (edges[:-1] + edges[1:])
     weights = hist / shape.size
 

@@ -95,15 +95,16 @@ def build_parser():
                    help="also write an 8-bit preview (auto exposure, or --tonemap)")
     _add_render_options(p)
     _add_preview_options(p, "--png")
-    tf = p.add_argument_group("transfer function (a colormap ramp; default: chosen from the data range)")
-    tf.add_argument("--vmin", type=float, default=None, help="bottom of the range (default: data minimum, "
-                    "smallest positive value for --scale log)")
-    tf.add_argument("--vmax", type=float, default=None, help="top of the range (default: data maximum)")
+    tf = p.add_argument_group("transfer function (default: chosen from the data, as the Python API chooses; "
+                              "each option replaces one choice)")
+    tf.add_argument("--vmin", type=float, default=None,
+                    help="where colours and opacity start (default: past the histogram's background mode)")
+    tf.add_argument("--vmax", type=float, default=None, help="where they end (default: the 99.9th percentile)")
     tf.add_argument("--scale", choices=SCALES, default=None,
-                    help="axis of the ramp (default: log when positive data spans > 3 decades)")
-    tf.add_argument("--cmap", default=None, help="matplotlib colormap name (default magma)")
+                    help="axis (default: log when the positive data span > 3 decades)")
+    tf.add_argument("--cmap", default=None, help="matplotlib colormap name (default magma, without its black end)")
     tf.add_argument("--opacity", type=float, nargs=2, default=None, metavar=("A", "B"),
-                    help="opacity at vmin and at vmax (default 0 1)")
+                    help="opacity at vmin and at vmax (default: 0, and what keeps the densest rays readable)")
     p.set_defaults(handler=_cmd_render, subparser=p)
 
     p = sub.add_parser("demo", help="render the hydrogen 3d_z2 orbital (no input needed)",
@@ -264,31 +265,16 @@ def _existing_file(name):
 
 
 def _transfer_function(args, volume):
-    """A ramp when any transfer-function option is given, else ``None`` (the core's default)."""
-    from ..data.transfer import TransferFunction
+    """The core's default transfer function with the options given replacing its
+    choices, or ``None`` (the core's default itself) when none is given."""
     from ..raycast.grid import default_transfer_function
 
-    given = (args.vmin, args.vmax, args.scale, args.cmap, args.opacity)
-    if all(v is None for v in given):
+    given = {"vmin": args.vmin, "vmax": args.vmax, "scale": args.scale, "cmap": args.cmap,
+             "opacity": tuple(args.opacity) if args.opacity else None}
+    if all(v is None for v in given.values()):
         return None
-    default = default_transfer_function(volume)
-    scale = args.scale or default.scale
-    lo, hi = volume.value_range
-    if scale == default.scale:
-        vmin, vmax = default.vmin, default.vmax  # the data range, as the default maps it
-    elif scale == "log":
-        values = volume.values
-        positive = values[values > 0]
-        if positive.size == 0:
-            raise UserError(f"--scale log needs positive data; {volume.name!r} has none (range [{lo:g}, {hi:g}])")
-        vmin, vmax = float(positive.min()), hi
-    else:
-        vmin, vmax = lo, hi
-    vmin = args.vmin if args.vmin is not None else vmin
-    vmax = args.vmax if args.vmax is not None else vmax
     try:
-        return TransferFunction.ramp(vmin, vmax, scale=scale, cmap=args.cmap or "magma",
-                                     opacity=tuple(args.opacity) if args.opacity else (0.0, 1.0))
+        return default_transfer_function(volume, **given)
     except (ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
 

@@ -45,18 +45,22 @@ def as_volume(data, scalars=None, preference="point"):
     return cached_volume_from_dataset(data, scalars=scalars, preference=preference)
 
 
-def default_transfer_function(volume):
+def default_transfer_function(volume, **overrides):
     """The default transfer function of an image volume or a tetrahedral mesh:
     :func:`~pv_hdrvol.data.transfer.auto_transfer_function` of its values, for a ray
     as long as the bounding box's diagonal in unit distances (the smallest spacing; a
-    mesh's typical cell size). Integer data (CT) keeps a linear axis."""
+    mesh's typical cell size). Integer data (CT) keeps a linear axis. ``overrides``
+    (``scale``, ``vmin``, ``vmax``, ``cmap``, ``opacity``) replace what would be chosen;
+    ``None`` values are ignored."""
+    overrides = {k: v for k, v in overrides.items() if v is not None}
     b = np.asarray(volume.bounds, dtype=np.float64)
     diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
     if isinstance(volume, GridVolume):
         unit = float(volume.spacing.min())
-        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit,
-                                      scale="linear" if volume.integer else None)
-    return auto_transfer_function(volume.values, diagonal / volume.default_unit_distance())
+        if volume.integer:
+            overrides.setdefault("scale", "linear")
+        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit, **overrides)
+    return auto_transfer_function(volume.values, diagonal / volume.default_unit_distance(), **overrides)
 
 
 class EmptyRenderWarning(RuntimeWarning):

@@ -121,8 +121,12 @@ def test_render_rejects_bad_spacing_and_arguments():
         hv.volume_from_array(np.ones((3, 3, 3)), spacing=(1, 0, 1))
     with pytest.raises(TypeError, match="tf must be a TransferFunction; got dict"):
         hv.render(np.ones((3, 3, 3)), {"a": 1})
-    with pytest.raises(TypeError, match="camera must be a Camera or Rays; got str"):
-        hv.render(np.ones((3, 3, 3)), None, "iso")
+    with pytest.raises(TypeError, match="camera must be None, a view name such as 'iso' or 'xy', a pv_hdrvol "
+                                        "Camera or Rays, a pyvista.Plotter, a pyvista.Camera or a vtkCamera; got int"):
+        hv.render(np.ones((3, 3, 3)), None, 3)
+    with pytest.raises(ValueError, match=r"view must be one of \['iso', 'xy', 'yx', 'xz', 'zx', 'yz', 'zy'\]; "
+                                         r"got 'top'"):
+        hv.render(np.ones((3, 3, 3)), None, "top")
     with pytest.raises(ValueError, match="scalars names an array of a dataset"):
         hv.render(np.ones((3, 3, 3)), scalars="density")
 
@@ -300,3 +304,12 @@ def test_progress_bar_appears_only_when_asked_or_for_slow_renders(capsys, monkey
     assert "Rendering" in capsys.readouterr().err
     with pytest.raises(TypeError, match="progress_bar must be True, False or None"):
         hv.render(vol, None, None, (16, 16), progress_bar="yes")
+
+
+def test_every_front_end_takes_a_view_name_for_the_camera():
+    """hv.render takes what the accessor takes: a view name frames the data as Camera.fit."""
+    values = np.random.default_rng(3).random((6, 7, 8))
+    vol = hv.volume_from_array(values, spacing=(0.5, 1.0, 2.0))
+    for view in ("iso", "xz"):
+        np.testing.assert_array_equal(hv.render(vol, None, view, (9, 7)).rgba,
+                                      hv.render(vol, None, hv.Camera.fit(vol.bounds, view), (9, 7)).rgba)

@@ -440,7 +440,8 @@ def test_bad_render_arguments():
         hv.render(mesh, gradient_opacity=(0.0, 1.0))
     with pytest.raises(ValueError, match=r"labels= is not supported for tetrahedral meshes"):
         hv.render(mesh, labels=np.zeros(3))
-    with pytest.raises(TypeError, match=r"camera must be a Camera; got Rays"):
+    with pytest.raises(TypeError, match=r"camera must be a Camera, a view name or a PyVista/VTK camera \(not Rays: "
+                                        r"a tetrahedral render makes its own rays\); got Rays"):
         hv.render(mesh, None, hv.Camera.fit(mesh).rays(4))
     with pytest.raises(ValueError, match=r"scalars names an array of a dataset; a TetMesh has its scalars already"):
         hv.render(mesh, scalars="x")

@@ -404,6 +404,8 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
         if vmax is None:
             vmax = float(_scale_inverse([t1], scale, linthresh)[0]) if t1 < a_hi else hi
     vmin, vmax = float(vmin), float(vmax)
+    if scale == "log" and vmin <= 0:  # before any axis arithmetic on it
+        raise ValueError(f"scale='log' needs vmin > 0; got vmin={vmin!r}")
     if lo == hi and opacity is None:
         # constant data has no structure to show: an empty picture, which the renderers
         # explain (EmptyRenderWarning), rather than a uniform fog

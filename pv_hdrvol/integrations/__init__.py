@@ -10,34 +10,6 @@ Submodules are imported on demand: importing this package loads neither PyVista 
 """
 from __future__ import annotations
 
-from ..rays.camera import Camera, Rays
-
-
-def resolve_camera(camera, bounds):
-    """A :class:`~pv_hdrvol.Camera` (or :class:`~pv_hdrvol.Rays`) from what users pass.
-
-    Parameters
-    ----------
-    camera : None, str, Camera, Rays, pyvista.Plotter, pyvista.Camera or vtkCamera
-        ``None`` means ``"iso"``; a string is a view name for
-        :meth:`Camera.fit <pv_hdrvol.Camera.fit>` (``"iso"``, ``"xy"``, ``"xz"``, ...).
-    bounds : sequence of 6 floats or dataset
-        What a view name frames.
-    """
-    if camera is None:
-        camera = "iso"
-    if isinstance(camera, str):
-        return Camera.fit(bounds, camera)
-    if isinstance(camera, (Camera, Rays)):
-        return camera
-    try:
-        return Camera.from_pyvista(camera)
-    except TypeError:
-        raise TypeError(
-            "camera must be None, a view name such as 'iso' or 'xy', a pv_hdrvol Camera or Rays, a "
-            f"pyvista.Plotter, a pyvista.Camera or a vtkCamera; got {type(camera).__name__}") from None
-
-
 #: Lookup-table entries of PyVista's ``add_volume`` (its ``n_colors`` default): the
 #: control points a transfer function made from ``cmap=``/``clim=``/``opacity=`` has.
 PYVISTA_N_COLORS = 256
@@ -170,4 +142,4 @@ class VolumeCache:
         return self._volume
 
 
-__all__ = ["VolumeCache", "resolve_camera", "resolve_transfer_function"]
+__all__ = ["VolumeCache", "resolve_transfer_function"]

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import pyvista as pv
 
-from . import VolumeCache, resolve_camera, resolve_transfer_function
+from ..rays.camera import as_camera
+from . import VolumeCache, resolve_transfer_function
 
 _IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
 
@@ -119,7 +120,7 @@ class HDRVolAccessor:
             from ..data.tets import check_has_cells
 
             check_has_cells(self._dataset)  # before its (unset) bounds frame a camera
-        cam = resolve_camera(camera, self._dataset.bounds)
+        cam = as_camera(camera, self._dataset.bounds)
         if self._dataset.GetClassName() == "vtkUnstructuredGrid":
             from ..data.tets import as_tetmesh
             from ..raycast.tets import render_tets

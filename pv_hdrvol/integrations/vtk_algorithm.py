@@ -17,8 +17,8 @@ from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 from .._validate import as_choice, as_size
 from ..data.transfer import TransferFunction
 from ..params import RenderOptions
-from ..rays.camera import Camera, Rays
-from . import VolumeCache, resolve_camera
+from ..rays.camera import Camera, Rays, as_camera
+from . import VolumeCache
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -233,7 +233,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             raise TypeError("SetCamera takes a Camera, a vtkCamera or a view name, not Rays: the image size "
                             "comes from SetImageSize")
         elif camera is not None and not isinstance(camera, Camera):
-            camera = resolve_camera(camera, None)
+            camera = as_camera(camera, None)
         if camera != self._camera:
             self._camera = camera
             self.Modified()
@@ -340,7 +340,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             raise ValueError(f"HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on input "
                              f"port 0; got {'nothing' if inp is None else kind}")
         scalars, preference = self._scalars_to_render()
-        camera = resolve_camera(self._camera, inp.GetBounds())
+        camera = as_camera(self._camera, inp.GetBounds())
 
         def progress(fraction):
             self.UpdateProgress(fraction)

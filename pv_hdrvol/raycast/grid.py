@@ -14,7 +14,7 @@ from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, auto_transfer
 from ..image.hdr import HDRImage
 from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
-from ..rays.camera import Camera, Rays
+from ..rays.camera import Camera, Rays, as_camera
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
@@ -377,8 +377,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         tf = default_transfer_function(volume)
     if not isinstance(tf, TransferFunction):
         raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
-    if camera is None:
-        camera = Camera.fit(volume.bounds, "iso")
+    camera = as_camera(camera, volume.bounds)
     if lens is not None:
         if not callable(getattr(lens, "rays", None)):
             raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
@@ -389,10 +388,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
             raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
     elif isinstance(camera, Rays):
         rays = camera
-    elif isinstance(camera, Camera):
-        rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
     else:
-        raise TypeError(f"camera must be a Camera or Rays; got {type(camera).__name__}")
+        rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
     width, height = (rays.width, rays.height) if rays is not None else as_size(size)
     lod = _check_lod(rays) if rays is not None else None
     if opts.precision == "uint8" and labels is not None:

@@ -16,7 +16,7 @@ from ..data.transfer import SCALE_CODES, TransferFunction, _scale_inverse
 from ..image.hdr import HDRImage
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
-from ..rays.camera import Camera
+from ..rays.camera import Camera, as_camera
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
@@ -108,10 +108,10 @@ def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, op
         tf = default_transfer_function(mesh)
     if not isinstance(tf, TransferFunction):
         raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
-    if camera is None:
-        camera = Camera.fit(mesh.bounds, "iso")
+    camera = as_camera(camera, mesh.bounds)
     if not isinstance(camera, Camera):
-        raise TypeError(f"camera must be a Camera; got {type(camera).__name__}")
+        raise TypeError(f"camera must be a Camera, a view name or a PyVista/VTK camera (not Rays: a tetrahedral "
+                        f"render makes its own rays); got {type(camera).__name__}")
     _check_progress_bar(progress_bar)
     width, height = as_size(size)
     prec = opts.precision
@@ -225,8 +225,7 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     width, height = as_size(size)
     if width % factor or height % factor:
         raise ValueError(f"size {width}x{height} must be a multiple of upsample={factor}")
-    if camera is None:
-        camera = Camera.fit(mesh.bounds, "iso")
+    camera = as_camera(camera, mesh.bounds)
     # the low render checks its own arrays; these are the full-size layers and output
     out_item = 8 if RenderOptions.from_kwargs(options, **option_kwargs).precision == "float64" else 4
     check_memory({"full-size thickness guide and upsampled image": width * height * (16 + 32 + 4 * out_item + 8)},

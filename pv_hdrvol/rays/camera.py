@@ -265,3 +265,33 @@ class Camera:
         c.SetParallelProjection(self.parallel_projection)
         c.SetParallelScale(self.parallel_scale)
         return c
+
+
+def as_camera(camera, bounds):
+    """A :class:`Camera` (or :class:`Rays`) from what users pass, the same in every front end.
+
+    Parameters
+    ----------
+    camera : None, str, Camera, Rays, pyvista.Plotter, pyvista.Camera or vtkCamera
+        ``None`` means ``"iso"``; a string is a view name for :meth:`Camera.fit`
+        (``"iso"``, ``"xy"``, ``"xz"``, ...).
+    bounds : sequence of 6 floats or anything with ``.bounds``
+        What a view name frames.
+
+    Examples
+    --------
+    >>> as_camera("xy", (0, 1, 0, 1, 0, 1)) == Camera.fit((0, 1, 0, 1, 0, 1), "xy")
+    True
+    """
+    if camera is None:
+        camera = "iso"
+    if isinstance(camera, str):
+        return Camera.fit(bounds, camera)
+    if isinstance(camera, (Camera, Rays)):
+        return camera
+    try:
+        return Camera.from_pyvista(camera)
+    except TypeError:
+        raise TypeError(
+            "camera must be None, a view name such as 'iso' or 'xy', a pv_hdrvol Camera or Rays, a "
+            f"pyvista.Plotter, a pyvista.Camera or a vtkCamera; got {type(camera).__name__}") from None

@@ -108,7 +108,7 @@ class VTKWindow:
     """One offscreen render window showing ``mapper`` with our transfer function's control
     points, opacity unit distance and camera (any VTK volume mapper)."""
 
-    def __init__(self, mapper, tf, camera, size, unit_distance, global_alpha=1.0):
+    def __init__(self, mapper, tf, camera, size, unit_distance, global_alpha=1.0, shading=None):
         from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
         from vtkmodules.vtkRenderingCore import (
             vtkColorTransferFunction, vtkRenderer, vtkRenderWindow, vtkVolume, vtkVolumeProperty,
@@ -124,7 +124,15 @@ class VTKWindow:
         prop.SetColor(ctf)
         prop.SetScalarOpacity(otf)
         prop.SetInterpolationTypeToLinear()
-        prop.ShadeOff()
+        if shading is None:
+            prop.ShadeOff()
+        else:  # (ambient, diffuse, specular, specular power), lit by the renderer's headlight
+            prop.ShadeOn()
+            ambient, diffuse, specular, power = shading
+            prop.SetAmbient(ambient)
+            prop.SetDiffuse(diffuse)
+            prop.SetSpecular(specular)
+            prop.SetSpecularPower(power)
         # ours: alpha is reached over opacity_unit_distance
         prop.SetScalarOpacityUnitDistance(unit_distance)
 
@@ -179,9 +187,10 @@ class VTKWindow:
 
 class VTKScene(VTKWindow):
     """``VTKWindow`` with VTK's fixed-point (``"fixed"``) or GPU (``"gpu"``) image mapper,
-    sampling as ours does (``step`` voxels, no automatic adjustment, no jittering)."""
+    sampling as ours does (``step`` voxels, no automatic adjustment, no jittering);
+    ``shading``: ``(ambient, diffuse, specular, specular power)`` to light it."""
 
-    def __init__(self, kind, image, tf, camera, size, step, unit_distance):
+    def __init__(self, kind, image, tf, camera, size, step, unit_distance, shading=None):
         import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (object factories)
         import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
         from vtkmodules.vtkRenderingVolume import vtkFixedPointVolumeRayCastMapper, vtkGPUVolumeRayCastMapper
@@ -202,7 +211,7 @@ class VTKScene(VTKWindow):
         mapper.SetLockSampleDistanceToInputSpacing(False)
         mapper.SetSampleDistance(sample_distance)
         mapper.SetImageSampleDistance(1.0)
-        super().__init__(mapper, tf, camera, size, unit_distance)
+        super().__init__(mapper, tf, camera, size, unit_distance, shading=shading)
         self.kind = kind
         self.sample_distance = sample_distance
 

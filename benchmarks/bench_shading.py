@@ -17,6 +17,12 @@ renderers within a row. The machine's load average is printed with each row.
 
     python3 benchmarks/bench_shading.py                    # engine and bonsai, 512^2
     python3 benchmarks/bench_shading.py --data engine --size 256 --frames 3
+    python3 benchmarks/bench_shading.py --breakdown        # where a shaded sample's time goes
+
+``--breakdown`` renders engine at 256^2 (transparent) on one thread with ours only:
+the plain loop, the extended loop (gradient-magnitude opacity), shading with lighting
+that changes nothing, without specular, the default, and the interpolated gradient,
+and prints thread-nanoseconds per sample.
 """
 from __future__ import annotations
 
@@ -40,7 +46,10 @@ def main(argv=None):
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--peers", nargs="*", default=["fixed", "gpu"], choices=["fixed", "gpu"])
+    ap.add_argument("--breakdown", action="store_true", help="where a shaded sample's time goes (ours only)")
     args = ap.parse_args(argv)
+    if args.breakdown:
+        return breakdown(args.frames)
 
     import pv_hdrvol as hv
 
@@ -93,6 +102,40 @@ def main(argv=None):
                       f"{load_before[0]}-{load_after[0]} |", flush=True)
             for scene in scenes:
                 scene.close()
+
+
+def breakdown(frames, size=(256, 256)):
+    import numba
+
+    import pv_hdrvol as hv
+
+    numba.set_num_threads(1)
+    volume = hv.volume_from_dataset(read_vti(data_dir() / DATASETS["engine"]))
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    tf = transfer_functions()["transparent"]
+    variants = {
+        "plain loop, unshaded": {},
+        "extended loop (gradient-magnitude opacity)": dict(gradient_opacity=(0.0, 1e-9)),
+        "shaded, lighting that changes nothing": dict(shade=True, ambient=1.0, diffuse=0.0, specular=0.0),
+        "shaded, no specular": dict(shade=True, specular=0.0),
+        "shaded, default": dict(shade=True),
+        "shaded, interpolated gradient": dict(shade=True, shade_gradient="interpolated"),
+    }
+    for kw in variants.values():
+        hv.render(volume, tf, camera, size, step=STEP, progress_bar=False, **kw)
+    times = {key: [] for key in variants}
+    load_before = load()
+    for _ in range(frames):
+        for key, kw in variants.items():
+            t = time.perf_counter()
+            img = hv.render(volume, tf, camera, size, step=STEP, progress_bar=False, **kw)
+            times[key].append(time.perf_counter() - t)
+    samples = img.metadata["samples"]
+    print(f"engine {size[0]}x{size[1]}, transparent, 1 thread, {samples} samples, load {load_before} -> {load()}")
+    print("| variant | seconds | thread-ns per sample |\n|---|--:|--:|")
+    for key, values in times.items():
+        med = statistics.median(values)
+        print(f"| {key} | {med:.3f} | {med * 1e9 / samples:.0f} |")
 
 
 if __name__ == "__main__":

@@ -82,6 +82,18 @@ def test_render_shaded_matches_library(volume_file, tmp_path):
     assert image.settings().options.lights == (hv.Light((0, 0, 1)), hv.Light((1, 1, 0)))
 
 
+@pytest.mark.parametrize("args,lens", [
+    (["--magnifier", "9", "7", "6", "2.5"], hv.Magnifier((9.0, 7.0), radius=6.0, factor=2.5)),
+    (["--fisheye", "120"], hv.Fisheye(120.0)),
+])
+def test_render_with_a_lens_matches_library(volume_file, tmp_path, args, lens):
+    out = tmp_path / "l.exr"
+    assert main(["render", str(volume_file), "-o", str(out), "--size", "18", "14", "--no-progress", *args]) == 0
+    grid = pv.read(volume_file)
+    ref = hv.render(grid, None, hv.Camera.fit(grid.bounds, "iso"), (18, 14), lens=lens)
+    np.testing.assert_array_equal(hv.load(out).rgba, ref.rgba)
+
+
 def test_render_maximum_projection_keeps_the_value(volume_file, tmp_path, capsys):
     out_exr = tmp_path / "mip.exr"
     args = ["render", str(volume_file), "-o", str(out_exr), "--size", "12", "--blending", "maximum",
@@ -170,6 +182,10 @@ def test_info(volume_file, tmp_path, capsys):
                                            "'xz', 'zx', 'yz', 'zy']; got 'top'"),
     (["render", "{vol}", "--vmin", "-1", "--scale", "log"],
      "pv-hdrvol render: error: scale='log' needs vmin > 0; got vmin=-1.0"),
+    (["render", "{vol}", "--magnifier", "5", "5", "4", "2", "--fisheye", "90"],
+     "pv-hdrvol render: error: --magnifier and --fisheye are two lenses; give one"),
+    (["render", "{vol}", "--shade", "--blending", "maximum"],
+     "pv-hdrvol render: error: shade applies to blending='composite' only; got blending='maximum'"),
     (["render", "{vol}", "-o", "{tmp}/x.png"],
      "pv-hdrvol render: error: output '{tmp}/x.png' must end in .exr or .npy"),
     (["render", "{vol}", "--png", "{tmp}/x.jpg"], "pv-hdrvol render: error: --png '{tmp}/x.jpg' must end in .png"),

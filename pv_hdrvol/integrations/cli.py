@@ -52,6 +52,11 @@ def _add_render_options(p):
                    help="composite (default), maximum/minimum intensity projection, average, or additive (X-ray); "
                         "projections also store the projected value (EXR channel V)")
     p.add_argument("--view", default=None, metavar="VIEW", help=f"camera direction, one of {', '.join(VIEWS)}")
+    g = p.add_argument_group("lenses (image volumes; pv_hdrvol.Magnifier and Fisheye)")
+    g.add_argument("--magnifier", type=float, nargs=4, default=None, metavar=("COL", "ROW", "RADIUS", "FACTOR"),
+                   help="a circular magnifier centred at pixel (COL, ROW), RADIUS pixels, magnifying FACTOR times")
+    g.add_argument("--fisheye", type=float, default=None, metavar="DEGREES",
+                   help="an equidistant fisheye of this field of view over the whole image")
     g = p.add_argument_group("shading (Blinn-Phong by the gradient; composite blending)")
     g.add_argument("--shade", action="store_true", default=None, help="light the volume (default: unlit)")
     g.add_argument("--ambient", type=float, default=None, help="ambient weight (default 0.1)")
@@ -279,6 +284,20 @@ def _transfer_function(args, volume):
         raise UserError(str(exc)) from None
 
 
+def _lens(args):
+    """The lens of ``--magnifier`` or ``--fisheye`` (not both), or None."""
+    from ..rays.lenses import Fisheye, Magnifier
+
+    if args.magnifier is not None and args.fisheye is not None:
+        raise UserError("--magnifier and --fisheye are two lenses; give one")
+    if args.magnifier is not None:
+        col, row, radius, factor = args.magnifier
+        return Magnifier((col, row), radius=radius, factor=factor)
+    if args.fisheye is not None:
+        return Fisheye(args.fisheye)
+    return None
+
+
 def _render(args, volume, tf, default_view, zoom=1.0):
     from .. import Camera, render
     from ..raycast.memory import RenderMemoryError
@@ -292,6 +311,9 @@ def _render(args, volume, tf, default_view, zoom=1.0):
     try:
         size = _size(args.size)
         camera = Camera.fit(volume.bounds, args.view or default_view, zoom=zoom)
+        lens = _lens(args)
+        if lens is not None:
+            options["lens"] = lens
         return render(volume, tf, camera, size, progress_bar=progress, **options)
     except (ValueError, TypeError, RenderMemoryError) as exc:  # a too large --size is a user error too
         raise UserError(str(exc)) from None

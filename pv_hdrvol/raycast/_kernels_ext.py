@@ -601,41 +601,42 @@ def downsample(values, out):
                 out[k, j, i] = total / weight if weight > 0.0 else math.nan
 
 
+@inline_kernel
+def _grid_gradient(values, k, j, i, sx, sy, sz):
+    """``grad v`` at point ``(i, j, k)`` (world units, ``s*`` = 1 / spacing): central
+    differences, one-sided at edges."""
+    nz, ny, nx = values.shape
+    k0 = max(k - 1, 0)
+    k1 = min(k + 1, nz - 1)
+    j0 = max(j - 1, 0)
+    j1 = min(j + 1, ny - 1)
+    i0 = max(i - 1, 0)
+    i1 = min(i + 1, nx - 1)
+    gx = (np.float64(values[k, j, i1]) - np.float64(values[k, j, i0])) * sx / max(i1 - i0, 1)
+    gy = (np.float64(values[k, j1, i]) - np.float64(values[k, j0, i])) * sy / max(j1 - j0, 1)
+    gz = (np.float64(values[k1, j, i]) - np.float64(values[k0, j, i])) * sz / max(k1 - k0, 1)
+    return gx, gy, gz
+
+
 @kernel
 def gradient_magnitude(values, inv_spacing, out):
-    """``|grad v|`` per point (world units): central differences, one-sided at edges."""
+    """``|grad v|`` per point (world units), from ``_grid_gradient``."""
     nz, ny, nx = values.shape
-    sx, sy, sz = inv_spacing[0], inv_spacing[1], inv_spacing[2]
     for k in range(nz):
-        k0 = max(k - 1, 0)
-        k1 = min(k + 1, nz - 1)
         for j in range(ny):
-            j0 = max(j - 1, 0)
-            j1 = min(j + 1, ny - 1)
             for i in range(nx):
-                i0 = max(i - 1, 0)
-                i1 = min(i + 1, nx - 1)
-                gx = (np.float64(values[k, j, i1]) - np.float64(values[k, j, i0])) * sx / max(i1 - i0, 1)
-                gy = (np.float64(values[k, j1, i]) - np.float64(values[k, j0, i])) * sy / max(j1 - j0, 1)
-                gz = (np.float64(values[k1, j, i]) - np.float64(values[k0, j, i])) * sz / max(k1 - k0, 1)
+                gx, gy, gz = _grid_gradient(values, k, j, i, inv_spacing[0], inv_spacing[1], inv_spacing[2])
                 out[k, j, i] = math.sqrt(gx * gx + gy * gy + gz * gz)
 
 
 @kernel
 def gradient_vectors(values, inv_spacing, out):
-    """``grad v`` per point (world units) into ``out`` (3, nz, ny, nx): central
-    differences, one-sided at edges (as ``gradient_magnitude``)."""
+    """``grad v`` per point (world units) into ``out`` (3, nz, ny, nx), from ``_grid_gradient``."""
     nz, ny, nx = values.shape
-    sx, sy, sz = inv_spacing[0], inv_spacing[1], inv_spacing[2]
     for k in range(nz):
-        k0 = max(k - 1, 0)
-        k1 = min(k + 1, nz - 1)
         for j in range(ny):
-            j0 = max(j - 1, 0)
-            j1 = min(j + 1, ny - 1)
             for i in range(nx):
-                i0 = max(i - 1, 0)
-                i1 = min(i + 1, nx - 1)
-                out[0, k, j, i] = (np.float64(values[k, j, i1]) - np.float64(values[k, j, i0])) * sx / max(i1 - i0, 1)
-                out[1, k, j, i] = (np.float64(values[k, j1, i]) - np.float64(values[k, j0, i])) * sy / max(j1 - j0, 1)
-                out[2, k, j, i] = (np.float64(values[k1, j, i]) - np.float64(values[k0, j, i])) * sz / max(k1 - k0, 1)
+                gx, gy, gz = _grid_gradient(values, k, j, i, inv_spacing[0], inv_spacing[1], inv_spacing[2])
+                out[0, k, j, i] = gx
+                out[1, k, j, i] = gy
+                out[2, k, j, i] = gz

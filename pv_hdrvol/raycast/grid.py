@@ -307,8 +307,9 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         ``scalars=``).
     tf : TransferFunction, optional
         Default: :func:`default_transfer_function`.
-    camera : Camera or Rays, optional
-        Default: ``Camera.fit(volume, "iso")``. ``Rays`` give one ray per pixel and
+    camera : Camera, Rays, view name, pyvista.Plotter, pyvista.Camera or vtkCamera, optional
+        Default ``"iso"``; a view name is ``Camera.fit(volume, name)``
+        (:func:`~pv_hdrvol.rays.camera.as_camera`). ``Rays`` give one ray per pixel and
         fix the size; where they carry a level of detail (``Rays.lod``), those rays
         sample a mip-map of the volume, built once per volume.
     size : int or (width, height)

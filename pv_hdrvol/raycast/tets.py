@@ -45,13 +45,14 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
         cached, so the next render of the same, unmodified mesh skips the preparation.
     tf : TransferFunction, optional
         Default: :func:`default_transfer_function` of the mesh's values.
-    camera : Camera, optional
-        Default ``Camera.fit(mesh, "iso")``. Must be outside the mesh: rays start at
+    camera : Camera, view name, pyvista.Plotter, pyvista.Camera or vtkCamera, optional
+        Default ``"iso"``, i.e. ``Camera.fit(mesh, "iso")``. Must be outside the mesh: rays start at
         their first entry through the boundary.
     size : int or (width, height)
     options : RenderOptions, optional
         ``precision``, ``global_alpha``, ``opacity_unit_distance`` (default: a typical
-        cell size, :meth:`TetMesh.default_unit_distance`), ``termination`` and
+        cell size, :meth:`TetMesh.default_unit_distance`), the shading options (each
+        cell lit by its constant gradient), ``termination`` and
         ``depth_threshold`` apply; ``step`` does not (segments are integrated exactly)
         and ``blending`` must be ``"composite"``.
     scalars, preference

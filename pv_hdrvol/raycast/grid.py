@@ -371,183 +371,251 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     >>> round(float(img.rgba[0, 0, 3]), 12)  # 4 voxels of opacity 0.1: 1 - 0.9**4
     0.3439
     """
-    volume = as_volume(volume)
-    opts = RenderOptions.from_kwargs(options, **option_kwargs)
-    default_tf = tf is None
-    if tf is None:
-        tf = default_transfer_function(volume)
-    if not isinstance(tf, TransferFunction):
-        raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
-    camera = as_camera(camera, volume.bounds)
-    if lens is not None:
-        if not callable(getattr(lens, "rays", None)):
-            raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
-        if not isinstance(camera, Camera):
-            raise TypeError(f"a lens needs a Camera; got {type(camera).__name__}")
-        rays = lens.rays(camera, size)
-        if not isinstance(rays, Rays):
-            raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
-    elif isinstance(camera, Rays):
-        rays = camera
-    else:
-        rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
-    width, height = (rays.width, rays.height) if rays is not None else as_size(size)
-    lod = _check_lod(rays) if rays is not None else None
-    if opts.precision == "uint8" and labels is not None:
-        raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
-                         "transfer function")
+    plan = GridPlan(volume, tf, options, labels=labels, label_styles=label_styles, **option_kwargs)
+    return plan.execute(camera, size, lens=lens, block_mask=block_mask, progress=progress, progress_bar=progress_bar)
 
-    prec = opts.precision
-    table_dtype = np.float64 if prec == "float64" else np.float32
-    unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else float(volume.spacing.min())
-    table_size = 256 if prec == "uint8" else tf.table_size
-    step_world = opts.step * float(volume.spacing.min())
-    rgb, sigma = tf.table(np.float64, opts.global_alpha, unit, table_size)
-    # opacity correction on the host: the opacity of one full step, 1 - exp(-sigma step)
-    alpha_step = -np.expm1(-sigma * step_world)
-    if prec == "uint8":
-        rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
-        alpha_step = np.round(alpha_step * 255) / 255
-    table = np.ascontiguousarray(np.column_stack([rgb, alpha_step]), dtype=table_dtype)
-    sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
 
-    check_memory(render_bytes(volume, tf, opts, width, height, rays, lod, labels),
-                 _memory_advice(volume, prec, width, height))
-    values = volume.values
-    if prec != "float64" and values.dtype == np.float64:
-        volume = _derived(volume, "float32", lambda: values.astype(np.float32))
-    if prec == "uint8":
-        # an 8-bit pipeline quantises the data to 256 levels of the table's axis
-        volume = _derived(volume, ("u8", tf.scale, tf.linthresh, tf.axis_range), lambda: _quantize_u8(values, tf))
-    blocks = BlockGrid.of(volume, opts.block_size)
+class _Prepared(NamedTuple):
+    """What a :class:`GridPlan` builds on its first execution (cached on the volume)."""
 
-    a0, a1 = tf.axis_range
-    # rays in voxel coordinates with t still in world units (see _kernels._march)
-    inv_spacing = 1.0 / volume.spacing
-    if rays is None:
-        cam = np.concatenate([camera.kernel_array((width, height)), volume.origin, inv_spacing])
-        origins = directions = np.empty((0, 3))
-    else:
-        cam = np.empty(0)
-        origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
-        directions = np.ascontiguousarray(rays.directions * inv_spacing)
-    lo = np.zeros(3)
-    hi = np.array(volume.dims, dtype=np.float64) - 1.0
-    params = K.GridParams(
-        float(step_world), PRECISION_CODES[prec], SCALE_CODES[tf.scale],
-        float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
-        1.0 - opts.termination if opts.termination > 0 else math.inf,
-        float(opts.depth_threshold), int(blocks.shift),
-    )
-    if prec == "uint8":
-        params = params._replace(scale=SCALE_CODES["linear"], axis_lo=0.0, axis_inv_range=1.0 / 255.0)
-    dims = np.array(volume.dims, dtype=np.int64)
-    styles = _LabelStyles(volume, labels, label_styles, tf, table, sigma, params, opts, step_world, unit) \
-        if labels is not None else None
-    mask = None
-    if block_mask is not None:
-        mask = np.asarray(block_mask)
-        if mask.shape != blocks.shape:
-            raise ValueError(f"block_mask must have shape {blocks.shape} (blocks along z, y, x); got {mask.shape}")
-        if mask.dtype != np.bool_:
-            raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
-        mask = mask.astype(np.uint8)
-    active, leap = _skip_structure(volume, blocks, opts, styles, table, params, mask)
-    bricks = Bricks.of(volume)
-    grids = np.array(blocks.shape + bricks.shape, dtype=np.int64)
+    volume: GridVolume  # the values the kernels read (a float32 or 8-bit copy where needed)
+    blocks: BlockGrid
+    params: K.GridParams
+    styles: object  # _LabelStyles or None
+    bricks: Bricks
+    dims: np.ndarray
+    grids: np.ndarray
+    flat: bool
 
-    out_dtype = np.float64 if prec == "float64" else np.float32
-    rgba = np.zeros((height * width, 4), dtype=out_dtype)
-    depth = np.full(height * width, np.inf, dtype=np.float64)
-    samples = np.zeros(height * width, dtype=np.int64)
 
-    # a volume with one point along an axis has no thickness: nothing to integrate
-    flat = min(volume.dims) < 2
-    # an image bound to be empty says why. Label styles have tables of their own, and a
-    # projection keeps its value image (HDRImage.value) whatever the opacity; without a
-    # mask the skip structure already holds the visible blocks
-    if styles is not None or opts.blending != "composite":
-        visible = True
-    elif opts.skip_empty and mask is None:
-        visible = bool(active.any())
-    else:
-        visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
-    reason = empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
-                                 default_tf=default_tf)
-    if reason is not None and not visible and prec == "uint8":
-        reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
-    warn_empty(reason)
-    lanes = _lanes()
+class GridPlan:
+    """A grid render validated and prepared once, executed many times.
 
-    extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
-        or lod is not None or opts.shade
-    if extended and rays is None:
-        # the extended kernels take rays as arrays
-        rays = camera.rays((width, height))
-        origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
-        directions = np.ascontiguousarray(rays.directions * inv_spacing)
-    value = np.full(height * width, np.nan) if opts.blending != "composite" else None
-    if extended and not flat:
-        kernel_args = _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles,
-                                          tf, prec, mask)
+    Construction takes what does not change between renders of one scene: the volume,
+    the transfer function, the :class:`~pv_hdrvol.RenderOptions` and any labels. It
+    validates them and builds the kernel's tables; the first :meth:`execute` builds the
+    arrays the kernels read (float32 or 8-bit copies, block ranges, bricks, label slots;
+    after the memory check, and cached on the volume). :meth:`execute` then renders for
+    any camera, rays or lens, image size and block mask: culling, parallel tiles,
+    progressive refinement and proxy training call it instead of re-validating.
+    :func:`render_volume` is ``GridPlan(...).execute(...)``; the pixels are the same.
 
-    def cast(tile_rows):
-        rows = np.ascontiguousarray(tile_rows)
-        if flat:
-            pass
-        elif not extended:
-            K.render_tiles(bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids, dims, cam, origins,
-                           directions, width, height, _TILE, rows, lanes, lo, hi, params, rgba, depth, samples)
-        elif value is not None:
-            a = kernel_args
-            KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
-                                 a.sigmas, a.axes, origins, directions, width, height, _TILE, rows, lanes, lo, hi,
-                                 params, a.e, value, rgba, depth, samples)
+    Parameters
+    ----------
+    volume, tf, options, labels, label_styles, **option_kwargs
+        As :func:`render_volume`.
+
+    Examples
+    --------
+    >>> import numpy as np, pv_hdrvol as hv
+    >>> plan = GridPlan(np.random.default_rng(0).random((8, 8, 8)), precision="float64")
+    >>> small, large = plan.execute("iso", (8, 8)), plan.execute("iso", (32, 32))
+    >>> small.shape, large.shape
+    ((8, 8), (32, 32))
+    """
+
+    def __init__(self, volume, tf=None, options=None, *, labels=None, label_styles=None, **option_kwargs):
+        volume = as_volume(volume)
+        opts = RenderOptions.from_kwargs(options, **option_kwargs)
+        self.default_tf = tf is None
+        if tf is None:
+            tf = default_transfer_function(volume)
+        if not isinstance(tf, TransferFunction):
+            raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
+        if opts.precision == "uint8" and labels is not None:
+            raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
+                             "transfer function")
+        prec = opts.precision
+        table_dtype = np.float64 if prec == "float64" else np.float32
+        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else float(volume.spacing.min())
+        table_size = 256 if prec == "uint8" else tf.table_size
+        step_world = opts.step * float(volume.spacing.min())
+        rgb, sigma = tf.table(np.float64, opts.global_alpha, unit, table_size)
+        # opacity correction on the host: the opacity of one full step, 1 - exp(-sigma step)
+        alpha_step = -np.expm1(-sigma * step_world)
+        if prec == "uint8":
+            rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
+            alpha_step = np.round(alpha_step * 255) / 255
+        #: the volume as given; the kernels read ``_prepare().volume``
+        self.source = volume
+        self.tf, self.options = tf, opts
+        self.table = np.ascontiguousarray(np.column_stack([rgb, alpha_step]), dtype=table_dtype)
+        self.sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
+        self.unit, self.step_world = unit, step_world
+        self.labels, self.label_styles = labels, label_styles
+        self._prepared = None
+
+    def _prepare(self):
+        """The arrays the kernels read, built on the first execution."""
+        if self._prepared is not None:
+            return self._prepared
+        volume, tf, opts = self.source, self.tf, self.options
+        prec = opts.precision
+        values = volume.values
+        if prec != "float64" and values.dtype == np.float64:
+            volume = _derived(volume, "float32", lambda: values.astype(np.float32))
+        if prec == "uint8":
+            # an 8-bit pipeline quantises the data to 256 levels of the table's axis
+            volume = _derived(volume, ("u8", tf.scale, tf.linthresh, tf.axis_range), lambda: _quantize_u8(values, tf))
+        blocks = BlockGrid.of(volume, opts.block_size)
+        a0, a1 = tf.axis_range
+        params = K.GridParams(
+            float(self.step_world), PRECISION_CODES[prec], SCALE_CODES[tf.scale],
+            float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
+            1.0 - opts.termination if opts.termination > 0 else math.inf,
+            float(opts.depth_threshold), int(blocks.shift),
+        )
+        if prec == "uint8":
+            params = params._replace(scale=SCALE_CODES["linear"], axis_lo=0.0, axis_inv_range=1.0 / 255.0)
+        styles = _LabelStyles(volume, self.labels, self.label_styles, tf, self.table, self.sigma, params, opts,
+                              self.step_world, self.unit) if self.labels is not None else None
+        bricks = Bricks.of(volume)
+        self._prepared = _Prepared(volume, blocks, params, styles, bricks, np.array(volume.dims, dtype=np.int64),
+                                   np.array(blocks.shape + bricks.shape, dtype=np.int64),
+                                   # a volume with one point along an axis has no thickness: nothing to integrate
+                                   min(volume.dims) < 2)
+        return self._prepared
+
+    def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, progress=None,
+                progress_bar=None):
+        """Render the plan: ``camera``, ``size``, ``lens``, ``block_mask``, ``progress`` and
+        ``progress_bar`` as :func:`render_volume`. Returns an :class:`~pv_hdrvol.HDRImage`."""
+        tf, opts, table, sigma = self.tf, self.options, self.table, self.sigma
+        camera = as_camera(camera, self.source.bounds)
+        if lens is not None:
+            if not callable(getattr(lens, "rays", None)):
+                raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
+            if not isinstance(camera, Camera):
+                raise TypeError(f"a lens needs a Camera; got {type(camera).__name__}")
+            rays = lens.rays(camera, size)
+            if not isinstance(rays, Rays):
+                raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
+        elif isinstance(camera, Rays):
+            rays = camera
         else:
-            a = kernel_args
-            KX.render_ext(bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods,
-                          a.gbricks, a.gvec, a.shading, a.lights, a.slots,
-                          a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
-                          directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth, samples)
-        return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
+            rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
+        width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+        lod = _check_lod(rays) if rays is not None else None
+        prec = opts.precision
+        parts = render_bytes(self.source, tf, opts, width, height, rays, lod, self.labels)
+        if self._prepared is not None:
+            parts.pop("label slots", None)  # built by the first execution
+        check_memory(parts, _memory_advice(self.source, prec, width, height))
+        volume, blocks, params, styles, bricks, dims, grids, flat = self._prepare()
 
-    _check_progress_bar(progress_bar)
-    t_start = time.perf_counter()
-    run_in_chunks(cast, height, progress, progress_bar)
-    elapsed = time.perf_counter() - t_start
+        # rays in voxel coordinates with t still in world units (see _kernels._march)
+        inv_spacing = 1.0 / volume.spacing
+        if rays is None:
+            cam = np.concatenate([camera.kernel_array((width, height)), volume.origin, inv_spacing])
+            origins = directions = np.empty((0, 3))
+        else:
+            cam = np.empty(0)
+            origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
+            directions = np.ascontiguousarray(rays.directions * inv_spacing)
+        lo = np.zeros(3)
+        hi = np.array(volume.dims, dtype=np.float64) - 1.0
+        mask = None
+        if block_mask is not None:
+            mask = np.asarray(block_mask)
+            if mask.shape != blocks.shape:
+                raise ValueError(f"block_mask must have shape {blocks.shape} (blocks along z, y, x); got {mask.shape}")
+            if mask.dtype != np.bool_:
+                raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
+            mask = mask.astype(np.uint8)
+        active, leap = _skip_structure(volume, blocks, opts, styles, table, params, mask)
 
-    meta = {
-        "renderer": "pv_hdrvol grid ray caster",
-        "scalars": volume.name,
-        "precision": prec,
-        "step_voxels": opts.step,
-        "step_world": step_world,
-        "global_alpha": opts.global_alpha,
-        "opacity_unit_distance": unit,
-        "termination": opts.termination,
-        "depth_threshold": opts.depth_threshold,
-        "transfer_function": repr(tf),
-        "camera": repr(camera) if isinstance(camera, Camera) else "rays",
-        "settings": settings_metadata(tf, camera, (width, height), opts, lens=lens, labels=labels,
-                                      label_styles=label_styles, block_mask=block_mask),
-        "render_seconds": elapsed,
-        "samples": int(samples.sum()),
-    }
-    if lens is not None:
-        meta["lens"] = repr(lens)
-    if opts.blending != "composite":
-        meta["blending"] = opts.blending
-    if opts.gradient_opacity is not None:
-        meta["gradient_opacity"] = list(opts.gradient_opacity)
-    if opts.shade:
-        meta["shading"] = shading_metadata(opts)
-    if styles is not None:
-        meta["label_styles"] = styles.describe()
-    if lod is not None:
-        meta["max_lod"] = float(lod.max())
-    if value is not None:
-        value = value.reshape(height, width)
-    return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+        out_dtype = np.float64 if prec == "float64" else np.float32
+        rgba = np.zeros((height * width, 4), dtype=out_dtype)
+        depth = np.full(height * width, np.inf, dtype=np.float64)
+        samples = np.zeros(height * width, dtype=np.int64)
+
+        # an image bound to be empty says why. Label styles have tables of their own, and a
+        # projection keeps its value image (HDRImage.value) whatever the opacity; without a
+        # mask the skip structure already holds the visible blocks
+        if styles is not None or opts.blending != "composite":
+            visible = True
+        elif opts.skip_empty and mask is None:
+            visible = bool(active.any())
+        else:
+            visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
+        reason = empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
+                                     default_tf=self.default_tf)
+        if reason is not None and not visible and prec == "uint8":
+            reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
+        warn_empty(reason)
+        lanes = _lanes()
+
+        extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
+            or lod is not None or opts.shade
+        if extended and rays is None:
+            # the extended kernels take rays as arrays
+            rays = camera.rays((width, height))
+            origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
+            directions = np.ascontiguousarray(rays.directions * inv_spacing)
+        value = np.full(height * width, np.nan) if opts.blending != "composite" else None
+        if extended and not flat:
+            kernel_args = _extended_arguments(volume, opts, params, table, sigma, self.unit, blocks, active, leap, lod,
+                                              styles, tf, prec, mask)
+
+        def cast(tile_rows):
+            rows = np.ascontiguousarray(tile_rows)
+            if flat:
+                pass
+            elif not extended:
+                K.render_tiles(bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids, dims, cam,
+                               origins, directions, width, height, _TILE, rows, lanes, lo, hi, params, rgba, depth,
+                               samples)
+            elif value is not None:
+                a = kernel_args
+                KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
+                                     a.sigmas, a.axes, origins, directions, width, height, _TILE, rows, lanes, lo, hi,
+                                     params, a.e, value, rgba, depth, samples)
+            else:
+                a = kernel_args
+                KX.render_ext(bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods,
+                              a.gbricks, a.gvec, a.shading, a.lights, a.slots,
+                              a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
+                              directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth,
+                              samples)
+            return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
+
+        _check_progress_bar(progress_bar)
+        t_start = time.perf_counter()
+        run_in_chunks(cast, height, progress, progress_bar)
+        elapsed = time.perf_counter() - t_start
+
+        meta = {
+            "renderer": "pv_hdrvol grid ray caster",
+            "scalars": volume.name,
+            "precision": prec,
+            "step_voxels": opts.step,
+            "step_world": self.step_world,
+            "global_alpha": opts.global_alpha,
+            "opacity_unit_distance": self.unit,
+            "termination": opts.termination,
+            "depth_threshold": opts.depth_threshold,
+            "transfer_function": repr(tf),
+            "camera": repr(camera) if isinstance(camera, Camera) else "rays",
+            "settings": settings_metadata(tf, camera, (width, height), opts, lens=lens, labels=self.labels,
+                                          label_styles=self.label_styles, block_mask=block_mask),
+            "render_seconds": elapsed,
+            "samples": int(samples.sum()),
+        }
+        if lens is not None:
+            meta["lens"] = repr(lens)
+        if opts.blending != "composite":
+            meta["blending"] = opts.blending
+        if opts.gradient_opacity is not None:
+            meta["gradient_opacity"] = list(opts.gradient_opacity)
+        if opts.shade:
+            meta["shading"] = shading_metadata(opts)
+        if styles is not None:
+            meta["label_styles"] = styles.describe()
+        if lod is not None:
+            meta["max_lod"] = float(lod.max())
+        if value is not None:
+            value = value.reshape(height, width)
+        return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
 
 
 def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=None):

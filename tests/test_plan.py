@@ -1,0 +1,67 @@
+"""A render plan validated and prepared once, executed many times (issue 18, part 6):
+every execution gives the pixels of a one-off render_volume, bit for bit."""
+import numpy as np
+import pytest
+
+import pv_hdrvol as hv
+from pv_hdrvol.raycast.grid import BlockGrid, GridPlan
+
+pytestmark = pytest.mark.core
+
+
+@pytest.fixture(scope="module")
+def volume():
+    rng = np.random.default_rng(7)
+    values = rng.random((20, 18, 16))
+    values[5:9, 4:12, 3:7] += 3.0
+    return hv.volume_from_array(values, spacing=(1.0, 0.8, 1.2))
+
+
+TF = hv.TransferFunction([0.0, 1.0, 4.0], [[0.2, 0.4, 0.9], [0.9, 0.5, 0.2], [1.0, 1.0, 1.0]], [0.0, 0.05, 0.6])
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32", "uint8"])
+def test_executions_at_several_sizes_and_cameras_match_one_off_renders(volume, precision):
+    plan = GridPlan(volume, TF, precision=precision, shade=precision != "uint8")
+    for camera, size in [("iso", (24, 20)), ("xz", (40, 12)), ("iso", (7, 7))]:
+        got = plan.execute(camera, size)
+        ref = hv.render_volume(volume, TF, camera, size, precision=precision, shade=precision != "uint8")
+        np.testing.assert_array_equal(got.rgba, ref.rgba)
+        np.testing.assert_array_equal(got.depth, ref.depth)
+        assert got.metadata["settings"] == ref.metadata["settings"]
+
+
+def test_block_masks_reuse_the_prepared_arrays(volume):
+    plan = GridPlan(volume, TF, precision="float32", block_size=4)
+    prepared = plan._prepare()
+    shape = BlockGrid.of(prepared.volume, 4).shape
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        mask = rng.random(shape) < 0.6
+        got = plan.execute("iso", (16, 16), block_mask=mask)
+        ref = hv.render_volume(volume, TF, "iso", (16, 16), precision="float32", block_mask=mask)
+        np.testing.assert_array_equal(got.rgba, ref.rgba)
+    assert plan._prepare() is prepared  # built once
+
+
+def test_a_labelled_plan_builds_its_styles_once(volume):
+    labels = (volume.values > 2.0).astype(np.int32)
+    styles = {1: "maximum"}
+    plan = GridPlan(volume, TF, labels=labels, label_styles=styles, precision="float64")
+    first = plan.execute("iso", (12, 12))
+    slots = plan._prepare().styles
+    second = plan.execute("xy", (12, 10))
+    assert plan._prepare().styles is slots
+    np.testing.assert_array_equal(first.rgba, hv.render_volume(volume, TF, "iso", (12, 12), labels=labels,
+                                                               label_styles=styles, precision="float64").rgba)
+    np.testing.assert_array_equal(second.rgba, hv.render_volume(volume, TF, "xy", (12, 10), labels=labels,
+                                                                label_styles=styles, precision="float64").rgba)
+
+
+def test_construction_validates_before_any_execution(volume):
+    with pytest.raises(ValueError, match="step must be > 0; got -1"):
+        GridPlan(volume, TF, step=-1)
+    with pytest.raises(TypeError, match="tf must be a TransferFunction; got str"):
+        GridPlan(volume, "magma")
+    with pytest.raises(ValueError, match="labels need a floating-point precision"):
+        GridPlan(volume, TF, labels=np.zeros(volume.values.shape, int), precision="uint8")

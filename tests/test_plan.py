@@ -65,3 +65,19 @@ def test_construction_validates_before_any_execution(volume):
         GridPlan(volume, "magma")
     with pytest.raises(ValueError, match="labels need a floating-point precision"):
         GridPlan(volume, TF, labels=np.zeros(volume.values.shape, int), precision="uint8")
+
+
+def test_a_tet_plan_matches_one_off_renders():
+    from meshes import box_mesh
+    from pv_hdrvol.raycast.tets import TetPlan
+
+    pts, tets, _ = box_mesh((4, 3, 5))
+    mesh = hv.tetmesh_from_arrays(pts, tets, np.sin(pts[:, 0]) + pts[:, 2] * 0.3)
+    tf = hv.TransferFunction.ramp(-1.0, 2.5, cmap="gray", opacity=(0.05, 0.4))
+    for precision, shade in [("float64", False), ("float32", True)]:
+        plan = TetPlan(mesh, tf, precision=precision, shade=shade)
+        for camera, size in [("iso", (20, 16)), ("xz", (9, 9))]:
+            got = plan.execute(camera, size)
+            ref = hv.render_tets(mesh, tf, camera, size, precision=precision, shade=shade)
+            np.testing.assert_array_equal(got.rgba, ref.rgba)
+            np.testing.assert_array_equal(got.depth, ref.depth)

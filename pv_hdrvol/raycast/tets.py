@@ -92,104 +92,139 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     if upsample > 1:
         return _render_upsampled(mesh, tf, camera, size, options, upsample, tau_max, progress, progress_bar,
                                  option_kwargs)
-    return _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, option_kwargs)[0]
+    plan = TetPlan(mesh, tf, options, tau_max=tau_max, **option_kwargs)
+    return plan.execute(camera, size, progress=progress, progress_bar=progress_bar)
 
 
-def _render(mesh, tf, camera, size, options, tau_max, progress, progress_bar, option_kwargs, view=None):
-    """``render_tets`` of a prepared mesh at full resolution: ``(image, view)``, ``view``
-    the boundary's ``_view`` (the one given when it was made for this camera)."""
-    opts = RenderOptions.from_kwargs(options, **option_kwargs)
-    if opts.blending != "composite":
-        raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
-    if opts.gradient_opacity is not None:
-        raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
-    tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
-    default_tf = tf is None
-    if tf is None:
-        tf = default_transfer_function(mesh)
-    if not isinstance(tf, TransferFunction):
-        raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
-    camera = as_camera(camera, mesh.bounds)
-    if not isinstance(camera, Camera):
-        raise TypeError(f"camera must be a Camera, a view name or a PyVista/VTK camera (not Rays: a tetrahedral "
-                        f"render makes its own rays); got {type(camera).__name__}")
-    _check_progress_bar(progress_bar)
-    width, height = as_size(size)
-    prec = opts.precision
-    check_memory(render_bytes(mesh, prec, width, height), _MEMORY_ADVICE.format(width=width, height=height))
+class TetPlan:
+    """A tetrahedral render validated and prepared once, executed many times (the
+    counterpart of :class:`~pv_hdrvol.raycast.grid.GridPlan`).
 
-    unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else mesh.default_unit_distance()
-    table, sigma = _table(tf, prec, opts.global_alpha, unit)
-    a0, a1 = tf.axis_range
-    params = TK.TetParams(
-        PRECISION_CODES[prec], SCALE_CODES[tf.scale], float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
-        1.0 - opts.termination if opts.termination > 0 else math.inf, float(opts.depth_threshold),
-        float(mesh.scale), tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64), int(opts.shade),
-    )
-    active = _active_cells(mesh, sigma, params)
-    warn_empty(empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf, visible=bool(active.any()),
-                                   default_tf=default_tf, what="mesh"))
+    Construction validates the options and the transfer function, builds the table
+    and the kernel parameters and finds the cells the transfer function can see;
+    :meth:`execute` renders for any camera and size (and warns when no cell is
+    visible).
+    ``render_tets`` without ``upsample`` is ``TetPlan(...).execute(...)``; the pixels
+    are the same.
 
-    # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
-    cam = camera_array(camera, mesh, width, height)
-    t0 = time.perf_counter()
-    view = _view(mesh, cam, view)
-    hits = boundary_crossings(mesh, camera, (width, height), cam, view)
-    t_hits = time.perf_counter() - t0
-    has = hits.offsets[1:] > hits.offsets[:-1]
-    inside = int(np.count_nonzero(~hits.entering[hits.offsets[:-1][has]]))
-    if inside:
-        raise ValueError(f"the camera is inside the mesh: {inside} rays start inside it (their first boundary "
-                         f"crossing leaves the mesh); place the camera outside the mesh's boundary")
+    Parameters
+    ----------
+    mesh : TetMesh, pyvista.UnstructuredGrid or vtkUnstructuredGrid
+    tf, options, tau_max, **option_kwargs
+        As :func:`render_tets`.
+    scalars, preference
+        Which array of a dataset.
+    """
 
-    out_dtype = np.float64 if prec == "float64" else np.float32
-    n_pix = width * height
-    rgba = np.zeros((n_pix, 4), dtype=out_dtype)
-    depth = np.full(n_pix, np.inf)
-    cells = np.zeros(n_pix, dtype=np.int64)
-    pieces = np.zeros(n_pix, dtype=np.int64)
-    guard = np.zeros(n_pix, dtype=np.bool_)
-    lanes = _lanes()
-    cells_i, cells_f = _cell_records(mesh)
-    # a cell's gradient is constant: its light depends only on the ray's direction
-    grads = cell_gradients(mesh) if opts.shade else np.zeros((1, 3))
-    shading, lights = shading_arrays(opts, (mesh.default_unit_distance(),) * 3)
+    def __init__(self, mesh, tf=None, options=None, *, tau_max=TAU_MAX, scalars=None, preference="point",
+                 **option_kwargs):
+        mesh = as_tetmesh(mesh, scalars=scalars, preference=preference)
+        opts = RenderOptions.from_kwargs(options, **option_kwargs)
+        if opts.blending != "composite":
+            raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
+        if opts.gradient_opacity is not None:
+            raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
+        self.tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
+        default_tf = tf is None
+        if tf is None:
+            tf = default_transfer_function(mesh)
+        if not isinstance(tf, TransferFunction):
+            raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
+        prec = opts.precision
+        self.mesh, self.tf, self.options = mesh, tf, opts
+        self.unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None \
+            else mesh.default_unit_distance()
+        self.table, sigma = _table(tf, prec, opts.global_alpha, self.unit)
+        a0, a1 = tf.axis_range
+        self.params = TK.TetParams(
+            PRECISION_CODES[prec], SCALE_CODES[tf.scale], float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh),
+            1.0 - opts.termination if opts.termination > 0 else math.inf, float(opts.depth_threshold),
+            float(mesh.scale), self.tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64), int(opts.shade),
+        )
+        self.active = _active_cells(mesh, sigma, self.params)
+        # said by each execution (after its own checks), as by a one-off render
+        self._empty_reason = empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf,
+                                                 visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
 
-    def cast(tile_rows):
-        rows = np.ascontiguousarray(tile_rows)
-        TK.render_tiles(mesh.points, cells_i, cells_f, active,
-                        mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
-                        hits.offsets,
-                        hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
-                        params, rgba, depth, cells, pieces, guard)
-        return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
+    def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None):
+        """Render the plan for ``camera`` and ``size`` (as :func:`render_tets`); an
+        :class:`~pv_hdrvol.HDRImage`."""
+        return self.execute_with_view(camera, size, progress=progress, progress_bar=progress_bar)[0]
 
-    t1 = time.perf_counter()
-    run_in_chunks(cast, height, progress, progress_bar)
-    elapsed = time.perf_counter() - t1
-    meta = {
-        "renderer": "pv_hdrvol tetrahedral ray caster",
-        "scalars": mesh.name,
-        "association": mesh.association,
-        "cells_in_mesh": mesh.n_cells,
-        "precision": prec,
-        "global_alpha": opts.global_alpha,
-        "opacity_unit_distance": unit,
-        "termination": opts.termination,
-        "depth_threshold": opts.depth_threshold,
-        "transfer_function": repr(tf),
-        "camera": repr(camera),
-        "settings": settings_metadata(tf, camera, (width, height), opts, {"tau_max": tau_max}),
-        "boundary_seconds": t_hits,
-        "render_seconds": elapsed,
-        "cells": int(cells.sum()),
-        "pieces": int(pieces.sum()),
-        "tau_max": tau_max,
-        "stopped_rays": int(guard.sum()),
-    }
-    if opts.shade:
-        meta["shading"] = shading_metadata(opts)
-    return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view
+    def execute_with_view(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, view=None):
+        """:meth:`execute`, and the boundary's ``_view`` for this camera (reused when
+        ``view`` was made for it): ``(image, view)``."""
+        mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
+        camera = as_camera(camera, mesh.bounds)
+        if not isinstance(camera, Camera):
+            raise TypeError(f"camera must be a Camera, a view name or a PyVista/VTK camera (not Rays: a tetrahedral "
+                            f"render makes its own rays); got {type(camera).__name__}")
+        _check_progress_bar(progress_bar)
+        width, height = as_size(size)
+        prec = opts.precision
+        check_memory(render_bytes(mesh, prec, width, height), _MEMORY_ADVICE.format(width=width, height=height))
+        warn_empty(self._empty_reason)
+
+        # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
+        cam = camera_array(camera, mesh, width, height)
+        t0 = time.perf_counter()
+        view = _view(mesh, cam, view)
+        hits = boundary_crossings(mesh, camera, (width, height), cam, view)
+        t_hits = time.perf_counter() - t0
+        has = hits.offsets[1:] > hits.offsets[:-1]
+        inside = int(np.count_nonzero(~hits.entering[hits.offsets[:-1][has]]))
+        if inside:
+            raise ValueError(f"the camera is inside the mesh: {inside} rays start inside it (their first boundary "
+                             f"crossing leaves the mesh); place the camera outside the mesh's boundary")
+
+        out_dtype = np.float64 if prec == "float64" else np.float32
+        n_pix = width * height
+        rgba = np.zeros((n_pix, 4), dtype=out_dtype)
+        depth = np.full(n_pix, np.inf)
+        cells = np.zeros(n_pix, dtype=np.int64)
+        pieces = np.zeros(n_pix, dtype=np.int64)
+        guard = np.zeros(n_pix, dtype=np.bool_)
+        lanes = _lanes()
+        cells_i, cells_f = _cell_records(mesh)
+        # a cell's gradient is constant: its light depends only on the ray's direction
+        grads = cell_gradients(mesh) if opts.shade else np.zeros((1, 3))
+        shading, lights = shading_arrays(opts, (mesh.default_unit_distance(),) * 3)
+
+        def cast(tile_rows):
+            rows = np.ascontiguousarray(tile_rows)
+            TK.render_tiles(mesh.points, cells_i, cells_f, active,
+                            mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
+                            hits.offsets,
+                            hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
+                            params, rgba, depth, cells, pieces, guard)
+            return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
+
+        t1 = time.perf_counter()
+        run_in_chunks(cast, height, progress, progress_bar)
+        elapsed = time.perf_counter() - t1
+        meta = {
+            "renderer": "pv_hdrvol tetrahedral ray caster",
+            "scalars": mesh.name,
+            "association": mesh.association,
+            "cells_in_mesh": mesh.n_cells,
+            "precision": prec,
+            "global_alpha": opts.global_alpha,
+            "opacity_unit_distance": self.unit,
+            "termination": opts.termination,
+            "depth_threshold": opts.depth_threshold,
+            "transfer_function": repr(tf),
+            "camera": repr(camera),
+            "settings": settings_metadata(tf, camera, (width, height), opts, {"tau_max": self.tau_max}),
+            "boundary_seconds": t_hits,
+            "render_seconds": elapsed,
+            "cells": int(cells.sum()),
+            "pieces": int(pieces.sum()),
+            "tau_max": self.tau_max,
+            "stopped_rays": int(guard.sum()),
+        }
+        if opts.shade:
+            meta["shading"] = shading_metadata(opts)
+        return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view
 
 
 def _table(tf, prec, global_alpha, unit):
@@ -232,8 +267,8 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     check_memory({"full-size thickness guide and upsampled image": width * height * (16 + 32 + 4 * out_item + 8)},
                  _MEMORY_ADVICE.format(width=width, height=height))
     t0 = time.perf_counter()
-    low, view = _render(mesh, tf, camera, (width // factor, height // factor), options, tau_max, progress,
-                        progress_bar, option_kwargs)
+    low, view = TetPlan(mesh, tf, options, tau_max=tau_max, **option_kwargs).execute_with_view(
+        camera, (width // factor, height // factor), progress=progress, progress_bar=progress_bar)
     t1 = time.perf_counter()
     # the thickness guides the filter: no layers are kept. The boundary's view-plane
     # table is the low render's (the camera array is the same for one aspect ratio)

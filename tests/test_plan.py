@@ -81,3 +81,22 @@ def test_a_tet_plan_matches_one_off_renders():
             ref = hv.render_tets(mesh, tf, camera, size, precision=precision, shade=shade)
             np.testing.assert_array_equal(got.rgba, ref.rgba)
             np.testing.assert_array_equal(got.depth, ref.depth)
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"shade": True}, {"precision": "uint8"},
+                                    {"lens": hv.Magnifier((12.0, 9.0), radius=7.0, factor=2.0)}])
+def test_a_window_is_the_full_render_cut(volume, kwargs):
+    kwargs = dict(kwargs)
+    lens = kwargs.pop("lens", None)
+    plan = GridPlan(volume, TF, **kwargs)
+    full = plan.execute("iso", (24, 20), lens=lens)
+    for window in [(0, 0, 24, 20), (5, 3, 9, 11), (23, 19, 1, 1)]:
+        col, row, w, h = window
+        part = plan.execute("iso", (24, 20), lens=lens, window=window)
+        assert part.shape == (h, w)
+        np.testing.assert_array_equal(part.rgba, full.rgba[row:row + h, col:col + w])
+        np.testing.assert_array_equal(part.depth, full.depth[row:row + h, col:col + w])
+    with pytest.raises(ValueError, match=r"window \(20, 0, 5, 5\) reaches outside the 24x20 image"):
+        plan.execute("iso", (24, 20), window=(20, 0, 5, 5))
+    with pytest.raises(TypeError, match=r"window must be \(col, row, width, height\); got 3"):
+        plan.execute("iso", (24, 20), window=3)

@@ -12,7 +12,7 @@ import numpy as np
 from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, volume_from_array
 from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, auto_transfer_function, scale_forward
 from ..image.hdr import HDRImage
-from .._validate import as_size
+from .._validate import as_int, as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays, as_camera
 from ..settings import settings_metadata
@@ -375,6 +375,22 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     return plan.execute(camera, size, lens=lens, block_mask=block_mask, progress=progress, progress_bar=progress_bar)
 
 
+def _window_rays(rays, window):
+    """The rays of ``window = (col, row, width, height)``, a rectangle of ``rays``' image."""
+    if isinstance(window, (str, bytes)) or not hasattr(window, "__len__") or len(window) != 4:
+        raise TypeError(f"window must be (col, row, width, height); got {window!r}")
+    col, row = (as_int(f"window[{k}]", window[k], low=0) for k in (0, 1))
+    w, h = (as_int(f"window[{k}]", window[k], low=1) for k in (2, 3))
+    if col + w > rays.width or row + h > rays.height:
+        raise ValueError(f"window {tuple(window)} reaches outside the {rays.width}x{rays.height} image")
+
+    def cut(a, k):
+        return np.ascontiguousarray(a.reshape(rays.height, rays.width, k)[row:row + h, col:col + w].reshape(-1, k))
+
+    lod = None if rays.lod is None else cut(np.asarray(rays.lod), 1).reshape(-1)
+    return Rays(cut(rays.origins, 3), cut(rays.directions, 3), w, h, lod)
+
+
 class _Prepared(NamedTuple):
     """What a :class:`GridPlan` builds on its first execution (cached on the volume)."""
 
@@ -476,10 +492,16 @@ class GridPlan:
                                    min(volume.dims) < 2)
         return self._prepared
 
-    def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, progress=None,
+    def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, window=None, progress=None,
                 progress_bar=None):
         """Render the plan: ``camera``, ``size``, ``lens``, ``block_mask``, ``progress`` and
-        ``progress_bar`` as :func:`render_volume`. Returns an :class:`~pv_hdrvol.HDRImage`."""
+        ``progress_bar`` as :func:`render_volume`. Returns an :class:`~pv_hdrvol.HDRImage`.
+
+        ``window=(col, row, width, height)``: render only that rectangle of the image of
+        ``size`` (a tile: sort-first parallel rendering, a region refined first); the
+        result is that window, pixel for pixel the same as the full render's. The
+        window's rays are cut from the whole image's (48 bytes a pixel of ``size``).
+        """
         tf, opts, table, sigma = self.tf, self.options, self.table, self.sigma
         camera = as_camera(camera, self.source.bounds)
         if lens is not None:
@@ -495,6 +517,9 @@ class GridPlan:
         else:
             rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
         width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+        if window is not None:
+            rays = _window_rays(rays if rays is not None else camera.rays((width, height)), window)
+            width, height = rays.width, rays.height
         lod = _check_lod(rays) if rays is not None else None
         prec = opts.precision
         parts = render_bytes(self.source, tf, opts, width, height, rays, lod, self.labels)
@@ -597,7 +622,7 @@ class GridPlan:
             "transfer_function": repr(tf),
             "camera": repr(camera) if isinstance(camera, Camera) else "rays",
             "settings": settings_metadata(tf, camera, (width, height), opts, lens=lens, labels=self.labels,
-                                          label_styles=self.label_styles, block_mask=block_mask),
+                                          label_styles=self.label_styles, block_mask=block_mask, window=window),
             "render_seconds": elapsed,
             "samples": int(samples.sum()),
         }

@@ -410,11 +410,11 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
         # constant data has no structure to show: an empty picture, which the renderers
         # explain (EmptyRenderWarning), rather than a uniform fog
         return TransferFunction.ramp(lo, lo + 1.0, cmap=_cmap_colors(cmap), opacity=(0.0, 0.0))
-    if not vmax > vmin:  # a range collapsed by the overrides
-        pad = max(abs(vmin), 1.0) * 1e-3 if scale != "log" else vmin * 1e-3
-        vmin, vmax = (vmin - pad, vmax + pad) if scale != "log" else (vmin, vmax + pad)
-        if scale == "log" and vmin <= 0:
-            vmin = vmax * 1e-3
+    if vmax < vmin:
+        raise ValueError(f"vmax must be > vmin; got vmin={vmin!r}, vmax={vmax!r}")
+    if vmax == vmin:  # all of the structure at one value: a narrow ramp about it
+        pad = 1e-3 * max(abs(vmin), 1.0)
+        vmin, vmax = (vmin, vmax + pad) if scale == "log" else (vmin - pad, vmax + pad)
     n = 128 if scale == "log" else 64
     if opacity is None:
         # the opacity's shape at the ramp's control points: linear along the axis, or on a

@@ -25,6 +25,7 @@ RMSE (1e-2, 3e-3, 1e-3, 1e-4), the fastest setting of each renderer that meets i
 
     python3 benchmarks/bench_frontier.py --figure docs/images/frontier.png
     python3 benchmarks/bench_frontier.py --size 128 --frames 1 --scenes engine   # a quick look
+    python3 benchmarks/bench_frontier.py --scenes hydrogen --steps 8 4 2 --tables 256 1024 4096 --peers
 """
 from __future__ import annotations
 
@@ -84,6 +85,9 @@ def main(argv=None):
     ap.add_argument("--scenes", nargs="+", default=["engine", "bonsai", "hydrogen"],
                     choices=["engine", "bonsai", "hydrogen"])
     ap.add_argument("--peers", nargs="*", default=["fixed", "gpu"], choices=["fixed", "gpu"])
+    ap.add_argument("--steps", type=float, nargs="+", default=list(STEPS), help="our steps, in voxels")
+    ap.add_argument("--tables", type=int, nargs="*", default=[4096],
+                    help="table sizes tried besides the transfer function's own (float32)")
     ap.add_argument("--figure", default=None, help="PNG of time against error")
     ap.add_argument("--out", default=None, help="JSON of every measurement")
     args = ap.parse_args(argv)
@@ -108,10 +112,10 @@ def main(argv=None):
 
         runs = {}
         for precision in ("float32", "float64"):
-            for step in STEPS:
+            for step in args.steps:
                 runs[("ours", f"{precision}, step {step}")] = dict(precision=precision, step=step)
-        for table_size in (4096,):
-            for step in STEPS:
+        for table_size in args.tables:
+            for step in args.steps:
                 t4 = hv.TransferFunction(tf.values, tf.colors, tf.opacities, scale=tf.scale, linthresh=tf.linthresh,
                                          table_size=table_size)
                 runs[("ours", f"float32, step {step}, table {table_size}")] = dict(step=step, tf=t4)

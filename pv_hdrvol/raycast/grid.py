@@ -602,7 +602,7 @@ class GridPlan:
                               a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
                               directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth,
                               samples)
-            return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
+            return pixel_rows(tile_rows, height)
 
         _check_progress_bar(progress_bar)
         t_start = time.perf_counter()
@@ -1066,6 +1066,12 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
     finally:
         if bar is not None:
             bar.close()
+
+
+def pixel_rows(tile_rows, height):
+    """How many pixel rows of an image ``height`` rows high the rows of tiles
+    ``tile_rows`` cover (the last row of tiles may be cut short)."""
+    return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
 
 
 def _spread_order(rows):

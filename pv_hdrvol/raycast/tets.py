@@ -21,7 +21,7 @@ from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
 from .grid import (_TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function,
-                   empty_render_reason, run_in_chunks, warn_empty)
+                   empty_render_reason, pixel_rows, run_in_chunks, warn_empty)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
 
@@ -197,7 +197,7 @@ class TetPlan:
                             hits.offsets,
                             hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
                             params, rgba, depth, cells, pieces, guard)
-            return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
+            return pixel_rows(tile_rows, height)
 
         t1 = time.perf_counter()
         run_in_chunks(cast, height, progress, progress_bar)

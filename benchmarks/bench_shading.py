@@ -56,7 +56,7 @@ def main(argv=None):
     ka, kd, ks, power = SHADING
     lit = dict(shade=True, ambient=ka, diffuse=kd, specular=ks, specular_power=power)
     size = (args.size, args.size)
-    print(f"| data | TF | renderer | unshaded (s) | shaded (s) | shaded / unshaded | load |")
+    print("| data | TF | renderer | unshaded (s) | shaded (s) | shaded / unshaded | load |")
     print("|---|---|---|--:|--:|--:|---|")
     for name in args.data:
         image = read_vti(data_dir() / DATASETS[name])

@@ -25,14 +25,17 @@ __version__ = "0.1.0"
 
 def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, preference="point", options=None,
            block_mask=None, lens=None, labels=None, label_styles=None, progress_bar=None, progress=None,
-           **option_kwargs):
+           cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
     """Render a volume to an :class:`HDRImage` (see :func:`render_volume` for all options).
 
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
     a :class:`GridVolume`, or a tetrahedral mesh (``pyvista.UnstructuredGrid``,
     ``vtkUnstructuredGrid``, :class:`TetMesh`: see :func:`render_tets`); ``scalars``/``preference``
     pick the array of a dataset, and ``labels`` may name another of its arrays.
+    Without ``tf``, the transfer function is chosen from the data; ``cmap``, ``clim``,
+    ``opacity`` (PyVista's meanings) and ``scale`` replace single choices of it.
     """
+    tf_keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     from .data.tets import is_unstructured
     from .raycast.grid import as_volume
 
@@ -42,7 +45,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
             if value is not None:
                 raise ValueError(f"{name}= is not supported for tetrahedral meshes")
         return render_tets(data, tf, camera, size, options, scalars=scalars, preference=preference,
-                           progress_bar=progress_bar, progress=progress, **option_kwargs)
+                           progress_bar=progress_bar, progress=progress, **tf_keywords, **option_kwargs)
     volume = as_volume(data, scalars=scalars, preference=preference)
     if isinstance(labels, str):
         if isinstance(data, (GridVolume, np.ndarray)):
@@ -52,7 +55,8 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
         labels = labels_from_dataset(data, labels, preference)
     return render_volume(volume, tf, camera, size, options, block_mask=block_mask, lens=lens, labels=labels,
-                         label_styles=label_styles, progress_bar=progress_bar, progress=progress, **option_kwargs)
+                         label_styles=label_styles, progress_bar=progress_bar, progress=progress, **tf_keywords,
+                         **option_kwargs)
 
 
 __all__ = [

@@ -55,7 +55,7 @@ def test_demo_in_process(tmp_path, capsys):
 def test_render_matches_library(volume_file, tmp_path, capsys):
     out_exr, out_png = tmp_path / "r.exr", tmp_path / "r.png"
     args = ["render", str(volume_file), "-o", str(out_exr), "--png", str(out_png), "--size", "20", "16",
-            "--step", "0.7", "--vmin", "1e-12", "--vmax", "1e-3", "--scale", "log", "--cmap", "gray",
+            "--step", "0.7", "--clim", "1e-12", "1e-3", "--scale", "log", "--cmap", "gray",
             "--opacity", "0", "0.2", "--view", "xz", "--scalars", "twice", "--no-progress"]
     assert main(args) == 0
     assert f"wrote {out_exr}" in capsys.readouterr().out
@@ -180,8 +180,10 @@ def test_info(volume_file, tmp_path, capsys):
     (["render", "{vol}", "--step", "-1"], "pv-hdrvol render: error: step must be > 0; got -1.0"),
     (["render", "{vol}", "--view", "top"], "pv-hdrvol render: error: view must be one of ['iso', 'xy', 'yx', "
                                            "'xz', 'zx', 'yz', 'zy']; got 'top'"),
-    (["render", "{vol}", "--vmin", "-1", "--scale", "log"],
-     "pv-hdrvol render: error: scale='log' needs vmin > 0; got vmin=-1.0"),
+    (["render", "{vol}", "--clim", "-1", "auto", "--scale", "log"],
+     "pv-hdrvol render: error: scale='log' needs a positive low end of clim; got -1.0"),
+    (["render", "{vol}", "--clim", "0", "one"], "pv-hdrvol render: error: --clim: 'one' is not a number"),
+    (["render", "{vol}", "--opacity", "0", "half"], "pv-hdrvol render: error: --opacity: 'half' is not a number"),
     (["render", "{vol}", "--magnifier", "5", "5", "4", "2", "--fisheye", "90"],
      "pv-hdrvol render: error: --magnifier and --fisheye are two lenses; give one"),
     (["render", "{vol}", "--shade", "--blending", "maximum"],
@@ -324,7 +326,7 @@ def test_png_preview_with_colorbar(volume_file, tmp_path):
 
     out_exr, out_png = tmp_path / "c.exr", tmp_path / "c.png"
     args = ["render", str(volume_file), "-o", str(out_exr), "--png", str(out_png), "--size", "20", "16",
-            "--vmin", "1e-9", "--vmax", "1e-3", "--scale", "log", "--colorbar", "--no-progress"]
+            "--clim", "1e-9", "1e-3", "--scale", "log", "--colorbar", "--no-progress"]
     assert main(args) == 0
     preview = hv.load(out_exr).to_display()
     figure = np.round(matplotlib.image.imread(out_png)[..., :3] * 255).astype(np.uint8)

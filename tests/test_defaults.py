@@ -90,11 +90,11 @@ def test_overrides_replace_single_choices():
     values, _ = ball_in_air()
     vol = hv.volume_from_array(values)
     auto = default_transfer_function(vol)
-    tf = default_transfer_function(vol, vmax=150.0, cmap="gray", opacity=(0.0, 0.5))
+    tf = default_transfer_function(vol, clim=(None, 150.0), cmap="gray", opacity=(0.0, 0.5))
     assert (tf.vmin, tf.vmax, tf.opacities[-1]) == (auto.vmin, 150.0, 0.5)
     np.testing.assert_array_equal(tf.colors[:, 0], tf.colors[:, 1])
-    with pytest.raises(ValueError, match=r"vmax must be > vmin; got vmin=5.0, vmax=1.0"):
-        default_transfer_function(vol, vmin=5.0, vmax=1.0)
+    with pytest.raises(ValueError, match=r"clim must be finite with high > low; got \(5.0, 1.0\)"):
+        default_transfer_function(vol, clim=(5.0, 1.0))
     # a binary field: all of the structure at one value
     binary = default_transfer_function(hv.volume_from_array((values > 50).astype(np.float32)))
     assert binary.opacity_at(0.0) == 0.0 and binary.opacity_at(1.0) > 0.0

@@ -17,6 +17,16 @@ CASES = [
     ("camera", "top", ["--view", "top"], "view must be one of ['iso', 'xy', 'yx', 'xz', 'zx', 'yz', 'zy']; got 'top'"),
     ("specular_power", 0.5, ["--specular-power", "0.5"], "specular_power must be >= 1; got 0.5"),
     ("global_alpha", 2.0, ["--global-alpha", "2"], "global_alpha must be <= 1; got 2.0"),
+    # the default transfer function's keywords
+    ("clim", (4.0, 1.0), ["--clim", "4", "1"], "clim must be finite with high > low; got (4.0, 1.0)"),
+    ("opacity", 1.5, ["--opacity", "1.5"], "opacity values must lie in [0, 1]; got 1.5"),
+    ("opacity", "sigmod", ["--opacity", "sigmod"],
+     "opacity='sigmod' is not a PyVista opacity transfer function: Opacity transfer function (sigmod) unknown. "
+     "Valid options: ['linear', 'geom', 'geom_r', 'sigmoid', 'sigmoid_1', 'sigmoid_2', 'sigmoid_3', 'sigmoid_4', "
+     "'sigmoid_5', 'sigmoid_6', 'sigmoid_7', 'sigmoid_8', 'sigmoid_9', 'sigmoid_10', 'sigmoid_15', 'sigmoid_20', "
+     "'foreground', 'linear_r', 'sigmoid_r', 'sigmoid_3_r', 'sigmoid_4_r', 'sigmoid_5_r', 'sigmoid_6_r', "
+     "'sigmoid_7_r', 'sigmoid_8_r', 'sigmoid_9_r', 'sigmoid_10_r']"),
+    ("cmap", "nope", ["--cmap", "nope"], "cmap 'nope' is not a matplotlib colormap name"),
 ]
 
 
@@ -66,3 +76,67 @@ def test_choices_name_the_allowed_values_everywhere(grid, tmp_path, capsys):
     with pytest.raises(SystemExit):  # argparse lists the choices itself
         main(["render", str(path), "--precision", "float8"])
     assert "invalid choice: 'float8' (choose from" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("keywords,cli", [
+    (dict(cmap="viridis"), ["--cmap", "viridis"]),
+    (dict(clim=(0.2, None), opacity="sigmoid"), ["--clim", "0.2", "auto", "--opacity", "sigmoid"]),
+    (dict(opacity=[0.0, 0.3, 0.1], scale="symlog"), ["--opacity", "0", "0.3", "0.1", "--scale", "symlog"]),
+    (dict(opacity=0.05, clim=0.8), ["--opacity", "0.05", "--clim", "-0.8", "0.8"]),
+])
+def test_the_transfer_function_keywords_give_the_same_pixels_everywhere(grid, tmp_path, keywords, cli):
+    """cmap=, clim=, opacity=, scale=: hv.render, the accessor, the VTK algorithm's
+    setters and the CLI's options make the same function, the one that
+    default_transfer_function makes from them."""
+    from pv_hdrvol.raycast.grid import default_transfer_function
+
+    g, path = grid
+    cam = hv.Camera.fit(g.bounds, "iso")
+    tf = default_transfer_function(hv.volume_from_dataset(g), **keywords)
+    ref = hv.render(g, tf, cam, (8, 8)).rgba
+    np.testing.assert_array_equal(hv.render(g, None, cam, (8, 8), **keywords).rgba, ref)
+    np.testing.assert_array_equal(g.hdrvol.render(camera=cam, size=(8, 8), **keywords).rgba, ref)
+    alg = HDRVolumeRenderer()
+    alg.SetInputDataObject(0, g)
+    alg.SetImageSize(8, 8)
+    alg.SetCamera(cam)
+    for keyword, value in keywords.items():
+        _vtk_set(alg, keyword, value)
+    assert alg.Update()
+    np.testing.assert_array_equal(hv.HDRImage.from_pyvista(pv.wrap(alg.GetOutput())).rgba, ref)
+    out = tmp_path / "k.exr"
+    assert main(["render", str(path), "-o", str(out), "--size", "8", "--no-progress", *cli]) == 0
+    np.testing.assert_array_equal(hv.load(out).rgba, ref)
+
+
+def test_a_transfer_function_and_its_keywords_are_refused_together_everywhere(grid):
+    g, _ = grid
+    tf = hv.TransferFunction.ramp(0.0, 1.0)
+    message = ("pass either tf= or cmap=, not both: a TransferFunction sets colour, opacity, range and axis "
+               "already")
+    with pytest.raises(TypeError, match="^" + re.escape(message) + "$"):
+        hv.render(g, tf, size=(8, 8), cmap="gray")
+    with pytest.raises(TypeError, match="^" + re.escape(message) + "$"):
+        g.hdrvol.render(tf=tf, size=(8, 8), cmap="gray")
+    alg = HDRVolumeRenderer()
+    alg.SetInputDataObject(0, g)
+    alg.SetTransferFunction(tf)
+    alg.SetCmap("gray")
+    assert not alg.Update()
+    assert alg.GetLastError() == "TypeError: " + message
+    alg.SetCmap(None)
+    assert alg.Update()
+
+
+def test_the_vtk_keyword_setters_are_modified_only_by_a_new_meaning():
+    alg = HDRVolumeRenderer()
+    alg.SetOpacity([0.0, 0.5])
+    t = alg.GetMTime()
+    alg.SetOpacity(np.array([0.0, 0.5]))  # the same opacities: no re-execution
+    alg.SetClim(0.0, 1.0)
+    t2 = alg.GetMTime()
+    alg.SetClim((0, 1))
+    assert alg.GetMTime() == t2 > t
+    assert (alg.GetOpacity(), alg.GetClim()) == ([0.0, 0.5], (0.0, 1.0))
+    alg.SetClim(None)
+    assert alg.GetClim() is None and alg.GetMTime() > t2

@@ -454,81 +454,61 @@ def test_chunking_changes_no_pixel(monkeypatch, seconds_per_tick, sizes):
     np.testing.assert_array_equal(img.depth, ref.depth)
 
 
-# -- PyVista's add_volume keywords on the accessor ------------------------------------
+# -- PyVista's add_volume keywords: one meaning, in the core ---------------------------
+from pv_hdrvol.raycast.grid import default_transfer_function  # noqa: E402
+
+
 def _grid(pv):
     grid = pv.ImageData(dimensions=(8, 9, 10))
     grid["v"] = np.linspace(-2.0, 6.0, grid.n_points)
     return grid
 
 
-def _captured_tf(monkeypatch):
-    """Make the accessor's render_volume / render_tets record the tf they get."""
-    import pv_hdrvol.raycast.grid as grid_module
-    import pv_hdrvol.raycast.tets as tets_module
-
-    got = []
-    monkeypatch.setattr(grid_module, "render_volume", lambda volume, tf, *a, **k: got.append(tf))
-    monkeypatch.setattr(tets_module, "render_tets", lambda mesh, tf, *a, **k: got.append(tf))
-    return got
-
-
 @pytest.mark.parametrize("name", ["linear", "linear_r", "geom", "geom_r", "sigmoid", "sigmoid_r", "sigmoid_5",
                                   "sigmoid_10_r", "foreground"])
-def test_pyvista_opacity_names_give_pyvistas_curve(monkeypatch, name):
+def test_pyvista_opacity_names_give_pyvistas_curve(name):
     pv = pytest.importorskip("pyvista")
-    got = _captured_tf(monkeypatch)
-    _grid(pv).hdrvol.render(opacity=name, clim=(0.0, 4.0), cmap="gray")
-    (tf,) = got
+    tf = default_transfer_function(hv.volume_from_dataset(_grid(pv)), opacity=name, clim=(0.0, 4.0), cmap="gray")
     np.testing.assert_array_equal(tf.opacities, pv.opacity_transfer_function(name, 256) / 255.0)
     np.testing.assert_array_equal(tf.values, np.linspace(0.0, 4.0, 256))
     np.testing.assert_array_equal(tf.colors, np.repeat(np.linspace(0.0, 1.0, 256)[:, None], 3, axis=1))
     assert tf.scale == "linear"
 
 
-def test_clim_cmap_and_opacity_defaults_and_forms(monkeypatch):
+def test_each_keyword_replaces_one_choice_of_the_default():
     pv = pytest.importorskip("pyvista")
     from pv_hdrvol.data.transfer import colormap_rgb
 
-    got = _captured_tf(monkeypatch)
-    grid = _grid(pv)
-    grid.hdrvol.render(cmap="viridis")  # clim: the data range; opacity: PyVista's default "linear"
-    grid.hdrvol.render(clim=3)  # a number c is (-c, c), as in PyVista
-    grid.hdrvol.render(opacity=0.25)
-    grid.hdrvol.render(opacity=[0.0, 1.0, 0.5])
-    assert got[0].vmin == -2.0 and got[0].vmax == 6.0
-    np.testing.assert_array_equal(got[0].colors, colormap_rgb("viridis", np.linspace(0, 1, 256)))
-    np.testing.assert_array_equal(got[0].opacities, np.linspace(0, 255, 256, dtype=np.uint8) / 255.0)
-    assert (got[1].vmin, got[1].vmax) == (-3.0, 3.0)
-    np.testing.assert_array_equal(got[1].colors, colormap_rgb("magma", np.linspace(0, 1, 256)))
-    np.testing.assert_array_equal(got[2].opacities, np.full(256, 0.25))
-    expected = np.interp(np.linspace(0, 1, 256), [0.0, 0.5, 1.0], [0.0, 1.0, 0.5])
-    np.testing.assert_array_equal(got[3].opacities, expected)
-    assert got[3].opacities[0] == 0.0 and got[3].opacities[-1] == 0.5
+    vol = hv.volume_from_dataset(_grid(pv))
+    auto = default_transfer_function(vol)
+    cmap = default_transfer_function(vol, cmap="viridis")  # colours only; the colormap whole
+    assert (cmap.vmin, cmap.vmax, cmap.scale) == (auto.vmin, auto.vmax, auto.scale)
+    np.testing.assert_array_equal(cmap.opacities, auto.opacities)
+    np.testing.assert_array_equal(cmap.colors, colormap_rgb("viridis", np.linspace(0, 1, auto.values.size)))
+    assert (default_transfer_function(vol, clim=3).vmin, default_transfer_function(vol, clim=3).vmax) == (-3.0, 3.0)
+    high = default_transfer_function(vol, clim=(None, 5.0))  # one end: the other stays the default's
+    assert (high.vmin, high.vmax) == (auto.vmin, 5.0)
+    np.testing.assert_array_equal(default_transfer_function(vol, opacity=0.25).opacities, np.full(64, 0.25))
+    spread = default_transfer_function(vol, opacity=[0.0, 1.0, 0.5])
+    expected = np.interp(np.linspace(0, 1, 64), [0.0, 0.5, 1.0], [0.0, 1.0, 0.5])
+    np.testing.assert_array_equal(spread.opacities, expected)
+    assert default_transfer_function(vol, scale="symlog").scale == "symlog"
 
 
-def test_the_keywords_work_on_meshes_too(monkeypatch):
+def test_the_keywords_work_on_meshes_too():
     pv = pytest.importorskip("pyvista")
-    got = _captured_tf(monkeypatch)
     mesh = pv.ImageData(dimensions=(3, 3, 3)).triangulate()
     mesh["s"] = np.linspace(1.0, 5.0, mesh.n_points)
-    mesh.hdrvol.render(opacity="sigmoid")
-    assert (got[0].vmin, got[0].vmax) == (1.0, 5.0)
-
-
-def test_a_real_render_with_pyvista_keywords_equals_the_same_transfer_function():
-    pv = pytest.importorskip("pyvista")
-    from pv_hdrvol.integrations import resolve_transfer_function
-
-    grid = _grid(pv)
-    img = grid.hdrvol.render(cmap="gray", clim=(0, 4), opacity="sigmoid", size=16)
-    tf = resolve_transfer_function(None, None, "gray", (0, 4), "sigmoid")
-    np.testing.assert_array_equal(img.rgba, grid.hdrvol.render(tf=tf, size=16).rgba)
+    tf = default_transfer_function(hv.tetmesh_from_dataset(mesh), opacity="sigmoid", clim=(1.0, 5.0))
+    assert (tf.vmin, tf.vmax) == (1.0, 5.0)
+    np.testing.assert_array_equal(mesh.hdrvol.render(opacity="sigmoid", clim=(1.0, 5.0), size=8).rgba,
+                                  hv.render(mesh, tf, size=8).rgba)
 
 
 @pytest.mark.parametrize("kwargs,exc,msg", [
-    (dict(tf=TF, cmap="gray"), TypeError, r"^pass either tf= or PyVista's cmap=, not both: a TransferFunction "
-                                          r"sets colour, opacity and range already$"),
-    (dict(tf=TF, clim=(0, 1), opacity="linear"), TypeError, r"^pass either tf= or PyVista's clim=, opacity=, not"),
+    (dict(tf=TF, cmap="gray"), TypeError, r"^pass either tf= or cmap=, not both: a TransferFunction sets colour, "
+                                          r"opacity, range and axis already$"),
+    (dict(tf=TF, clim=(0, 1), opacity="linear"), TypeError, r"^pass either tf= or clim=, opacity=, not"),
     (dict(opacity="sigmod"), ValueError, r"^opacity='sigmod' is not a PyVista opacity transfer function: "
                                          r"Opacity transfer function \(sigmod\) unknown"),
     (dict(opacity=1.5), ValueError, r"^opacity values must lie in \[0, 1\]; got 1.5$"),
@@ -537,13 +517,18 @@ def test_a_real_render_with_pyvista_keywords_equals_the_same_transfer_function()
     (dict(opacity=True), TypeError, r"^opacity must be a PyVista opacity name, a number or a sequence of "
                                     r"numbers; got True$"),
     (dict(clim=(4, 1)), ValueError, r"^clim must be finite with high > low; got \(4, 1\)$"),
+    (dict(clim=(None, -5.0)), ValueError, r"^clim \(-?[0-9.]+, -5.0\) \(the ends not given are the default's\) "
+                                          r"must have high > low; give both ends$"),
     (dict(clim="0 4"), TypeError, r"^clim must be \(low, high\) or a number c meaning \(-c, c\); got '0 4'$"),
     (dict(cmap="nope"), ValueError, r"^cmap 'nope' is not a matplotlib colormap name$"),
+    (dict(scale="ln"), ValueError, r"^scale must be one of \['linear', 'log', 'symlog'\]; got 'ln'$"),
 ])
 def test_pyvista_keywords_reject_bad_input(kwargs, exc, msg):
     pv = pytest.importorskip("pyvista")
     with pytest.raises(exc, match=msg):
         _grid(pv).hdrvol.render(size=8, **kwargs)
+    with pytest.raises(exc, match=msg):
+        hv.render(_grid(pv), size=8, **kwargs)
 
 
 def test_chunking_changes_no_pixel_of_a_mesh(monkeypatch):

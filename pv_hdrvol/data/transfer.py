@@ -1,6 +1,9 @@
 """Transfer functions for high-dynamic-range data, and their lookup tables."""
 from __future__ import annotations
 
+import math
+import numbers
+
 import numpy as np
 
 from .._validate import as_choice, as_int, as_real
@@ -393,15 +396,15 @@ DEFAULT_TRANSMITTANCE = 0.25
 _HIST_BINS = 256
 
 
-def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin=None, vmax=None,
-                           cmap=DEFAULT_CMAP, opacity=None):
+def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, clim=None, cmap=None, opacity=None):
     """The default transfer function of ``values``: what a careful user would set by hand.
 
     - **Axis**: ``log`` when the data are not negative and their positive values span
       more than 3 decades from the 5th percentile to the maximum (zeros are empty; a
-      few stray tiny values, or noise about zero, do not count), ``symlog`` when they have both signs and
-      their magnitudes span more than 3 decades, else ``linear`` (``scale``
-      overrides).
+      few stray tiny values, or noise about zero, do not count), ``symlog`` when they
+      have both signs and their magnitudes span more than 3 decades, also from the 5th
+      percentile (a smooth field's values near its zero crossing do not count), else
+      ``linear`` (``scale`` overrides).
     - **Background**: the histogram's dominant mode (air in CT, the floor of a density
       field) stays transparent when it lies in the lower half of the axis: opacity
       starts where the smoothed histogram (256 bins on the axis) falls below 5 % of the
@@ -436,10 +439,14 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
     spacing : sequence of 3 floats, optional
         With 3-D ``values`` (z, y, x) of a grid: its (x, y, z) spacing in unit
         distances; the opacity then follows from the grid's columns.
-    scale, vmin, vmax, cmap : optional
-        Override the axis, the range and the colormap.
-    opacity : (float, float), optional
-        Override the opacity at ``vmin`` and at ``vmax``.
+    scale, clim, cmap, opacity : optional
+        Replace single choices, with PyVista's meanings (``add_volume``): the axis
+        (``"linear"``, ``"log"``, ``"symlog"``); the range ``(vmin, vmax)`` that the
+        colormap and the opacity span (either end ``None``: the default's; a number
+        ``c``: ``(-c, c)``); a matplotlib colormap, used whole; the opacity (see
+        :func:`opacity_curve`: a PyVista curve name, a number, or values spread
+        evenly along the axis from ``vmin`` to ``vmax``), reached over one opacity
+        unit distance and not rescaled.
 
     Returns
     -------
@@ -452,6 +459,11 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
     >>> tf.scale, float(tf.opacity_at(0.0)), tf.vmin > 0, tf.vmax > 190
     ('linear', 0.0, True, True)
     """
+    vmin, vmax = parse_clim(clim)
+    if cmap is not None:
+        colormap_rgb(cmap, [0.0])  # a bad name fails here, whatever the data
+    if opacity is not None:
+        opacity = opacity_curve(opacity)
     v = np.asarray(values, dtype=np.float64).reshape(-1)
     v = v[np.isfinite(v)]
     if v.size == 0:
@@ -477,20 +489,22 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
             vmin = float(_scale_inverse([t0], scale, linthresh)[0]) if t0 > a_lo else lo
         if vmax is None:
             vmax = float(_scale_inverse([t1], scale, linthresh)[0]) if t1 < a_hi else hi
-    vmin, vmax = float(vmin), float(vmax)
     if scale == "log" and vmin <= 0:  # before any axis arithmetic on it
-        raise ValueError(f"scale='log' needs vmin > 0; got vmin={vmin!r}")
+        raise ValueError(f"scale='log' needs a positive low end of clim; got {vmin!r}")
     if lo == hi and opacity is None:
         # constant data has no structure to show: an empty picture, which the renderers
         # explain (EmptyRenderWarning), rather than a uniform fog
         return TransferFunction.ramp(lo, lo + 1.0, cmap=_cmap_colors(cmap), opacity=(0.0, 0.0))
-    if vmax < vmin:
-        raise ValueError(f"vmax must be > vmin; got vmin={vmin!r}, vmax={vmax!r}")
+    if vmax < vmin:  # one end given, the other chosen beyond it
+        raise ValueError(f"clim {(vmin, vmax)!r} (the ends not given are the default's) must have high > low; "
+                         "give both ends")
     if vmax == vmin:  # all of the structure at one value: a narrow ramp about it
         pad = 1e-3 * max(abs(vmin), 1.0)
         vmin, vmax = (vmin, vmax + pad) if scale == "log" else (vmin - pad, vmax + pad)
     n = 128 if scale == "log" else 64
-    if opacity is None:
+    if opacity is not None:
+        n = min(max(n, opacity.size), 4096)  # a PyVista curve keeps its 256 points
+    else:
         # the opacity's shape at the ramp's control points: linear along the axis, or on a
         # log axis proportional to the value (a density: every decade keeps its share
         # of the light, faint ones faint, and the HDR image keeps them)
@@ -512,16 +526,120 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, vmin
                                  linthresh=linthresh)
 
 
+def parse_clim(clim):
+    """``(low, high)`` of a ``clim=`` keyword (PyVista's meaning), ``None`` where the
+    default chooses.
+
+    ``None`` is ``(None, None)``; a number ``c`` is ``(-c, c)``, as in PyVista; a pair
+    may leave either end ``None``. Given ends are finite, and ``high > low``.
+
+    Examples
+    --------
+    >>> parse_clim(3), parse_clim((None, 1e3)), parse_clim(None)
+    ((-3.0, 3.0), (None, 1000.0), (None, None))
+    """
+    if clim is None:
+        return None, None
+    if isinstance(clim, numbers.Real) and not isinstance(clim, (bool, np.bool_)):
+        clim = (-clim, clim)
+    if isinstance(clim, (str, bytes)) or not hasattr(clim, "__len__") or len(clim) != 2:
+        raise TypeError(f"clim must be (low, high) or a number c meaning (-c, c); got {clim!r}")
+    ends = []
+    for end in clim:
+        if end is None:
+            ends.append(None)
+            continue
+        if isinstance(end, (bool, np.bool_)) or not isinstance(end, numbers.Real):
+            raise TypeError(f"clim must be (low, high) or a number c meaning (-c, c); got {clim!r}")
+        ends.append(float(end))
+    lo, hi = ends
+    if any(e is not None and not math.isfinite(e) for e in ends) or (lo is not None and hi is not None
+                                                                     and not hi > lo):
+        raise ValueError(f"clim must be finite with high > low; got {clim!r}")
+    return lo, hi
+
+
+#: The names of PyVista's opacity curves (``pyvista.opacity_transfer_function``) are
+#: sampled at this many points, as ``add_volume`` samples them (its ``n_colors``).
+PYVISTA_N_COLORS = 256
+
+
+def opacity_curve(opacity):
+    """The opacities of an ``opacity=`` keyword (PyVista's meaning), as a 1-D array
+    spread evenly over the transfer function's range.
+
+    - a name of ``pyvista.opacity_transfer_function`` (``"linear"``, ``"linear_r"``,
+      ``"geom"``, ``"geom_r"``, ``"sigmoid"``, ``"sigmoid_r"``, ``"sigmoid_1"`` ...
+      ``"sigmoid_20"`` and their ``_r``, ``"foreground"``): 256 values, as PyVista
+      samples it (``opacity_transfer_function(name, 256) / 255``);
+    - one number in [0, 1]: that opacity everywhere;
+    - a sequence of at least 2 numbers in [0, 1]: as given.
+
+    Examples
+    --------
+    >>> opacity_curve([0, 0.5]).tolist(), opacity_curve(0.25).tolist()
+    ([0.0, 0.5], [0.25, 0.25])
+    """
+    if isinstance(opacity, str):
+        try:
+            from pyvista import opacity_transfer_function
+        except ImportError:  # pragma: no cover - pyvista is a dependency
+            raise ValueError(f"opacity={opacity!r} names a PyVista opacity transfer function, which needs "
+                             "pyvista; pass opacities instead") from None
+        try:
+            curve = opacity_transfer_function(opacity, PYVISTA_N_COLORS)
+        except ValueError as err:
+            raise ValueError(f"opacity={opacity!r} is not a PyVista opacity transfer function: {err}") from None
+        return np.asarray(curve, dtype=np.float64) / 255.0
+    if isinstance(opacity, (bool, np.bool_)):
+        raise TypeError(f"opacity must be a PyVista opacity name, a number or a sequence of numbers; got {opacity!r}")
+    try:
+        values = np.array(opacity, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"opacity must be a PyVista opacity name, a number or a sequence of numbers; "
+                        f"got {opacity!r}") from None
+    if values.ndim > 1 or (values.ndim == 1 and values.size < 2):
+        raise ValueError(f"opacity must be one number or a 1-D sequence of at least 2; got shape {values.shape}")
+    if not np.all(np.isfinite(values)) or values.min() < 0 or values.max() > 1:
+        raise ValueError(f"opacity values must lie in [0, 1]; got {opacity!r}")
+    return np.full(2, float(values)) if values.ndim == 0 else values
+
+
+#: The keywords that shape the default transfer function, the same in every front end
+#: (``hv.render``, ``dataset.hdrvol.render``, ``HDRVolumeRenderer.Set<Name>`` and the
+#: CLI's ``--<name>``): PyVista's ``add_volume`` names and meanings, and the axis.
+TF_KEYWORDS = ("cmap", "clim", "opacity", "scale")
+
+
+def default_transfer_function_keyword(name, value):
+    """Check one keyword of the default transfer function (``cmap``, ``clim``,
+    ``opacity``, ``scale``) on its own, as :func:`auto_transfer_function` would (a
+    ``TypeError`` or ``ValueError`` naming what is wrong), and return its meaning: the
+    colormap or axis, ``parse_clim``'s pair, ``opacity_curve``'s values as a tuple."""
+    if name == "cmap":
+        colormap_rgb(value, [0.0])
+        return value
+    if name == "clim":
+        return parse_clim(value)
+    if name == "opacity":
+        return tuple(opacity_curve(value).tolist())
+    if name == "scale":
+        return as_choice("scale", value, SCALES)
+    raise ValueError(f"{name!r} is not a keyword of the default transfer function; they are "
+                     f"{', '.join(TF_KEYWORDS)}")
+
+
 def _default_scale(v, lo, hi):
     """``log`` for non-negative data whose positive values span more than 3 decades
     (zeros are then empty), ``symlog`` for data of both signs whose magnitudes do,
-    else ``linear``."""
+    else ``linear``; both from the 5th percentile, so that the few tiny values of a
+    smooth field near zero (or its zero crossing) do not count."""
     if lo >= 0 and hi > 0:
         positive = v[v > 0]
         return "log" if hi / np.percentile(positive, 5.0) > 1e3 else "linear"
     if lo < 0 < hi:
         mags = np.abs(v[v != 0])
-        if mags.size and mags.max() / mags.min() > 1e3:
+        if mags.size and mags.max() / np.percentile(mags, 5.0) > 1e3:
             return "symlog"
     return "linear"
 
@@ -592,9 +710,9 @@ def _column_opacity(values, scale, linthresh, axis_points, points, spacing):
 
 
 def _cmap_colors(cmap):
-    """``cmap`` as a callable colormap without its darkest part, or as given (a name
-    other than the default, or a colormap object, is used whole)."""
-    if cmap != DEFAULT_CMAP:
+    """``cmap`` as given (a user's colormap is used whole), or for ``None`` the
+    default colormap without its darkest part."""
+    if cmap is not None:
         return cmap
 
     def start_above_black(t):

@@ -101,15 +101,17 @@ def build_parser():
     _add_render_options(p)
     _add_preview_options(p, "--png")
     tf = p.add_argument_group("transfer function (default: chosen from the data, as the Python API chooses; "
-                              "each option replaces one choice)")
-    tf.add_argument("--vmin", type=float, default=None,
-                    help="where colours and opacity start (default: past the histogram's background mode)")
-    tf.add_argument("--vmax", type=float, default=None, help="where they end (default: the 99.9th percentile)")
+                              "each option replaces one choice; the Python API's cmap=, clim=, opacity=, scale=)")
+    tf.add_argument("--cmap", default=None, help="matplotlib colormap name (default magma, without its black end)")
+    tf.add_argument("--clim", nargs=2, default=None, metavar=("LOW", "HIGH"),
+                    help="where colours and opacity start and end; 'auto' keeps the default's end (default: past "
+                         "the histogram's background mode, to the 99.9th percentile)")
+    tf.add_argument("--opacity", nargs="+", default=None, metavar="A",
+                    help="opacity over one voxel: one number, numbers spread evenly from LOW to HIGH, or a "
+                         "PyVista curve name (linear, sigmoid, geom_r, ...) (default: 0, rising to what keeps "
+                         "the densest rays readable)")
     tf.add_argument("--scale", choices=SCALES, default=None,
                     help="axis (default: log when the positive data span > 3 decades)")
-    tf.add_argument("--cmap", default=None, help="matplotlib colormap name (default magma, without its black end)")
-    tf.add_argument("--opacity", type=float, nargs=2, default=None, metavar=("A", "B"),
-                    help="opacity at vmin and at vmax (default: 0, and what keeps the densest rays readable)")
     p.set_defaults(handler=_cmd_render, subparser=p)
 
     p = sub.add_parser("demo", help="render the hydrogen 3d_z2 orbital (no input needed)",
@@ -274,14 +276,39 @@ def _transfer_function(args, volume):
     choices, or ``None`` (the core's default itself) when none is given."""
     from ..raycast.grid import default_transfer_function
 
-    given = {"vmin": args.vmin, "vmax": args.vmax, "scale": args.scale, "cmap": args.cmap,
-             "opacity": tuple(args.opacity) if args.opacity else None}
+    given = {"cmap": args.cmap, "clim": _clim(args.clim), "opacity": _opacity(args.opacity), "scale": args.scale}
     if all(v is None for v in given.values()):
         return None
     try:
         return default_transfer_function(volume, **given)
     except (ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
+
+
+def _number(option, text):
+    try:
+        return float(text)
+    except ValueError:
+        raise UserError(f"{option}: {text!r} is not a number") from None
+
+
+def _clim(ends):
+    """``--clim LOW HIGH`` as ``clim=``: numbers, ``auto`` for the default's end."""
+    if ends is None:
+        return None
+    return tuple(None if e.lower() == "auto" else _number("--clim", e) for e in ends)
+
+
+def _opacity(words):
+    """``--opacity`` as ``opacity=``: one PyVista curve name, or numbers."""
+    if words is None:
+        return None
+    if len(words) == 1:
+        try:
+            return float(words[0])
+        except ValueError:
+            return words[0]  # a curve name; the core names the known ones if it is not
+    return [_number("--opacity", w) for w in words]
 
 
 def _lens(args):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import pyvista as pv
 
 from ..rays.camera import as_camera
-from . import VolumeCache, resolve_transfer_function
+from . import VolumeCache
 
 _IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
 
@@ -47,7 +47,7 @@ class HDRVolAccessor:
 
     def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point", lens=None,
                labels=None, label_styles=None, progress_bar=None, progress=None, *, cmap=None, clim=None,
-               opacity=None, **options):
+               opacity=None, scale=None, **options):
         """Ray cast the dataset into a linear float :class:`~pv_hdrvol.HDRImage`.
 
         The dataset is not modified.
@@ -58,17 +58,20 @@ class HDRVolAccessor:
             Point or cell array to render; default: the active scalars, else the
             only array.
         tf : TransferFunction, optional
-            Default: a magma ramp over the data range, on a log axis when positive
-            data spans more than 3 decades.
-        cmap, clim, opacity : optional
-            PyVista's ``add_volume`` keywords, in place of ``tf``: a colormap name
-            (default ``"magma"``), the value range (default: the data range; a
-            number ``c`` means ``(-c, c)``) and an opacity: a name of
-            ``pyvista.opacity_transfer_function`` (``"linear"`` (default),
-            ``"sigmoid"``, ``"geom_r"``, ...), one number, or opacities spread over
-            ``clim``. They make a 256-point transfer function on a linear axis (see
-            :func:`~pv_hdrvol.integrations.resolve_transfer_function`); giving
-            ``tf`` too is a ``TypeError``.
+            Default: chosen from the data (:func:`~pv_hdrvol.raycast.grid.default_transfer_function`:
+            the background transparent, a log axis where the data span decades).
+        cmap, clim, opacity, scale : optional
+            PyVista's ``add_volume`` keywords, with its meanings, in place of ``tf``:
+            each replaces one choice of the default. A colormap name; the range the
+            colormap and opacity span (a number ``c`` means ``(-c, c)``; an end
+            ``None`` stays the default's); an opacity: a name of
+            ``pyvista.opacity_transfer_function`` (``"linear"``, ``"sigmoid"``,
+            ``"geom_r"``, ...), one number, or opacities spread over ``clim``,
+            reached over one ``opacity_unit_distance``; and the axis (``"linear"``,
+            ``"log"``, ``"symlog"``). What is not given stays the default's (PyVista
+            would take the data range and the ``"linear"`` opacity); ``hv.render``,
+            ``HDRVolumeRenderer`` and the CLI take the same. Giving ``tf`` too is a
+            ``TypeError``.
         camera : None, str, Camera, pyvista.Plotter, pyvista.Camera or vtkCamera
             A view name (``"iso"`` (default), ``"xy"``, ``"xz"``, ``"yz"``, ``"yx"``,
             ``"zx"``, ``"zy"``) frames the dataset; a Plotter or camera renders what
@@ -122,24 +125,22 @@ class HDRVolAccessor:
             check_has_cells(self._dataset)  # before its (unset) bounds frame a camera
         cam = as_camera(camera, self._dataset.bounds)
         if self._dataset.GetClassName() == "vtkUnstructuredGrid":
-            from ..data.tets import as_tetmesh
             from ..raycast.tets import render_tets
 
             for name, value in (("lens", lens), ("labels", labels), ("label_styles", label_styles)):
                 if value is not None:
                     raise ValueError(f"{name}= is not supported for tetrahedral meshes")
-            tf = resolve_transfer_function(
-                tf, lambda: as_tetmesh(self._dataset, scalars, preference).value_range, cmap, clim, opacity)
             return render_tets(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
-                               progress_bar=progress_bar, progress=progress, **options)
+                               progress_bar=progress_bar, progress=progress, cmap=cmap, clim=clim, opacity=opacity,
+                               scale=scale, **options)
         volume = self._volumes.get(self._dataset, scalars, preference)
-        tf = resolve_transfer_function(tf, volume.value_range, cmap, clim, opacity)
         if isinstance(labels, str):
             from ..data.grid import labels_from_dataset
 
             labels = labels_from_dataset(self._dataset, labels, preference)
         return render_volume(volume, tf, cam, size, lens=lens, labels=labels, label_styles=label_styles,
-                             progress_bar=progress_bar, progress=progress, **options)
+                             progress_bar=progress_bar, progress=progress, cmap=cmap, clim=clim, opacity=opacity,
+                             scale=scale, **options)
 
     def __repr__(self):
         ds = self._dataset

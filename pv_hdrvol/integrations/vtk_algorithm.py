@@ -15,7 +15,7 @@ from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkDataSet, vtkImageDat
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from .._validate import as_choice, as_size
-from ..data.transfer import TransferFunction
+from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
 from ..params import RenderOptions
 from ..rays.camera import Camera, Rays, as_camera
 from . import VolumeCache
@@ -114,6 +114,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         self._scalars = None
         self._preference = "point"
         self._tf = None
+        self._tf_keywords = dict.fromkeys(TF_KEYWORDS)
         self._camera = None
         self._lens = None
         self._labels = None
@@ -219,6 +220,54 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
     def GetTransferFunction(self):
         """The :class:`~pv_hdrvol.TransferFunction` set last, or ``None``."""
         return self._tf
+
+    # -- the default transfer function's keywords: hv.render's cmap=, clim=, opacity=, scale=
+    def _set_tf_keyword(self, name, value):
+        # validated now, not at the next Update(); compared by meaning (an opacity may be an array)
+        meaning = None if value is None else default_transfer_function_keyword(name, value)
+        old = self._tf_keywords[name]
+        if meaning == (None if old is None else default_transfer_function_keyword(name, old)):
+            return
+        self._tf_keywords[name] = value
+        self.Modified()
+
+    def SetCmap(self, cmap):
+        """``cmap=`` of ``hv.render``: a matplotlib colormap name for the default
+        transfer function (``None``: its own). Not with :meth:`SetTransferFunction`."""
+        self._set_tf_keyword("cmap", cmap)
+
+    def GetCmap(self):
+        """The colormap set with :meth:`SetCmap`, or ``None``."""
+        return self._tf_keywords["cmap"]
+
+    def SetClim(self, low, high=None):
+        """``clim=`` of ``hv.render``: ``SetClim(low, high)``, ``SetClim((low, high))``
+        (either end ``None``: the default's), ``SetClim(c)`` for ``(-c, c)``, or
+        ``SetClim(None)``: the range the default transfer function's colours and
+        opacity span."""
+        self._set_tf_keyword("clim", low if high is None else (low, high))
+
+    def GetClim(self):
+        """The range set with :meth:`SetClim`, or ``None``."""
+        return self._tf_keywords["clim"]
+
+    def SetOpacity(self, opacity):
+        """``opacity=`` of ``hv.render``: a PyVista opacity curve name, one number, or
+        opacities spread over the range (``None``: the default's)."""
+        self._set_tf_keyword("opacity", opacity)
+
+    def GetOpacity(self):
+        """The opacity set with :meth:`SetOpacity`, or ``None``."""
+        return self._tf_keywords["opacity"]
+
+    def SetScale(self, scale):
+        """``scale=`` of ``hv.render``: the default transfer function's axis,
+        ``"linear"``, ``"log"`` or ``"symlog"`` (``None``: chosen from the data)."""
+        self._set_tf_keyword("scale", scale)
+
+    def GetScale(self):
+        """The axis set with :meth:`SetScale`, or ``None``."""
+        return self._tf_keywords["scale"]
 
     def SetCamera(self, camera):
         """The view: a :class:`~pv_hdrvol.Camera`, a ``vtkCamera`` or a view name.
@@ -353,7 +402,8 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
                 if self._lens is not None or self._labels is not None:
                     raise ValueError("SetLens and SetLabels apply to image data only, not to tetrahedral meshes")
                 image = render_tets(inp, self._tf, camera, self._size, options=self._options, scalars=scalars,
-                                    preference=preference, progress=progress, progress_bar=False)
+                                    preference=preference, progress=progress, progress_bar=False,
+                                    **self._tf_keywords)
                 out.ShallowCopy(image.to_vtk())
                 return 1
             volume = self._volumes.get(inp, scalars, preference)
@@ -361,7 +411,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm
             image = render_volume(volume, self._tf, camera, self._size, options=self._options, lens=self._lens,
                                   labels=labels, label_styles=self._label_styles, progress=progress,
-                                  progress_bar=False)
+                                  progress_bar=False, **self._tf_keywords)
         except RuntimeError:
             if self._should_abort():
                 out.Initialize()  # an aborted render leaves no output

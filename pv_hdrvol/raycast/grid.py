@@ -10,7 +10,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, volume_from_array
-from ..data.transfer import SCALE_CODES, SCALES, TransferFunction, auto_transfer_function, scale_forward
+from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction, auto_transfer_function,
+                             scale_forward)
 from ..image.hdr import HDRImage
 from .._validate import as_int, as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
@@ -45,22 +46,40 @@ def as_volume(data, scalars=None, preference="point"):
     return cached_volume_from_dataset(data, scalars=scalars, preference=preference)
 
 
-def default_transfer_function(volume, **overrides):
+def default_transfer_function(volume, *, cmap=None, clim=None, opacity=None, scale=None):
     """The default transfer function of an image volume or a tetrahedral mesh:
     :func:`~pv_hdrvol.data.transfer.auto_transfer_function` of its values, for a ray
     as long as the bounding box's diagonal in unit distances (the smallest spacing; a
-    mesh's typical cell size). Integer data (CT) keeps a linear axis. ``overrides``
-    (``scale``, ``vmin``, ``vmax``, ``cmap``, ``opacity``) replace what would be chosen;
-    ``None`` values are ignored."""
-    overrides = {k: v for k, v in overrides.items() if v is not None}
+    mesh's typical cell size). Integer data (CT) keeps a linear axis.
+
+    ``cmap``, ``clim``, ``opacity`` (PyVista's ``add_volume`` keywords, with its
+    meanings) and ``scale`` (the axis) each replace one choice; what is not given
+    stays the default's (:data:`TF_KEYWORDS`)."""
     b = np.asarray(volume.bounds, dtype=np.float64)
     diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
+    keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     if isinstance(volume, GridVolume):
         unit = float(volume.spacing.min())
-        if volume.integer:
-            overrides.setdefault("scale", "linear")
-        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit, **overrides)
-    return auto_transfer_function(volume.values, diagonal / volume.default_unit_distance(), **overrides)
+        if volume.integer and scale is None:
+            keywords["scale"] = "linear"
+        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit, **keywords)
+    return auto_transfer_function(volume.values, diagonal / volume.default_unit_distance(), **keywords)
+
+
+def resolve_transfer_function(data, tf=None, *, cmap=None, clim=None, opacity=None, scale=None):
+    """``tf`` itself, or the default transfer function of ``data`` (a
+    :class:`GridVolume` or :class:`~pv_hdrvol.TetMesh`) shaped by the keywords
+    (:func:`default_transfer_function`). Giving ``tf`` and a keyword is a ``TypeError``:
+    a transfer function sets colour, opacity, range and axis already."""
+    given = [name for name, value in zip(TF_KEYWORDS, (cmap, clim, opacity, scale)) if value is not None]
+    if tf is not None and given:
+        raise TypeError(f"pass either tf= or {', '.join(n + '=' for n in given)}, not both: a TransferFunction "
+                        "sets colour, opacity, range and axis already")
+    if tf is None:
+        return default_transfer_function(data, cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+    if not isinstance(tf, TransferFunction):
+        raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
+    return tf
 
 
 class EmptyRenderWarning(RuntimeWarning):
@@ -297,7 +316,8 @@ def _axis_position(values, params):
 
 
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,
-                  lens=None, labels=None, label_styles=None, progress=None, progress_bar=None, **option_kwargs):
+                  lens=None, labels=None, label_styles=None, progress=None, progress_bar=None, cmap=None, clim=None,
+                  opacity=None, scale=None, **option_kwargs):
     r"""Ray cast an image volume into an :class:`~pv_hdrvol.HDRImage`.
 
     Parameters
@@ -306,7 +326,17 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
         The field. Datasets use their active scalars (see :func:`render` for
         ``scalars=``).
     tf : TransferFunction, optional
-        Default: :func:`default_transfer_function`.
+        Default: :func:`default_transfer_function`, chosen from the data.
+    cmap, clim, opacity, scale : optional
+        Instead of ``tf``: each replaces one choice of the default transfer function,
+        with PyVista's meanings (``add_volume``): a matplotlib colormap (used whole);
+        the range ``(low, high)`` the colormap and opacity span (a number ``c`` is
+        ``(-c, c)``; an end ``None`` stays the default's); the opacity, a name of
+        ``pyvista.opacity_transfer_function`` (``"linear"``, ``"sigmoid"``,
+        ``"geom_r"``, ...), one number, or values spread evenly over the range,
+        reached over one ``opacity_unit_distance``; and the axis, ``"linear"``,
+        ``"log"`` or ``"symlog"`` (default: log where the data span decades, where
+        PyVista is linear). What is not given stays the default's.
     camera : Camera, Rays, view name, pyvista.Plotter, pyvista.Camera or vtkCamera, optional
         Default ``"iso"``; a view name is ``Camera.fit(volume, name)``
         (:func:`~pv_hdrvol.rays.camera.as_camera`). ``Rays`` give one ray per pixel and
@@ -371,7 +401,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     >>> round(float(img.rgba[0, 0, 3]), 12)  # 4 voxels of opacity 0.1: 1 - 0.9**4
     0.3439
     """
-    plan = GridPlan(volume, tf, options, labels=labels, label_styles=label_styles, **option_kwargs)
+    plan = GridPlan(volume, tf, options, labels=labels, label_styles=label_styles, cmap=cmap, clim=clim,
+                    opacity=opacity, scale=scale, **option_kwargs)
     return plan.execute(camera, size, lens=lens, block_mask=block_mask, progress=progress, progress_bar=progress_bar)
 
 
@@ -418,7 +449,7 @@ class GridPlan:
 
     Parameters
     ----------
-    volume, tf, options, labels, label_styles, **option_kwargs
+    volume, tf, options, labels, label_styles, cmap, clim, opacity, scale, **option_kwargs
         As :func:`render_volume`.
 
     Examples
@@ -430,14 +461,12 @@ class GridPlan:
     ((8, 8), (32, 32))
     """
 
-    def __init__(self, volume, tf=None, options=None, *, labels=None, label_styles=None, **option_kwargs):
+    def __init__(self, volume, tf=None, options=None, *, labels=None, label_styles=None, cmap=None, clim=None,
+                 opacity=None, scale=None, **option_kwargs):
         volume = as_volume(volume)
         opts = RenderOptions.from_kwargs(options, **option_kwargs)
         self.default_tf = tf is None
-        if tf is None:
-            tf = default_transfer_function(volume)
-        if not isinstance(tf, TransferFunction):
-            raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
+        tf = resolve_transfer_function(volume, tf, cmap=cmap, clim=clim, opacity=opacity, scale=scale)
         if opts.precision == "uint8" and labels is not None:
             raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
                              "transfer function")

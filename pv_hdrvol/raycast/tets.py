@@ -12,7 +12,7 @@ import numpy as np
 
 from ..data.grid import content_digest
 from ..data.tets import as_tetmesh
-from ..data.transfer import SCALE_CODES, TransferFunction, _scale_inverse
+from ..data.transfer import SCALE_CODES, _scale_inverse
 from ..image.hdr import HDRImage
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
@@ -20,7 +20,7 @@ from ..rays.camera import Camera, as_camera
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import (_TILE, _check_progress_bar, _lanes, _visible, cached, default_transfer_function,
+from .grid import (_TILE, _check_progress_bar, _lanes, _visible, cached, resolve_transfer_function,
                    empty_render_reason, pixel_rows, run_in_chunks, warn_empty)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
@@ -35,7 +35,8 @@ MAX_PIECES = 256
 
 
 def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, scalars=None, preference="point",
-                tau_max=TAU_MAX, upsample=1, progress=None, progress_bar=None, **option_kwargs):
+                tau_max=TAU_MAX, upsample=1, progress=None, progress_bar=None, cmap=None, clim=None, opacity=None,
+                scale=None, **option_kwargs):
     r"""Ray cast a tetrahedral mesh into an :class:`~pv_hdrvol.HDRImage`.
 
     Parameters
@@ -45,6 +46,9 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
         cached, so the next render of the same, unmodified mesh skips the preparation.
     tf : TransferFunction, optional
         Default: :func:`default_transfer_function` of the mesh's values.
+    cmap, clim, opacity, scale : optional
+        Instead of ``tf``: replace single choices of the default, as in
+        :func:`render_volume`.
     camera : Camera, view name, pyvista.Plotter, pyvista.Camera or vtkCamera, optional
         Default ``"iso"``, i.e. ``Camera.fit(mesh, "iso")``. Must be outside the mesh: rays start at
         their first entry through the boundary.
@@ -89,10 +93,12 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     """
     mesh = as_tetmesh(mesh, scalars=scalars, preference=preference)
     upsample = as_int("upsample", upsample, low=1)
+    keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     if upsample > 1:
+        tf = resolve_transfer_function(mesh, tf, **keywords)
         return _render_upsampled(mesh, tf, camera, size, options, upsample, tau_max, progress, progress_bar,
                                  option_kwargs)
-    plan = TetPlan(mesh, tf, options, tau_max=tau_max, **option_kwargs)
+    plan = TetPlan(mesh, tf, options, tau_max=tau_max, **keywords, **option_kwargs)
     return plan.execute(camera, size, progress=progress, progress_bar=progress_bar)
 
 
@@ -110,14 +116,14 @@ class TetPlan:
     Parameters
     ----------
     mesh : TetMesh, pyvista.UnstructuredGrid or vtkUnstructuredGrid
-    tf, options, tau_max, **option_kwargs
+    tf, options, tau_max, cmap, clim, opacity, scale, **option_kwargs
         As :func:`render_tets`.
     scalars, preference
         Which array of a dataset.
     """
 
     def __init__(self, mesh, tf=None, options=None, *, tau_max=TAU_MAX, scalars=None, preference="point",
-                 **option_kwargs):
+                 cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
         mesh = as_tetmesh(mesh, scalars=scalars, preference=preference)
         opts = RenderOptions.from_kwargs(options, **option_kwargs)
         if opts.blending != "composite":
@@ -126,10 +132,7 @@ class TetPlan:
             raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
         self.tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
         default_tf = tf is None
-        if tf is None:
-            tf = default_transfer_function(mesh)
-        if not isinstance(tf, TransferFunction):
-            raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
+        tf = resolve_transfer_function(mesh, tf, cmap=cmap, clim=clim, opacity=opacity, scale=scale)
         prec = opts.precision
         self.mesh, self.tf, self.options = mesh, tf, opts
         self.unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None \

@@ -99,6 +99,11 @@ def test_control_points_on_the_256_values_of_8bit_data_need_256_entries():
 def test_a_step_gets_the_largest_default_table_and_a_given_size_is_kept():
     step = hv.TransferFunction([0.0, 0.5, 0.5 + 1e-9, 1.0], [[1, 1, 1]] * 4, [0.0, 0.0, 0.5, 0.5])
     assert step.table_size == 65536 and step.table_error(65536) > 1e-4
+    # opacity 1: the extinction jumps to 36 per unit; short segments see the difference
+    opaque = hv.TransferFunction([0.0, 1.0], [[1, 1, 1]] * 2, [0.0, 1.0])
+    assert opaque.table_size == 65536 and opaque.table_error(65536) > 0.1
+    capped = hv.TransferFunction([0.0, 1.0], [[1, 1, 1]] * 2, [0.0, 0.99])
+    assert capped.table_size < 65536
     fixed = hv.TransferFunction([0.0, 1.0], [[1, 1, 1]] * 2, [0.0, 0.5], table_size=1024)
     assert fixed.table_size == 1024 and not fixed.table_size_auto
     assert fixed.to_dict()["table_size"] == 1024

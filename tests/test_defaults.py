@@ -51,6 +51,50 @@ def test_pixels_outside_the_projected_support_stay_transparent():
     assert np.all(grown[n - 1 - rows, cols])
 
 
+def wake_in_free_stream(n=40, seed=1):
+    """A 'free stream' (values 0.98-1.02, 80 % of the volume) around a slow wake (0.1-0.9)
+    and a fast jet (1.3-1.6): the background is the high mode, not the lowest value."""
+    rng = np.random.default_rng(seed)
+    z, y, x = np.mgrid[0:n, 0:n, 0:n] - (n - 1) / 2
+    values = rng.uniform(0.98, 1.02, (n, n, n))
+    wake = (np.abs(y) < n / 8) & (np.abs(z) < n / 8) & (x > 0)
+    jet = (np.abs(y) < n / 8) & (np.abs(z) < n / 8) & (x < -n / 4)
+    values[wake] = 0.1 + 0.8 * (x[wake] / (n / 2))
+    values[jet] = 1.3 + 0.3 * rng.random(np.count_nonzero(jet))
+    return values, wake | jet
+
+
+def test_a_free_stream_mode_high_on_the_axis_is_transparent():
+    values, structure = wake_in_free_stream()
+    tf = default_transfer_function(hv.volume_from_array(values))
+    assert np.all(tf.opacity_at(values[~structure]) == 0.0)  # the whole free stream
+    # the wake (past its lowest 0.5 %, where every default's ramp starts) ...
+    assert np.all(tf.opacity_at(values[structure & (values > 0.3) & (values < 0.85)]) > 0.0)
+    assert np.all(tf.opacity_at(values[structure & (values > 1.3)]) > 0.0)  # ... and the jet
+    n = values.shape[0]
+    cam = hv.Camera(((n - 1) / 2, (n - 1) / 2, 4.0 * n), ((n - 1) / 2,) * 3, (0, 1, 0), parallel_projection=True,
+                    parallel_scale=n / 2)
+    alpha = hv.render(values, None, cam, (40, 40)).rgba[..., 3]
+    # rows through the free stream only (|y| > n/8 + 1 voxel) stay transparent
+    ys = n - 1 - np.arange(n) - (n - 1) / 2
+    assert np.all(alpha[np.abs(ys) > n / 8 + 1] == 0.0) and alpha.max() > 0.1
+
+
+def test_a_mesh_background_is_what_fills_space_not_what_has_most_points():
+    """Mesh values are weighted by the volume they stand for: many tiny cells of value 5
+    (a refined feature) do not make 5 the background; the big cells' value 1 is."""
+    values = np.concatenate([np.full(5000, 1.0), np.linspace(1.0, 5.0, 2000), np.full(20000, 5.0)])
+    weights = np.concatenate([np.ones(5000), np.full(2000, 0.1), np.full(20000, 0.001)])
+    by_volume = auto_transfer_function(values, 10, weights=weights)
+    assert by_volume.opacity_at(1.0) == 0.0 and by_volume.opacity_at(5.0) > 0.0
+    by_count = auto_transfer_function(values, 10)
+    assert by_count.opacity_at(5.0) == 0.0 and by_count.opacity_at(3.0) > 0.0
+    assert by_volume.opacities.max() == pytest.approx(0.99)  # the average ray is mostly empty: the cap
+    with pytest.raises(ValueError, match=r"weights must be finite, >= 0 and one per value \(27000\); got shape "
+                                         r"\(3,\)"):
+        auto_transfer_function(values, 10, weights=[1, 2, 3])
+
+
 def test_the_densest_columns_keep_the_stated_transmittance():
     """The 95th percentile of the grid columns' optical depth, to first order in the
     opacity, is -ln(0.25)."""

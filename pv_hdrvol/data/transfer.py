@@ -238,11 +238,20 @@ class TransferFunction:
 
         The renderers interpolate colour and extinction linearly between entries; the
         function interpolates colour and opacity linearly between its control points.
-        The error is the larger of ``|a_table - a|`` (opacity of one unit distance,
-        global opacity 1) and ``max |c_table a_table - c a| / c_max`` (the emitted
-        colour, relative to the brightest control point), taken at every control point
-        (where a kink between two entries is cut off most) and halfway between entries
-        (where the extinction's curvature and HSV's arcs show most).
+        The error is the larger of
+
+        - the opacity error of a segment of any length ``s`` up to one unit distance
+          (global opacity 1): ``max_s |exp(-sigma_table s) - exp(-sigma s)|``, bounded by
+          ``|sigma_table - sigma| max_s s exp(-sigma_low s)`` with ``sigma_low`` the
+          smaller of the two (short segments matter: a mesh's cells, the last step of
+          a ray; near opacity 1 the extinction ``-ln(1 - a)`` is steep and a table
+          never reproduces it well);
+        - the colour error times the opacity of one unit distance, relative to the
+          brightest control point,
+
+        taken at every control point (where a kink between two entries is cut off most)
+        and halfway between entries (where the extinction's curvature and HSV's arcs
+        show most).
 
         Examples
         --------
@@ -261,12 +270,16 @@ class TransferFunction:
         values = _scale_inverse(x, self.scale, self.linthresh)
         values[-self._axis.size:] = self.values  # the control points exactly, not through the axis
         alpha = np.minimum(self.opacity_at(values), _ALPHA_MAX)
-        alpha_t = -np.expm1(-(sigma[j] * (1.0 - f) + sigma[j + 1] * f))
-        color_t = rgb[j] * (1.0 - f)[:, None] + rgb[j + 1] * f[:, None]
+        sigma_x = -np.log1p(-alpha)
+        sigma_t = sigma[j] * (1.0 - f) + sigma[j + 1] * f
+        low = np.minimum(sigma_x, sigma_t)
+        # max over 0 < s <= 1 of s exp(-low s): at s = 1/low when low > 1
+        reach = np.where(low > 1.0, 1.0 / (np.e * np.maximum(low, 1.0)), np.exp(-low))
+        error = float(np.max(np.abs(sigma_t - sigma_x) * reach))
         c_max = float(self.colors.max())
-        error = float(np.max(np.abs(alpha_t - alpha)))
         if c_max > 0:
-            emitted = np.abs(color_t * alpha_t[:, None] - self.color_at(values) * alpha[:, None])
+            color_t = rgb[j] * (1.0 - f)[:, None] + rgb[j + 1] * f[:, None]
+            emitted = np.abs(color_t - self.color_at(values)) * alpha[:, None]
             error = max(error, float(np.max(emitted)) / c_max)
         return error
 
@@ -393,10 +406,16 @@ _CMAP_START = 0.125
 #: Transmittance left by a ray through the whole volume if every voxel it crossed were
 #: an average voxel of the data: the default opacity keeps the average ray from saturating.
 DEFAULT_TRANSMITTANCE = 0.25
+#: The default opacity never makes one unit distance fully opaque: at most 0.99
+#: (extinction 4.6 per unit). At 1 the extinction jumps to 36 per unit (the float
+#: limit), and no table interpolates that jump well for the short segments of fine
+#: mesh cells; visually 0.99 and 1 are the same.
+DEFAULT_MAX_OPACITY = 0.99
 _HIST_BINS = 256
 
 
-def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, clim=None, cmap=None, opacity=None):
+def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, scale=None, clim=None, cmap=None,
+                           opacity=None):
     """The default transfer function of ``values``: what a careful user would set by hand.
 
     - **Axis**: ``log`` when the data are not negative and their positive values span
@@ -411,7 +430,9 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, clim
       mode's peak after it, or at its first valley below half the peak, ``vmin`` (when
       the mode is a peak: over 3 times the median bin, and within a quarter of the
       axis; evenly spread data has no background). Otherwise ``vmin`` is the 0.5th
-      percentile.
+      percentile. A dominant mode in the upper half of the axis (a free stream) is
+      cut out of the opacity instead: 0 over the mode, rising to the ramp over one
+      mode's width on either side.
     - **Structure**: the colormap and the opacity ramp span ``[vmin, vmax]``,
       ``vmax`` the 99.9th percentile of the values above ``vmin``. Constant data has
       none: its default is transparent (the renderers then warn that the image is
@@ -439,6 +460,10 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, clim
     spacing : sequence of 3 floats, optional
         With 3-D ``values`` (z, y, x) of a grid: its (x, y, z) spacing in unit
         distances; the opacity then follows from the grid's columns.
+    weights : array of floats >= 0, optional
+        One per value: the share of the volume it stands for (a mesh's cell volumes at
+        its corners). The histogram and the average ray are then of space, not of
+        values.
     scale, clim, cmap, opacity : optional
         Replace single choices, with PyVista's meanings (``add_volume``): the axis
         (``"linear"``, ``"log"``, ``"symlog"``); the range ``(vmin, vmax)`` that the
@@ -465,7 +490,15 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, clim
     if opacity is not None:
         opacity = opacity_curve(opacity)
     v = np.asarray(values, dtype=np.float64).reshape(-1)
-    v = v[np.isfinite(v)]
+    finite = np.isfinite(v)
+    w = None
+    if weights is not None:
+        w = np.asarray(weights, dtype=np.float64).reshape(-1)
+        if w.shape != v.shape or not np.all(np.isfinite(w)) or np.any(w < 0):
+            raise ValueError(f"weights must be finite, >= 0 and one per value ({v.size}); got shape "
+                             f"{np.shape(weights)}")
+        w = w[finite]
+    v = v[finite]
     if v.size == 0:
         return TransferFunction.ramp(0.0, 1.0, cmap=_cmap_colors(cmap), opacity=(0.0, 0.0))
     lo, hi = float(v.min()), float(v.max())
@@ -474,17 +507,21 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, clim
     scale = as_choice("scale", scale, SCALES)
     linthresh = 1.0
     if scale == "log":
-        v = v[v > 0]
+        positive = v > 0
+        v = v[positive]
         if v.size == 0:
             raise ValueError(f"scale='log' needs positive data; the values span [{lo:g}, {hi:g}]")
         lo = float(v.min())
+        w_empty = 0.0 if w is None else float(w[~positive].sum())  # values <= 0: empty space
+        w = None if w is None else w[positive]
     elif scale == "symlog":
         nonzero = np.abs(v[v != 0])
         linthresh = float(nonzero.min()) if nonzero.size else 1.0
     axis = scale_forward(v, scale, linthresh)
     a_lo, a_hi = float(axis.min()), float(axis.max())
-    if vmin is None or vmax is None:
-        t0, t1 = _structure_range(axis, a_lo, a_hi)
+    notch = None
+    if vmin is None or vmax is None or opacity is None:
+        t0, t1, notch = _structure_range(axis, a_lo, a_hi, w)
         if vmin is None:
             vmin = float(_scale_inverse([t0], scale, linthresh)[0]) if t0 > a_lo else lo
         if vmax is None:
@@ -508,20 +545,32 @@ def auto_transfer_function(values, ray_length, *, spacing=None, scale=None, clim
         # the opacity's shape at the ramp's control points: linear along the axis, or on a
         # log axis proportional to the value (a density: every decade keeps its share
         # of the light, faint ones faint, and the HDR image keeps them)
+        n = n if notch is None else 256
         axis_points = np.linspace(*scale_forward([vmin, vmax], scale, linthresh), n)
         if scale == "log":
             points = 10.0 ** (axis_points - axis_points[-1])  # v / vmax, exactly 1 at the top
             points[0] = 0.0  # the background stays transparent
         else:
             points = np.linspace(0.0, 1.0, n)
+        if notch is not None:
+            # a dominant mode high on the axis (a free stream around the structure):
+            # transparent over the mode, rising to the ramp over one mode's width on
+            # either side (the ramp has 256 points then, to resolve it)
+            width = notch[1] - notch[0]
+            gap = np.maximum(notch[0] - axis_points, axis_points - notch[1])
+            notched = points * np.clip(gap / width, 0.0, 1.0)
+            if np.any(notched > 0):
+                points = notched
         raw = np.asarray(values)
         if spacing is not None and raw.ndim == 3:
             opacity = _column_opacity(raw, scale, linthresh, axis_points, points, spacing) * points
         else:
             shape = np.interp(axis, axis_points, points)
             if scale == "log":  # values <= 0 (dropped above) are empty: they count as transparent voxels
-                shape = np.concatenate([shape, np.zeros(int(np.count_nonzero(raw <= 0)))])
-            opacity = _ray_opacity(shape, float(ray_length)) * points
+                empty = int(np.count_nonzero(raw <= 0))
+                shape = np.concatenate([shape, np.zeros(empty)])
+                w = None if w is None else np.concatenate([w, np.full(empty, w_empty / max(empty, 1))])
+            opacity = _ray_opacity(shape, float(ray_length), w) * points
     return TransferFunction.ramp(vmin, vmax, scale=scale, cmap=_cmap_colors(cmap), opacity=opacity, n_colors=n,
                                  linthresh=linthresh)
 
@@ -644,50 +693,70 @@ def _default_scale(v, lo, hi):
     return "linear"
 
 
-def _structure_range(axis, a_lo, a_hi):
-    """``(t0, t1)`` on the axis: past the dominant low mode, to the 99.9th percentile."""
+def _structure_range(axis, a_lo, a_hi, weights=None):
+    """``(t0, t1, notch)`` on the axis: past the dominant mode when it lies in the lower
+    half of the axis (air, a density's floor; values below it are hidden too), to the
+    99.9th percentile; ``notch`` the dominant mode's ``(start, end)`` when it lies in
+    the upper half (a free stream around slower and faster structure), else None.
+    ``weights``: each value's share of the volume. (A notch for a mode in the lower
+    half too was tried: it showed the Blunt Fin's whole domain and a box around the
+    headsq CT, so values below a low mode stay hidden.)"""
     if not a_hi > a_lo:
-        return a_lo, a_hi
-    counts, edges = np.histogram(axis, bins=_HIST_BINS, range=(a_lo, a_hi))
+        return a_lo, a_hi, None
+    counts, edges = np.histogram(axis, bins=_HIST_BINS, range=(a_lo, a_hi), weights=weights)
     smooth = np.convolve(counts, np.ones(5) / 5.0, mode="same")
     mode = int(np.argmax(smooth))
-    t0 = float(np.percentile(axis, 0.5))
-    if mode < _HIST_BINS // 2:
+    peak = smooth[mode]
+
+    def walk(step):
         # the mode ends where the histogram falls below 5 % of its peak, or at a valley
         # below half of it (a plateau of noise has no such valley inside)
-        peak = smooth[mode]
-        end = mode + 1
-        while end < _HIST_BINS - 1 and smooth[end] >= 0.05 * peak and not (
-                smooth[end] < 0.5 * peak and smooth[end] < smooth[end - 1] and smooth[end] <= smooth[end + 1]):
-            end += 1
-        # a background is a peak: well above the typical bin, and narrow (evenly spread
-        # data has no background to hide)
-        typical = float(np.median(smooth[smooth > 0]))
+        end = mode + step
+        while 0 < end < _HIST_BINS - 1 and smooth[end] >= 0.05 * peak and not (
+                smooth[end] < 0.5 * peak and smooth[end] < smooth[end - step] and smooth[end] <= smooth[end + step]):
+            end += step
+        return end
+
+    # a background is a peak: well above the typical bin, and narrow (evenly spread
+    # data has no background to hide)
+    typical = float(np.median(smooth[smooth > 0]))
+    t0 = float(np.percentile(axis, 0.5))
+    notch = None
+    end = walk(1)
+    if mode < _HIST_BINS // 2:
         if peak > 3.0 * typical and end - mode <= _HIST_BINS // 4:
-            t0 = float(edges[end])
+            t0 = float(edges[end])  # the structure starts past the mode: all below it is hidden
+    else:
+        start = walk(-1)
+        if peak > 3.0 * typical and end - start <= _HIST_BINS // 4:
+            # a walk that reached an end of the axis takes the mode to that end
+            notch = (float(edges[start + 1]), float(edges[-1] if end == _HIST_BINS - 1 else edges[end]))
     above = axis[axis > t0]
     t1 = float(np.percentile(above, 99.9)) if above.size else a_hi
-    return t0, max(t1, t0)
+    return t0, max(t1, t0), notch
 
 
-def _ray_opacity(shape, ray_length):
+def _ray_opacity(shape, ray_length, weights=None):
     """The largest opacity ``a`` (per unit distance) with
-    ``ray_length * mean(-ln(1 - a shape)) <= -ln(DEFAULT_TRANSMITTANCE)``, by bisection."""
+    ``ray_length * mean(-ln(1 - a shape)) <= -ln(DEFAULT_TRANSMITTANCE)``, by bisection
+    (the mean weighted by ``weights``, each value's share of the volume, if given)."""
     target = -np.log(DEFAULT_TRANSMITTANCE) / max(ray_length, 1.0)
     if shape.size == 0 or not np.any(shape > 0):
-        return 1.0
+        return DEFAULT_MAX_OPACITY
     # bin the shape: the mean over millions of voxels, cheaply (transparent voxels,
     # most of them, exactly: they add nothing)
-    hist, edges = np.histogram(shape[shape > 0], bins=4096, range=(0.0, 1.0))
+    visible = shape > 0
+    hist, edges = np.histogram(shape[visible], bins=4096, range=(0.0, 1.0),
+                               weights=None if weights is None else weights[visible])
     centers = 0.5 * (edges[:-1] + edges[1:])
-    weights = hist / shape.size
+    weights = hist / (shape.size if weights is None else float(weights.sum()))
 
     def depth(a):
         return float(weights @ -np.log1p(-np.minimum(a * centers, _ALPHA_MAX)))
 
-    if depth(1.0) <= target:
-        return 1.0
-    lo, hi = 0.0, 1.0
+    if depth(DEFAULT_MAX_OPACITY) <= target:
+        return DEFAULT_MAX_OPACITY
+    lo, hi = 0.0, DEFAULT_MAX_OPACITY
     for _ in range(60):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if depth(mid) <= target else (lo, mid)
@@ -705,8 +774,8 @@ def _column_opacity(values, scale, linthresh, axis_points, points, spacing):
               shape.sum(axis=0).ravel() * spacing[2]]
     d95 = float(np.percentile(np.concatenate(depths), 95.0))
     if not d95 > 0:
-        return 1.0
-    return float(min(-np.log(DEFAULT_TRANSMITTANCE) / d95, 1.0))
+        return DEFAULT_MAX_OPACITY
+    return float(min(-np.log(DEFAULT_TRANSMITTANCE) / d95, DEFAULT_MAX_OPACITY))
 
 
 def _cmap_colors(cmap):

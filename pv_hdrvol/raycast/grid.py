@@ -63,7 +63,12 @@ def default_transfer_function(volume, *, cmap=None, clim=None, opacity=None, sca
         if volume.integer and scale is None:
             keywords["scale"] = "linear"
         return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit, **keywords)
-    return auto_transfer_function(volume.values, diagonal / volume.default_unit_distance(), **keywords)
+    # a mesh's values weighted by the volume they stand for: what fills space, not where
+    # the mesh is fine, is its background
+    volumes = np.abs(volume.cell_volumes())
+    values = np.asarray(volume.values)
+    weights = np.broadcast_to((volumes / values.shape[1])[:, None], values.shape) if values.ndim == 2 else volumes
+    return auto_transfer_function(values, diagonal / volume.default_unit_distance(), weights=weights, **keywords)
 
 
 def resolve_transfer_function(data, tf=None, *, cmap=None, clim=None, opacity=None, scale=None):

@@ -18,9 +18,10 @@ DEFAULT_TABLE_SIZE = 65536
 MIN_TABLE_SIZE = 256
 MAX_TABLE_SIZE = 2**24
 #: The default table's accuracy: the largest difference, anywhere on the axis, between
-#: the table's linear interpolation and the function itself, in the opacity of one
-#: unit distance and in the emitted colour times that opacity (relative to the
-#: brightest control point). See :meth:`TransferFunction.table_error`.
+#: the table's linear interpolation and the function itself, in the opacity of a
+#: segment of any length up to one unit distance and in the colour times the opacity
+#: of one unit (relative to the brightest control point). See
+#: :meth:`TransferFunction.table_error`.
 TABLE_TOLERANCE = 1e-4
 #: The sizes the default tries, smallest first.
 AUTO_TABLE_SIZES = tuple(MIN_TABLE_SIZE * 2**k for k in range(9))
@@ -448,7 +449,8 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
       percentile of their optical depths ``sum a s(v) spacing`` (in unit distances, to
       first order in ``a``) is held to ``-ln(0.25)``: the densest rays stay readable.
       Elsewhere a ray of ``ray_length`` through average voxels is:
-      ``ray_length * mean(-ln(1 - a s(v))) = -ln(0.25)``.
+      ``ray_length * mean(-ln(1 - a s(v))) = -ln(0.25)`` (weighted by ``weights``).
+      ``a`` is at most :data:`DEFAULT_MAX_OPACITY` (0.99).
 
     Parameters
     ----------

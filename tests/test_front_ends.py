@@ -140,3 +140,13 @@ def test_the_vtk_keyword_setters_are_modified_only_by_a_new_meaning():
     assert (alg.GetOpacity(), alg.GetClim()) == ([0.0, 0.5], (0.0, 1.0))
     alg.SetClim(None)
     assert alg.GetClim() is None and alg.GetMTime() > t2
+
+
+def test_a_render_made_with_the_keywords_renders_again_from_its_settings(grid):
+    """The settings keep the function the keywords made (not the keywords), so
+    ``settings().render`` gives the same pixels without them."""
+    g, _ = grid
+    img = hv.render(g, None, "iso", (8, 8), cmap="viridis", clim=(0.1, None), opacity="sigmoid")
+    settings = img.settings()
+    assert settings.keywords == {} and settings.tf.vmin == 0.1
+    np.testing.assert_array_equal(settings.render(g).rgba, img.rgba)

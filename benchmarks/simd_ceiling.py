@@ -232,8 +232,8 @@ def packets(args):
     for tf_name in args.tf:
         tf = transfer_functions(hv)[tf_name]
         kargs, image = kernel_arguments(hv, volume, tf, camera, size)
-        bricks, offs, table, _sigma, leap, grids, dims, cam = kargs[:8]
-        width, height, lo, hi, p = kargs[10], kargs[11], kargs[15], kargs[16], kargs[17]
+        bricks, offs, table, _sigma, leap, grids, dims, cam = kargs[1:9]  # kargs[0]: the precision marker
+        width, height, lo, hi, p = kargs[11], kargs[12], kargs[16], kargs[17], kargs[18]
         assert p.scale == 0 and p.precision == 1, "the packet kernel knows the linear axis and float32 only"
         for w in args.width:
             n = width * height

@@ -116,8 +116,8 @@ def test_uint8_render_ignores_memory_past_the_table(monkeypatch, blending):
     clean = hv.render(vol, tf, looking_down(vol), (2, 2), precision="uint8", step=0.7, blending=blending)
     tiles, projection = K.render_tiles, KX.render_projection
 
-    def padded_tiles(bricks, offs, table, sigma, *rest):
-        return tiles(bricks, offs, _nan_past_the_end(table), _nan_past_the_end(sigma), *rest)
+    def padded_tiles(marker, bricks, offs, table, sigma, *rest):
+        return tiles(marker, bricks, offs, _nan_past_the_end(table), _nan_past_the_end(sigma), *rest)
 
     def padded_projection(*args):
         args = list(args)

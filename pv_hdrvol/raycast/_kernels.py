@@ -756,8 +756,40 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
                        step, scratch)
 
 
+def _marker_precision(marker, p):
+    """The precision code of a compositing marker (compiled only): float64 and float32
+    markers name their precision at compile time; an integer marker leaves it to
+    ``p.precision`` (float16 or uint8, which share one emulated loop)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_marker_precision, jit_options=_JIT, inline="always")
+def _marker_precision_impl(marker, p):
+    if marker == numba.types.float64:
+        return lambda marker, p: F64
+    if marker == numba.types.float32:
+        return lambda marker, p: F32
+    return lambda marker, p: p.precision
+
+
+@kernel
+def _march_typed(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p,
+                 step, scratch):
+    """``_march`` for the one precision of ``marker`` (a float64, float32 or int64
+    zero): only that compositing loop is compiled."""
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
+    if not t1 > t0:
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    nx = dims[0]
+    ny = dims[1]
+    nz = dims[2]
+    g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
+    return _march_loop(marker, sampler, _marker_precision(marker, p), bricks, offs, table, sigma, leap, g, ox, oy, oz,
+                       dx, dy, dz, t0, t1, p, step, scratch)
+
+
 @fused_parallel_kernel
-def render_tiles(bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, width, height, tile,
+def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, width, height, tile,
                  tile_rows, lanes, lo, hi, p, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
@@ -792,8 +824,8 @@ def render_tiles(bricks, offs, table, sigma, leap, grids, dims, cam, origins, di
                         dx = directions[pix, 0]
                         dy = directions[pix, 1]
                         dz = directions[pix, 2]
-                    r, g, b, a, dep, ns = _march(0, bricks, offs, table, sigma, leap, grids, dims,
-                                                 ox, oy, oz, dx, dy, dz, lo, hi, p, p.step, scratch)
+                    r, g, b, a, dep, ns = _march_typed(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
+                                                       ox, oy, oz, dx, dy, dz, lo, hi, p, p.step, scratch)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

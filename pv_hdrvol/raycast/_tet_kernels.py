@@ -39,11 +39,10 @@ import math
 from typing import NamedTuple
 
 import numba
-import numpy as np
 
 from .._jit import inline_kernel, kernel, parallel_kernel
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
-from ._kernels import _accumulate, _finish, _opacity, _start, table_position, F32, F64
+from ._kernels import _accumulate, _finish, _marker_precision, _opacity, _start, table_position
 from ._shading_kernels import SH_FADE, fade_weight, light_factors
 
 
@@ -524,21 +523,16 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
 
 
 @kernel
-def _march(points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights, hit_t,
+def _march(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights, hit_t,
            hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
-    """One ray in the precision ``p.precision`` (one compiled loop per precision)."""
-    if p.precision == F64:
-        return _march_in(0.0, F64, points, cells_i, cells_f, active, btri, bcell, bface,
-                         table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
-    if p.precision == F32:
-        return _march_in(np.float32(0.0), F32, points, cells_i, cells_f, active, btri, bcell, bface,
-                         table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
-    return _march_in(0, p.precision, points, cells_i, cells_f, active, btri, bcell, bface,
+    """One ray in the precision of ``marker`` (a float64, float32 or int64 zero: see
+    ``_kernels._marker_precision``): only that compositing loop is compiled."""
+    return _march_in(marker, _marker_precision(marker, p), points, cells_i, cells_f, active, btri, bcell, bface,
                      table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
 
 
 @parallel_kernel
-def render_tiles(points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
+def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
                  hit_offsets, hit_t, hit_face, hit_enter, cam, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
@@ -558,7 +552,7 @@ def render_tiles(points, cells_i, cells_f, active, btri, bcell, bface, table, gr
                         continue
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
-                        points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
+                        marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
                         hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g

@@ -87,6 +87,10 @@ def resolve_transfer_function(data, tf=None, *, cmap=None, clim=None, opacity=No
     return tf
 
 
+#: The compositing marker of each precision: its type picks the one loop ``render_tiles`` compiles.
+_MARKERS = {"float64": np.float64(0.0), "float32": np.float32(0.0), "float16": np.int64(0), "uint8": np.int64(0)}
+
+
 class EmptyRenderWarning(RuntimeWarning):
     """A render will give an empty (all transparent) image, for the reason named."""
 
@@ -621,7 +625,8 @@ class GridPlan:
             if flat:
                 pass
             elif not extended:
-                K.render_tiles(bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids, dims, cam,
+                K.render_tiles(_MARKERS[prec], bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
+                               dims, cam,
                                origins, directions, width, height, _TILE, rows, lanes, lo, hi, params, rgba, depth,
                                samples)
             elif value is not None:

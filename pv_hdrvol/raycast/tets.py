@@ -20,7 +20,7 @@ from ..rays.camera import Camera, as_camera
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import (_TILE, _check_progress_bar, _lanes, _visible, cached, resolve_transfer_function,
+from .grid import (_MARKERS, _TILE, _check_progress_bar, _lanes, _visible, cached, resolve_transfer_function,
                    empty_render_reason, pixel_rows, run_in_chunks, warn_empty)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
@@ -195,7 +195,7 @@ class TetPlan:
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
-            TK.render_tiles(mesh.points, cells_i, cells_f, active,
+            TK.render_tiles(_MARKERS[opts.precision], mesh.points, cells_i, cells_f, active,
                             mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
                             hits.offsets,
                             hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,

@@ -626,9 +626,8 @@ class GridPlan:
                 pass
             elif not extended:
                 K.render_tiles(_MARKERS[prec], bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
-                               dims, cam,
-                               origins, directions, width, height, _TILE, rows, lanes, lo, hi, params, rgba, depth,
-                               samples)
+                               dims, cam, origins, directions, width, height, _TILE, rows, lanes, lo, hi, params,
+                               rgba, depth, samples)
             elif value is not None:
                 a = kernel_args
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,

@@ -289,3 +289,23 @@ def test_rays_are_refused_as_camera():
     rays = hv.Camera().rays((4, 4))
     with pytest.raises(TypeError, match=r"SetCamera takes a Camera, a vtkCamera or a view name, not Rays"):
         HDRVolumeRenderer().SetCamera(rays)
+
+
+def test_an_extent_that_does_not_start_at_zero_is_placed_where_vtk_places_it():
+    # vtkRTAnalyticSource's extent starts at -6: its first point is at origin + (-6) * spacing
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-6, 6, -6, 6, -6, 6)
+    source.Update()
+    shifted = source.GetOutput()
+    moved = vtkImageData()
+    moved.DeepCopy(shifted)
+    moved.SetExtent(0, 12, 0, 12, 0, 12)
+    moved.SetOrigin(-6.0, -6.0, -6.0)
+    assert shifted.GetBounds() == moved.GetBounds() == (-6.0, 6.0, -6.0, 6.0, -6.0, 6.0)
+    assert hv.volume_from_dataset(shifted).bounds == hv.volume_from_dataset(moved).bounds
+    tf = hv.TransferFunction.ramp(40.0, 280.0, cmap="gray", opacity=(0.0, 0.2))
+    camera = hv.Camera.fit(shifted.GetBounds(), "xz")
+    a = hv.render(shifted, tf, camera, (12, 10), progress_bar=False)
+    b = hv.render(moved, tf, camera, (12, 10), progress_bar=False)
+    assert a.rgba[..., 3].max() > 0.1
+    np.testing.assert_array_equal(a.rgba, b.rgba)

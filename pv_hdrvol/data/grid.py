@@ -246,7 +246,9 @@ def _image_array(dataset, scalars, preference):
     if arr.ndim != 1:
         raise ScalarsError(f"scalars {scalars!r} must have one component; got shape {arr.shape}")
     spacing = np.array(ds.GetSpacing(), dtype=np.float64)
-    origin = np.array(ds.GetOrigin(), dtype=np.float64)
+    # the first point is origin + extent start * spacing: a piece of a larger image, or a
+    # file whose extent does not start at 0 (vtkRTAnalyticSource's -10..10)
+    origin = np.array(ds.GetOrigin(), dtype=np.float64) + np.array(ds.GetExtent()[::2], dtype=np.float64) * spacing
     if hasattr(ds, "GetDirectionMatrix"):
         m = ds.GetDirectionMatrix()
         dm = np.array([[m.GetElement(i, j) for j in range(3)] for i in range(3)])

@@ -9,8 +9,8 @@ render compiles, used or not (e.g. one compositing loop per precision).
 
     python3 benchmarks/bench_compile.py --data engine          # an image volume, float32
     python3 benchmarks/bench_compile.py --data bluntfin --top 20
-    /usr/bin/python3 benchmarks/bench_compile.py --data engine  # Debian's numba 0.56
-                                                                # (PYTHONPATH=. and pyvista there)
+    PYTHONPATH=. /usr/bin/python3 benchmarks/bench_compile.py --data engine  # Debian's numba 0.56
+                                                                # (VTK from python3-paraview)
 
 The data directory is ``../shared/data`` relative to the repository root, or
 ``$PV_HDRVOL_DATA``.
@@ -36,13 +36,17 @@ def main(argv=None):
 
     os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="pv_hdrvol_cold_")
     import numba
-    import pyvista as pv
     from numba.core import event
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLUnstructuredGridReader
 
     import pv_hdrvol as hv
 
     root = Path(os.environ.get("PV_HDRVOL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
-    dataset = pv.read(root / DATA[args.data])
+    # plain VTK readers, so that Debian's Python (ParaView's VTK, no PyVista) runs this too
+    reader = (vtkXMLImageDataReader if DATA[args.data].endswith(".vti") else vtkXMLUnstructuredGridReader)()
+    reader.SetFileName(str(root / DATA[args.data]))
+    reader.Update()
+    dataset = reader.GetOutput()
     t0 = time.perf_counter()
     with event.install_recorder("numba:compile") as recorder:
         hv.render(dataset, None, "iso", (args.size, args.size), precision=args.precision, progress_bar=False)

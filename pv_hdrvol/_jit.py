@@ -26,6 +26,23 @@ def inline_kernel(fn):
     return numba.njit(inline="always", **JIT_OPTIONS)(fn)
 
 
+#: Whether :func:`mesh_helper` inlines at numba IR level: numba before 0.57 (Debian
+#: bookworm's 0.56, ParaView 5.11's Python) compiles the nested helpers of the mesh
+#: kernels very slowly that way: the boundary rasteriser's ``_plucker_hit`` took 83.7 s
+#: to compile, 1.7 s as plain calls; a first Blunt Fin render 230 s, 33 s as plain calls
+#: (docs/performance.md).
+IR_INLINE_MESH_HELPERS = tuple(int(x) for x in numba.__version__.split(".")[:2]) >= (0, 57)
+
+
+def mesh_helper(fn):
+    """For the per-sample helpers of the tetrahedral and boundary kernels: as
+    :func:`inline_kernel` on numba >= 0.57, a plain kernel (LLVM inlines the call; the
+    same arithmetic, as no mesh kernel is fused) on older numba."""
+    if not IR_INLINE_MESH_HELPERS:
+        return numba.njit(**JIT_OPTIONS)(fn)
+    return numba.njit(inline="always", **JIT_OPTIONS)(fn)
+
+
 def fused_kernel(fn):
     """As :func:`kernel`, with multiply-adds fused into FMA instructions (LLVM's
     ``contract``, the only fast-math flag used): one rounding instead of two, and shorter

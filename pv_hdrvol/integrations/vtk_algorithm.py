@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import numbers
+import time
 import traceback
 
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
@@ -115,6 +116,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         self._preference = "point"
         self._tf = None
         self._tf_keywords = dict.fromkeys(TF_KEYWORDS)
+        self._vtk_tf = {"colors": None, "opacity": None}  # ParaView's colour map: [function, observer id]
         self._camera = None
         self._lens = None
         self._labels = None
@@ -221,6 +223,63 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         """The :class:`~pv_hdrvol.TransferFunction` set last, or ``None``."""
         return self._tf
 
+    # -- VTK's (ParaView's) colour map as the transfer function -------------------------
+    def _set_vtk_function(self, slot, function):
+        old = self._vtk_tf[slot]
+        if (old[0] if old else None) is function:
+            return
+        if old is not None:
+            old[0].RemoveObserver(old[1])
+        # editing the colour map in place (ParaView's Color Map Editor) re-executes
+        self._vtk_tf[slot] = None if function is None else [
+            function, function.AddObserver("ModifiedEvent", lambda *_: self.Modified())]
+        self.Modified()
+
+    def SetLookupTable(self, colors):
+        """A ``vtkColorTransferFunction`` (ParaView's lookup table for the array) as the
+        transfer function's colours, its range and its log scale; ``None``: not used.
+        Editing it re-executes. See
+        :func:`~pv_hdrvol.integrations.vtk_transfer.transfer_function_from_vtk`."""
+        from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
+
+        if colors is not None and not isinstance(colors, vtkColorTransferFunction):
+            raise TypeError(f"the lookup table must be a vtkColorTransferFunction or None; "
+                            f"got {type(colors).__name__}")
+        self._set_vtk_function("colors", colors)
+
+    def GetLookupTable(self):
+        """The ``vtkColorTransferFunction`` set with :meth:`SetLookupTable`, or ``None``."""
+        return self._vtk_tf["colors"][0] if self._vtk_tf["colors"] else None
+
+    def SetScalarOpacityFunction(self, opacity):
+        """A ``vtkPiecewiseFunction`` (ParaView's opacity function for the array) as the
+        opacities of :meth:`SetLookupTable`'s transfer function; ``None``: opacity 1."""
+        from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
+
+        if opacity is not None and not isinstance(opacity, vtkPiecewiseFunction):
+            raise TypeError(f"the scalar opacity function must be a vtkPiecewiseFunction or None; "
+                            f"got {type(opacity).__name__}")
+        self._set_vtk_function("opacity", opacity)
+
+    def GetScalarOpacityFunction(self):
+        """The ``vtkPiecewiseFunction`` set with :meth:`SetScalarOpacityFunction`, or ``None``."""
+        return self._vtk_tf["opacity"][0] if self._vtk_tf["opacity"] else None
+
+    def _transfer_function(self):
+        """The transfer function set, else the lookup table's, else ``None`` (the default)."""
+        colors, opacity = self.GetLookupTable(), self.GetScalarOpacityFunction()
+        if self._tf is not None or colors is None:
+            if self._tf is None and opacity is not None:
+                raise ValueError("a scalar opacity function needs a lookup table (SetLookupTable) for the colours")
+            return self._tf
+        given = [name + "=" for name, value in self._tf_keywords.items() if value is not None]
+        if given:
+            raise TypeError(f"pass either a lookup table or {', '.join(given)}, not both: the lookup table sets "
+                            "colour, opacity, range and axis already")
+        from .vtk_transfer import transfer_function_from_vtk
+
+        return transfer_function_from_vtk(colors, opacity)
+
     # -- the default transfer function's keywords: hv.render's cmap=, clim=, opacity=, scale=
     def _set_tf_keyword(self, name, value):
         # validated now, not at the next Update(); compared by meaning (an opacity may be an array)
@@ -275,8 +334,19 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         A ``vtkCamera`` (or ``pyvista.Plotter``) is copied now: later changes to it do
         not re-execute the pipeline; set it again. A view name (``"iso"``, ``"xy"``,
         ...) or ``None`` (``"iso"``) frames the input's bounds at each execution.
+
+        A ``dict`` of :class:`~pv_hdrvol.Camera`'s fields (``position``,
+        ``focal_point``, ``view_up``, ``view_angle``, ``parallel_projection``,
+        ``parallel_scale``) is made into a camera at each execution, so that fields set
+        one at a time (ParaView's camera properties) are checked together then.
         """
-        if isinstance(camera, str):
+        if isinstance(camera, dict):
+            fields = {f.name for f in dataclasses.fields(Camera)}
+            unknown = sorted(set(camera) - fields)
+            if unknown:
+                raise ValueError(f"camera fields must be among {sorted(fields)}; got {unknown}")
+            camera = dict(camera)
+        elif isinstance(camera, str):
             Camera.fit((0, 1, 0, 1, 0, 1), camera)  # validates the view name now
         elif isinstance(camera, Rays):
             raise TypeError("SetCamera takes a Camera, a vtkCamera or a view name, not Rays: the image size "
@@ -288,8 +358,8 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             self.Modified()
 
     def GetCamera(self):
-        """The :class:`~pv_hdrvol.Camera`, view name or ``None`` set last."""
-        return self._camera
+        """The :class:`~pv_hdrvol.Camera`, view name, fields (a copy) or ``None`` set last."""
+        return dict(self._camera) if isinstance(self._camera, dict) else self._camera
 
     def SetLens(self, lens):
         """A lens (:class:`~pv_hdrvol.Magnifier`, ...) applied to the camera, or ``None``."""
@@ -388,10 +458,23 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
                 or inp.GetNumberOfPoints() == 0:
             raise ValueError(f"HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on input "
                              f"port 0; got {'nothing' if inp is None else kind}")
+        if kind == "vtkUnstructuredGrid" and (self._lens is not None or self._labels is not None):
+            raise ValueError("SetLens and SetLabels apply to image data only, not to tetrahedral meshes")
         scalars, preference = self._scalars_to_render()
-        camera = as_camera(self._camera, inp.GetBounds())
+        camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
+                           inp.GetBounds())
+        tf = self._transfer_function()
+
+        first = _first_use(kind == "vtkUnstructuredGrid", self._options.precision)
+        if first:  # numba compiles (or loads from its cache) the kernels now: say so
+            self.SetProgressText("compiling the ray caster (first render)")
+            _display_text(f"pv_hdrvol: first {first} render in this process: compiling the ray caster, or loading "
+                          f"it from numba's cache ({_numba_cache_dir()}); the first time this takes about a minute")
+        started = time.perf_counter()
 
         def progress(fraction):
+            if first and fraction > 0:
+                self.SetProgressText("rendering")
             self.UpdateProgress(fraction)
             return not self._should_abort()
 
@@ -399,9 +482,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             if kind == "vtkUnstructuredGrid":
                 from ..raycast.tets import render_tets
 
-                if self._lens is not None or self._labels is not None:
-                    raise ValueError("SetLens and SetLabels apply to image data only, not to tetrahedral meshes")
-                image = render_tets(inp, self._tf, camera, self._size, options=self._options, scalars=scalars,
+                image = render_tets(inp, tf, camera, self._size, options=self._options, scalars=scalars,
                                     preference=preference, progress=progress, progress_bar=False,
                                     **self._tf_keywords)
                 out.ShallowCopy(image.to_vtk())
@@ -409,7 +490,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
             volume = self._volumes.get(inp, scalars, preference)
             labels = None if self._labels is None else labels_from_dataset(inp, self._labels, preference)
             # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm
-            image = render_volume(volume, self._tf, camera, self._size, options=self._options, lens=self._lens,
+            image = render_volume(volume, tf, camera, self._size, options=self._options, lens=self._lens,
                                   labels=labels, label_styles=self._label_styles, progress=progress,
                                   progress_bar=False, **self._tf_keywords)
         except RuntimeError:
@@ -417,8 +498,35 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
                 out.Initialize()  # an aborted render leaves no output
                 return 1
             raise
+        finally:
+            if first:
+                _display_text(f"pv_hdrvol: first {first} render took {time.perf_counter() - started:.1f} s")
         out.ShallowCopy(image.to_vtk())
         return 1
+
+
+#: (mesh?, precision) of the renders done in this process
+_RENDERED = set()
+
+
+def _first_use(mesh, precision):
+    """``"<precision> image volume"`` or ``"... mesh"`` the first time a process renders
+    it (when numba compiles or loads its kernels), else ``""``."""
+    key = (mesh, precision)
+    if key in _RENDERED:
+        return ""
+    _RENDERED.add(key)
+    return f"{precision} {'tetrahedral mesh' if mesh else 'image volume'}"
+
+
+def _numba_cache_dir():
+    from numba.core import config
+
+    return config.CACHE_DIR or "__pycache__ beside pv_hdrvol's source"
+
+
+def _display_text(text):
+    vtkOutputWindow.GetInstance().DisplayText(text + "\n")
 
 
 __all__ = ["HDRVolumeRenderer"]

@@ -1,0 +1,160 @@
+"""VTK's (ParaView's) colour map as the transfer function, and the VTK algorithm's
+lookup-table and camera-field inputs."""
+import numpy as np
+import pytest
+
+vtk = pytest.importorskip("vtkmodules.vtkRenderingCore")
+from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction  # noqa: E402
+from vtkmodules.vtkImagingCore import vtkRTAnalyticSource  # noqa: E402
+from vtkmodules.vtkRenderingCore import vtkColorTransferFunction  # noqa: E402
+
+import pv_hdrvol as hv  # noqa: E402
+from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer  # noqa: E402
+from pv_hdrvol.integrations.vtk_transfer import TOLERANCE, transfer_function_from_vtk  # noqa: E402
+
+
+def _colors(points, log=False, space="RGB"):
+    ctf = vtkColorTransferFunction()
+    for x, r, g, b in points:
+        ctf.AddRGBPoint(x, r, g, b)
+    ctf.SetScale(1 if log else 0)
+    getattr(ctf, f"SetColorSpaceTo{space}")()
+    return ctf
+
+
+def _opacity(points, log=False):
+    pwf = vtkPiecewiseFunction()
+    for x, a in points:
+        pwf.AddPoint(x, a)
+    pwf.SetUseLogScale(int(log))
+    return pwf
+
+
+def _vtk_values(ctf, pwf, x):
+    rgb = np.array([ctf.GetColor(v) for v in x])
+    return rgb, np.array([pwf.GetValue(v) for v in x])
+
+
+@pytest.mark.parametrize("log", [False, True])
+def test_rgb_colour_map_is_taken_exactly(log):
+    ctf = _colors([(1.0, 0, 0, 0), (10.0, 1, 0, 0), (1000.0, 1, 1, 1)], log=log)
+    pwf = _opacity([(1.0, 0.0), (100.0, 0.2), (1000.0, 1.0)], log=log)
+    tf = transfer_function_from_vtk(ctf, pwf)
+    assert tf.scale == ("log" if log else "linear")
+    np.testing.assert_array_equal(tf.values, [1.0, 10.0, 100.0, 1000.0])  # every control point, no more
+    x = np.geomspace(1.0, 1000.0, 2001)
+    rgb, alpha = _vtk_values(ctf, pwf, x)
+    np.testing.assert_allclose(tf.color_at(x), rgb, atol=1e-12)
+    np.testing.assert_allclose(tf.opacity_at(x), alpha, atol=1e-12)
+
+
+@pytest.mark.parametrize("space", ["Diverging", "Lab", "HSV"])
+def test_other_colour_spaces_and_mixed_axes_are_within_the_tolerance(space):
+    ctf = _colors([(0.1, 0.23, 0.30, 0.75), (5.0, 0.87, 0.87, 0.87), (50.0, 0.71, 0.02, 0.15)], log=True,
+                  space=space)
+    pwf = _opacity([(0.1, 0.0), (50.0, 0.8)], log=False)  # linear opacity on a log colour map
+    tf = transfer_function_from_vtk(ctf, pwf)
+    x = np.geomspace(0.1, 50.0, 20001)
+    rgb, alpha = _vtk_values(ctf, pwf, x)
+    # bisection checks segment midpoints: elsewhere the error may be a few times larger
+    assert np.abs(tf.color_at(x) - rgb).max() < 4 * TOLERANCE
+    assert np.abs(tf.opacity_at(x) - alpha).max() < 4 * TOLERANCE
+    assert tf.values.size < 2000
+
+
+def test_discretized_paraview_style_table_is_read_as_the_continuous_function():
+    from vtkmodules.vtkRenderingCore import vtkDiscretizableColorTransferFunction
+
+    ctf = vtkDiscretizableColorTransferFunction()
+    ctf.AddRGBPoint(0.0, 0.0, 0.0, 0.0)
+    ctf.AddRGBPoint(1.0, 1.0, 1.0, 1.0)
+    ctf.SetColorSpaceToRGB()
+    ctf.DiscretizeOn()
+    ctf.SetNumberOfValues(4)
+    ctf.Build()
+    tf = transfer_function_from_vtk(ctf)
+    np.testing.assert_allclose(tf.color_at(np.array([0.3])), [[0.3, 0.3, 0.3]], atol=1e-12)
+    np.testing.assert_array_equal(tf.opacities, [1.0, 1.0])  # no opacity function: opaque
+
+
+def test_bad_colour_maps_are_refused_with_the_reason():
+    with pytest.raises(TypeError, match="colors must be a vtkColorTransferFunction"):
+        transfer_function_from_vtk(_opacity([(0, 0), (1, 1)]))
+    with pytest.raises(TypeError, match="opacity must be a vtkPiecewiseFunction or None; got str"):
+        transfer_function_from_vtk(_colors([(0, 0, 0, 0), (1, 1, 1, 1)]), "ramp")
+    with pytest.raises(ValueError, match="at least 2 control points; it has 1"):
+        transfer_function_from_vtk(_colors([(0, 0, 0, 0)]))
+    with pytest.raises(ValueError, match=r"log scale but its range \[-1.0, 1.0\] is not positive"):
+        transfer_function_from_vtk(_colors([(-1, 0, 0, 0), (1, 1, 1, 1)], log=True))
+    indexed = _colors([(0, 0, 0, 0), (1, 1, 1, 1)])
+    indexed.IndexedLookupOn()
+    with pytest.raises(ValueError, match="categorical"):
+        transfer_function_from_vtk(indexed)
+
+
+def _renderer():
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-6, 6, -6, 6, -6, 6)
+    alg = HDRVolumeRenderer()
+    alg.SetInputConnection(source.GetOutputPort())
+    alg.SetImageSize(16, 12)
+    alg.SetCamera("iso")
+    return source, alg
+
+
+def _rgba(alg):
+    alg.Update()
+    return hv.HDRImage.from_pyvista(alg.GetOutput()).rgba.copy()
+
+
+def test_lookup_table_renders_as_the_transfer_function_and_edits_re_execute():
+    source, alg = _renderer()
+    ctf = _colors([(40.0, 0.1, 0.1, 0.4), (280.0, 1.0, 0.9, 0.2)])
+    pwf = _opacity([(40.0, 0.0), (280.0, 0.3)])
+    alg.SetLookupTable(ctf)
+    alg.SetScalarOpacityFunction(pwf)
+    first = _rgba(alg)
+    source.Update()
+    direct = hv.render(source.GetOutput(), transfer_function_from_vtk(ctf, pwf), "iso", (16, 12),
+                       progress_bar=False)
+    np.testing.assert_array_equal(first, direct.rgba)
+    mtime = alg.GetMTime()
+    alg.SetLookupTable(ctf)  # the same table again: nothing to do
+    assert alg.GetMTime() == mtime
+    pwf.AddPoint(160.0, 0.9)  # an edit in place (ParaView's Color Map Editor) re-executes
+    assert alg.GetMTime() > mtime
+    assert not np.array_equal(_rgba(alg), first)
+    alg.SetLookupTable(None)
+    assert ctf.HasObserver("ModifiedEvent") == 0  # no observer left behind
+
+
+def test_lookup_table_with_default_keywords_is_a_clear_error():
+    _, alg = _renderer()
+    alg.SetLookupTable(_colors([(40.0, 0, 0, 0), (280.0, 1, 1, 1)]))
+    alg.SetCmap("viridis")
+    assert not alg.Update() or alg.GetLastError() is not None
+    assert alg.GetLastError() == ("TypeError: pass either a lookup table or cmap=, not both: the lookup table "
+                                  "sets colour, opacity, range and axis already")
+    _, alg = _renderer()
+    alg.SetScalarOpacityFunction(_opacity([(40.0, 0.0), (280.0, 0.3)]))
+    alg.Update()
+    assert alg.GetLastError() == ("ValueError: a scalar opacity function needs a lookup table (SetLookupTable) "
+                                  "for the colours")
+    with pytest.raises(TypeError, match="lookup table must be a vtkColorTransferFunction or None; got str"):
+        alg.SetLookupTable("viridis")
+
+
+def test_camera_fields_are_checked_together_when_the_filter_runs():
+    _, alg = _renderer()
+    cam = hv.Camera.fit((-6, 6, -6, 6, -6, 6), "xz")
+    fields = {"position": cam.position, "focal_point": cam.focal_point, "view_up": cam.view_up,
+              "view_angle": cam.view_angle}
+    alg.SetCamera(fields)
+    from_fields = _rgba(alg)
+    alg.SetCamera(cam)
+    np.testing.assert_array_equal(_rgba(alg), from_fields)
+    alg.SetCamera(dict(fields, position=cam.focal_point))  # a half-updated camera: refused at execution
+    alg.Update()
+    assert alg.GetLastError() is not None and alg.GetLastError().startswith("ValueError")
+    with pytest.raises(ValueError, match=r"camera fields must be among .*; got \['zoom'\]"):
+        alg.SetCamera({"zoom": 2.0})

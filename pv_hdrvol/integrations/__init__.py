@@ -4,6 +4,9 @@
   found by PyVista through the ``pyvista.accessors`` entry point.
 - :mod:`~pv_hdrvol.integrations.vtk_algorithm`: ``HDRVolumeRenderer``, a VTK
   algorithm (vtkImageData in, 2-D float RGBA vtkImageData out).
+- :mod:`~pv_hdrvol.integrations.vtk_image`: VTK algorithms on those 2-D HDR images:
+  ``HDRToneMapper``, ``HDRImageReader``, ``HDRImageWriter`` (.exr, .hdr, .npy) and
+  ``HDRUpsampler`` (joint bilateral upsampling guided by the rendered dataset).
 - :mod:`~pv_hdrvol.integrations.cli`: the ``pv-hdrvol`` command.
 
 Submodules are imported on demand: importing this package loads neither PyVista nor VTK.

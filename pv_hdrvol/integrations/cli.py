@@ -15,7 +15,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import pathlib
+import shlex
 import sys
 
 from .. import __version__
@@ -133,6 +135,19 @@ def build_parser():
     p.add_argument("--json", action="store_true",
                    help="print the metadata as JSON instead (all of the settings: every control point)")
     p.set_defaults(handler=_cmd_info, subparser=p)
+
+    p = sub.add_parser("paraview", help="print the environment that loads the ParaView plugin",
+                       description="Print shell lines that make ParaView (GUI, pvpython, pvbatch) load the "
+                                   "pv_hdrvol plugin: PV_PLUGIN_PATH names paraview_plugin/, and PYTHONPATH the "
+                                   "shim that ParaView 5.11 needs on Python 3.11 (harmless elsewhere). Use: "
+                                   "eval \"$(pv-hdrvol paraview)\" then paraview, pvpython or pvbatch. "
+                                   "ParaView's own Python needs numpy and numba (Debian: python3-numba).")
+    p.add_argument("--shell", choices=("sh", "fish", "cmd"), default="sh",
+                   help="syntax of the lines (default sh: bash, zsh)")
+    p.add_argument("--site", default=None, metavar="DIR",
+                   help="also put DIR on PYTHONPATH: extra packages for ParaView's Python, such as OpenEXR for "
+                        ".exr files (/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR)")
+    p.set_defaults(handler=_cmd_paraview, subparser=p)
     return parser
 
 
@@ -440,6 +455,39 @@ def _print_settings(stored):
         print(f"  keywords:           {', '.join(f'{k}={v!r}' for k, v in s.keywords.items())}")
     if stored.get("not_stored"):
         print(f"  not stored:         {', '.join(stored['not_stored'])} (settings() needs partial=True)")
+
+
+def paraview_environment():
+    """``{variable: folder}`` to prepend for ParaView: the plugin folder on
+    ``PV_PLUGIN_PATH`` and the getargspec shim on ``PYTHONPATH``.
+
+    Raises
+    ------
+    UserError
+        This installation has no ``paraview_plugin/`` folder beside the package (it
+        ships with the source tree: install with ``pip install -e``).
+    """
+    plugin = pathlib.Path(__file__).resolve().parents[2] / "paraview_plugin"
+    if not (plugin / "pv_hdrvol_plugin.py").is_file() or not (plugin / "shim" / "sitecustomize.py").is_file():
+        raise UserError(f"no ParaView plugin beside this installation of pv_hdrvol (looked in {plugin}); it comes "
+                        f"with the source tree: git clone, then python3 -m pip install -e .")
+    return {"PV_PLUGIN_PATH": str(plugin), "PYTHONPATH": str(plugin / "shim")}
+
+
+def _cmd_paraview(args):
+    environment = paraview_environment()
+    if args.site is not None:
+        site = pathlib.Path(args.site).expanduser().resolve()
+        if not site.is_dir():
+            raise UserError(f"--site {args.site!r} is not a folder")
+        environment["PYTHONPATH"] += os.pathsep + str(site)
+    for name, folder in environment.items():
+        if args.shell == "fish":
+            print(f"set -gx {name} {shlex.quote(folder)} ${name}")
+        elif args.shell == "cmd":
+            print(f"set {name}={folder};%{name}%")
+        else:
+            print(f"export {name}={shlex.quote(folder)}${{{name}:+:${name}}}")
 
 
 def _vec(v):

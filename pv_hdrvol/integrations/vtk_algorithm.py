@@ -80,6 +80,11 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
     so validated) by each setter, which then calls ``Modified()`` if the value
     changed.
 
+    Pieces (MPI, ``pvbatch --mpi``): piece 0 of the output asks its input for all of the
+    data (the whole extent of an image, piece 0 of 1 of a mesh) and renders the whole
+    image; other pieces are empty images. Until distributed rendering exists, one rank
+    renders, and no rank renders its piece of the volume as if it were the whole.
+
     Scalars: ``SetScalars(name)``, or the standard
     ``SetInputArrayToProcess(0, 0, 0, association, name)``; by default the active
     scalars. Progress is reported through ``UpdateProgress`` (``ProgressEvent``).
@@ -407,11 +412,18 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         return 1
 
     def RequestUpdateExtent(self, request, inInfo, outInfo):
-        # a ray may cross any part of the volume: always ask for all of it (images; a
-        # mesh has no extent and is always whole)
+        # A ray may cross any part of the volume: the piece that renders asks for all of
+        # it (the whole extent of an image; piece 0 of 1 of a mesh). Under MPI
+        # (pvbatch --mpi) that is piece 0: one rank reads and renders everything, the
+        # others output an empty image, and no rank renders its piece as if it were the
+        # whole. Other pieces leave the request as it is.
+        if _output_piece(outInfo) != 0:
+            return 1
         info = inInfo[0].GetInformationObject(0)
         if info.Has(_SDDP.WHOLE_EXTENT()):
             info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
+        info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
+        info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
         return 1
 
     def _scalars_to_render(self):
@@ -453,6 +465,9 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
 
         inp = vtkDataSet.GetData(inInfo[0])
         out = vtkImageData.GetData(outInfo)
+        if _output_piece(outInfo) != 0:  # piece 0 renders the whole image (RequestUpdateExtent)
+            out.Initialize()
+            return 1
         kind = inp.GetClassName() if inp is not None else None
         if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkUnstructuredGrid") \
                 or inp.GetNumberOfPoints() == 0:
@@ -503,6 +518,12 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
                 _display_text(f"pv_hdrvol: first {first} render took {time.perf_counter() - started:.1f} s")
         out.ShallowCopy(image.to_vtk())
         return 1
+
+
+def _output_piece(outInfo):
+    """The piece of the output the pipeline asks for (0 without pieces)."""
+    info = outInfo.GetInformationObject(0)
+    return info.Get(_SDDP.UPDATE_PIECE_NUMBER()) if info.Has(_SDDP.UPDATE_PIECE_NUMBER()) else 0
 
 
 #: (mesh?, precision) of the renders done in this process

@@ -1,0 +1,154 @@
+"""HDR Volume Render in real ParaView (pvbatch): the plugin loads, the image equals
+``pv_hdrvol.render`` of the same data, camera and transfer function, the transfer
+function is ParaView's colour map, properties re-execute, bad input is refused clearly.
+
+Run by tests/paraview/run.py inside pvbatch (see there); not collected by the main suite.
+"""
+import numpy as np
+import pytest
+from paraview import servermanager, simple
+
+import pv_hdrvol as hv
+from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+ENGINE = ("structured", "engine_256x256x128_uint8.vti", "ImageFile")
+BLUNTFIN = ("unstructured", "bluntfin_187395tets.vtu", "Density")
+
+
+def _reader(shared_data, case):
+    folder, name, array = case
+    reader = simple.OpenDataFile(str(shared_data / folder / name))
+    assert reader is not None
+    reader.UpdatePipeline()
+    return reader, array
+
+
+def _image(proxy):
+    proxy.UpdatePipeline()
+    return hv.HDRImage.from_pyvista(servermanager.Fetch(proxy))
+
+
+def _set_color_map(array, lo, hi, log):
+    """A colour map in RGB space with four colours and a three-point opacity, as a user sets it."""
+    lut = simple.GetColorTransferFunction(array)
+    pwf = simple.GetOpacityTransferFunction(array)
+    mid1, mid2 = (lo * (hi / lo) ** (1 / 3), lo * (hi / lo) ** (2 / 3)) if log else (
+        lo + (hi - lo) / 3, lo + 2 * (hi - lo) / 3)
+    lut.ColorSpace = "RGB"
+    lut.RGBPoints = [lo, 0.1, 0.0, 0.3, mid1, 0.8, 0.2, 0.1, mid2, 1.0, 0.8, 0.0, hi, 1.0, 1.0, 1.0]
+    lut.UseLogScale = int(log)
+    pwf.Points = [lo, 0.0, 0.5, 0.0, mid1, 0.02, 0.5, 0.0, hi, 0.3, 0.5, 0.0]
+    pwf.UseLogScale = int(log)
+    values = np.array([lo, mid1, mid2, hi])
+    colors = np.array([[0.1, 0.0, 0.3], [0.8, 0.2, 0.1], [1.0, 0.8, 0.0], [1.0, 1.0, 1.0]])
+    # the opacity at mid2 is the interpolation between mid1 and hi on the same axis
+    f = (np.log(mid2 / mid1) / np.log(hi / mid1)) if log else (mid2 - mid1) / (hi - mid1)
+    opacities = np.array([0.0, 0.02, 0.02 + f * (0.3 - 0.02), 0.3])
+    return lut, pwf, hv.TransferFunction(values, colors, opacities, scale="log" if log else "linear")
+
+
+@pytest.mark.parametrize("case", [ENGINE, BLUNTFIN], ids=["engine", "bluntfin"])
+def test_render_equals_python_api(plugin, shared_data, case):
+    reader, array = _reader(shared_data, case)
+    lo, hi = (20.0, 255.0) if case is ENGINE else (0.2, 5.0)
+    lut, pwf, expected_tf = _set_color_map(array, lo, hi, log=case is BLUNTFIN)
+    camera = hv.Camera.fit(reader.GetDataInformation().GetBounds(), "iso")
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[48, 40], Camera="iso", LookupTable=lut,
+                                       ScalarOpacityFunction=pwf)
+    render.Scalars = ["POINTS", array]
+    image = _image(render)
+
+    # the transfer function the filter renders with is the colour map the user set
+    tf = transfer_function_from_vtk(lut.GetClientSideObject(), pwf.GetClientSideObject())
+    assert tf.scale == expected_tf.scale
+    np.testing.assert_allclose(tf.values, expected_tf.values, rtol=1e-12)
+    np.testing.assert_allclose(tf.colors, expected_tf.colors, atol=1e-12)
+    np.testing.assert_allclose(tf.opacities, expected_tf.opacities, atol=1e-12)
+
+    data = servermanager.Fetch(reader)
+    direct = hv.render(data, expected_tf, camera, (48, 40), scalars=array, progress_bar=False)
+    assert image.rgba.dtype == np.float32 and image.shape == (40, 48)
+    assert image.rgba[..., 3].max() > 0.05
+    np.testing.assert_allclose(image.rgba, direct.rgba, rtol=1e-6, atol=1e-7)
+    np.testing.assert_array_equal(image.depth, direct.depth)
+
+    # a display array for the screen: uint8 RGB, the active scalars
+    out = servermanager.Fetch(render)
+    shown = out.GetPointData().GetScalars()
+    assert shown.GetName() == "tonemapped" and shown.GetNumberOfComponents() == 3
+    assert shown.GetDataTypeAsString() == "unsigned char"
+    simple.Delete(render)
+
+
+def test_properties_and_color_map_edits_re_execute(plugin, shared_data):
+    reader, array = _reader(shared_data, ENGINE)
+    lut, pwf, _ = _set_color_map(array, 20.0, 255.0, log=False)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[32, 32], Camera="iso", LookupTable=lut,
+                                       ScalarOpacityFunction=pwf)
+    render.Scalars = ["POINTS", array]
+    first = _image(render).rgba.copy()
+    render.GlobalAlpha = 0.5
+    second = _image(render).rgba.copy()
+    assert not np.array_equal(first, second)
+    # editing the colour map in place (what the Color Map Editor does) re-executes too
+    pwf.Points = [20.0, 0.0, 0.5, 0.0, 255.0, 0.9, 0.5, 0.0]
+    third = _image(render).rgba.copy()
+    assert not np.array_equal(second, third)
+    render.Camera = "xy"
+    fourth = _image(render).rgba.copy()
+    assert not np.array_equal(third, fourth)
+    simple.Delete(render)
+
+
+def test_camera_follows_the_render_view(plugin, shared_data):
+    reader, array = _reader(shared_data, ENGINE)
+    view = simple.CreateView("RenderView")
+    simple.SetActiveView(view)
+    simple.Show(reader, view)
+    simple.ResetCamera(view)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[24, 24])
+    assert list(render.CameraPosition) == list(view.CameraPosition)
+    # the filter took the array's colour map, as ParaView shows it
+    assert render.LookupTable is not None and render.LookupTable == simple.GetColorTransferFunction(array)
+    before = _image(render).rgba.copy()
+    view.GetActiveCamera().Azimuth(30)
+    simple.Render(view)
+    assert list(render.CameraPosition) == list(view.CameraPosition)
+    after = _image(render)
+    assert not np.array_equal(before, after.rgba)
+    camera = after.settings().camera
+    np.testing.assert_allclose(camera.position, view.CameraPosition, rtol=1e-12)
+    # Follow View off: the camera stays
+    render.FollowView = 0
+    view.GetActiveCamera().Azimuth(30)
+    simple.Render(view)
+    assert list(render.CameraPosition) != list(view.CameraPosition)
+    simple.Delete(render)
+    simple.Delete(view)
+
+
+def _error_text(proxy):
+    """Update ``proxy`` and return what its algorithm reported."""
+    proxy.UpdatePipeline()
+    return proxy.GetClientSideObject().GetLastError()
+
+
+def test_bad_input_gives_the_clear_message(plugin, shared_data):
+    reader, array = _reader(shared_data, ENGINE)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[8, 8], Camera="iso")
+    render.Scalars = ["POINTS", "no_such_array"]
+    text = _error_text(render)
+    assert text is not None and "no_such_array" in text
+    simple.Delete(render)
+    # a polydata input: ParaView's input domain lists the filter for volumes only, and
+    # a script that forces one gets the algorithm's message
+    render = plugin["HDRVolumeRender"](Input=simple.Sphere(), ImageSize=[8, 8], Camera="iso")
+    text = _error_text(render)
+    assert text == ("ValueError: HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on "
+                    "input port 0; got vtkPolyData")
+    simple.Delete(render)
+    # size 0 is refused where it is set
+    render = plugin["HDRVolumeRender"](Input=reader, Camera="iso")
+    with pytest.raises(ValueError, match="size"):
+        render.GetClientSideObject().SetImageSize(0, 10)
+    simple.Delete(render)

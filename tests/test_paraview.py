@@ -107,3 +107,19 @@ def test_gui_loads_the_plugin_and_shows_the_image(shared_data, tmp_path):
     # the image (not the view's grey-blue background, not black) covers part of the shot
     warm = (pixels[:, 0] > pixels[:, 2] + 40).mean()
     assert warm > 0.02, f"no rendered volume in the screenshot ({warm:.3f} of the pixels)"
+
+
+def test_without_numba_the_plugin_says_so_and_paraview_goes_on(tmp_path):
+    pvbatch = _tool("pvbatch")
+    fake = tmp_path / "numba"
+    fake.mkdir()
+    (fake / "__init__.py").write_text("raise ImportError(\"No module named 'numba'\")\n")
+    env = _paraview_environment()
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), env["PYTHONPATH"]])
+    env.pop("NUMBA_CACHE_DIR", None)
+    done = subprocess.run([pvbatch, str(REPO_ROOT / "tests" / "paraview" / "no_numba.py")], env=env,
+                          cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-4000:]
+    assert "ParaView works on" in done.stdout
+    assert "pv_hdrvol plugin: not loaded, No module named 'numba'." in done.stdout
+    assert "needs numpy and numba (Debian: apt-get install python3-numba)" in done.stdout

@@ -158,3 +158,33 @@ def test_camera_fields_are_checked_together_when_the_filter_runs():
     assert alg.GetLastError() is not None and alg.GetLastError().startswith("ValueError")
     with pytest.raises(ValueError, match=r"camera fields must be among .*; got \['zoom'\]"):
         alg.SetCamera({"zoom": 2.0})
+
+
+def test_a_multiblock_input_is_refused_not_rendered_block_by_block():
+    from vtkmodules.vtkCommonDataModel import vtkMultiBlockDataSet
+
+    source = vtkRTAnalyticSource()
+    source.Update()
+    blocks = vtkMultiBlockDataSet()
+    blocks.SetBlock(0, source.GetOutput())
+    alg = HDRVolumeRenderer()
+    alg.SetInputDataObject(blocks)
+    alg.SetImageSize(8, 8)
+    alg.Update()
+    assert alg.GetLastError() == (
+        "ValueError: HDRVolumeRenderer renders one vtkImageData or vtkUnstructuredGrid; got a "
+        "vtkMultiBlockDataSet (the output of a reader of several blocks): merge the blocks into one mesh first "
+        "(ParaView's Merge Blocks, vtkMergeBlocks) or extract one block")
+    assert alg.GetOutput().GetNumberOfPoints() == 0
+
+
+def test_only_piece_zero_renders_and_asks_for_the_whole_input():
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as SDDP
+
+    source, alg = _renderer()
+    alg.UpdatePiece(1, 2, 0)  # what a second MPI rank asks for
+    assert alg.GetOutput().GetNumberOfPoints() == 0
+    alg.UpdatePiece(0, 2, 0)
+    assert alg.GetOutput().GetDimensions() == (16, 12, 1)
+    requested = source.GetOutputInformation(0).Get(SDDP.UPDATE_EXTENT())
+    assert tuple(requested) == (-6, 6, -6, 6, -6, 6)  # the whole extent, not half of it

@@ -12,7 +12,7 @@ import traceback
 
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
 from vtkmodules.vtkCommonCore import vtkOutputWindow
-from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkDataSet, vtkImageData
+from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from .._validate import as_choice, as_size
@@ -114,7 +114,9 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
     """
 
     def __init__(self):
-        super().__init__(nInputPorts=1, inputType="vtkDataSet", nOutputPorts=1, outputType="vtkImageData")
+        # vtkDataObject, not vtkDataSet: VTK would run a data-set filter once per block of
+        # a multiblock input, rendering each block as if it were the whole volume
+        super().__init__(nInputPorts=1, inputType="vtkDataObject", nOutputPorts=1, outputType="vtkImageData")
         self._options = RenderOptions()
         self._size = (512, 512)
         self._scalars = None
@@ -463,12 +465,16 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         from ..data.grid import labels_from_dataset
         from ..raycast.grid import render_volume
 
-        inp = vtkDataSet.GetData(inInfo[0])
+        inp = vtkDataObject.GetData(inInfo[0])
         out = vtkImageData.GetData(outInfo)
         if _output_piece(outInfo) != 0:  # piece 0 renders the whole image (RequestUpdateExtent)
             out.Initialize()
             return 1
         kind = inp.GetClassName() if inp is not None else None
+        if inp is not None and inp.IsA("vtkCompositeDataSet"):
+            raise ValueError(f"HDRVolumeRenderer renders one vtkImageData or vtkUnstructuredGrid; got a {kind} "
+                             f"(the output of a reader of several blocks): merge the blocks into one mesh first "
+                             f"(ParaView's Merge Blocks, vtkMergeBlocks) or extract one block")
         if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkUnstructuredGrid") \
                 or inp.GetNumberOfPoints() == 0:
             raise ValueError(f"HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on input "

@@ -152,3 +152,26 @@ def test_bad_input_gives_the_clear_message(plugin, shared_data):
     with pytest.raises(ValueError, match="size"):
         render.GetClientSideObject().SetImageSize(0, 10)
     simple.Delete(render)
+
+
+def test_progress_reaches_paraview_and_abort_is_honoured(plugin, shared_data):
+    reader, array = _reader(shared_data, ENGINE)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[64, 48], Camera="iso",
+                                       TransferFunction="pv_hdrvol default")
+    render.Scalars = ["POINTS", array]
+    algorithm = render.GetClientSideObject()
+    seen = []
+    tag = algorithm.AddObserver("ProgressEvent", lambda obj, _: seen.append(obj.GetProgress()))
+    render.UpdatePipeline()
+    assert len(seen) >= 3 and seen[-1] == 1.0 and seen == sorted(seen)
+    algorithm.RemoveObserver(tag)
+    # ParaView's abort button sets AbortExecute: the render stops and leaves no image
+    tag = algorithm.AddObserver("ProgressEvent", lambda obj, _: obj.SetAbortExecute(1))
+    render.GlobalAlpha = 0.7
+    render.UpdatePipeline()
+    assert algorithm.GetOutputDataObject(0).GetNumberOfPoints() == 0
+    algorithm.RemoveObserver(tag)
+    algorithm.SetAbortExecute(0)
+    render.GlobalAlpha = 0.6
+    assert _image(render).shape == (48, 64)
+    simple.Delete(render)

@@ -26,19 +26,21 @@ def inline_kernel(fn):
     return numba.njit(inline="always", **JIT_OPTIONS)(fn)
 
 
-#: Whether :func:`mesh_helper` inlines at numba IR level: numba before 0.57 (Debian
-#: bookworm's 0.56, ParaView 5.11's Python) compiles the nested helpers of the mesh
-#: kernels very slowly that way: the boundary rasteriser's ``_plucker_hit`` took 83.7 s
-#: to compile, 1.7 s as plain calls; a first Blunt Fin render 230 s, 33 s as plain calls
+#: Whether :func:`helper_kernel` inlines at numba IR level: numba before 0.57 (Debian
+#: bookworm's 0.56, ParaView 5.11's Python) compiles nested IR-level inlining very
+#: slowly: the boundary rasteriser's ``_plucker_hit`` took 83.7 s to compile, 1.7 s as
+#: plain calls; a first Blunt Fin render 230 s, 25 s; the tone mapper 12.7 s, 3.1 s
 #: (docs/performance.md).
-IR_INLINE_MESH_HELPERS = tuple(int(x) for x in numba.__version__.split(".")[:2]) >= (0, 57)
+IR_INLINE_HELPERS = tuple(int(x) for x in numba.__version__.split(".")[:2]) >= (0, 57)
 
 
-def mesh_helper(fn):
-    """For the per-sample helpers of the tetrahedral and boundary kernels: as
-    :func:`inline_kernel` on numba >= 0.57, a plain kernel (LLVM inlines the call; the
-    same arithmetic, as no mesh kernel is fused) on older numba."""
-    if not IR_INLINE_MESH_HELPERS:
+def helper_kernel(fn):
+    """For the per-sample helpers of kernels that are not fused (tetrahedra, boundary
+    rasteriser, tone mapping): as :func:`inline_kernel` on numba >= 0.57, a plain kernel
+    on older numba (LLVM inlines the call; the same arithmetic, as the callers are not
+    fused). The grid kernels' helpers stay :func:`inline_kernel`: inside a
+    :func:`fused_kernel` they take its flags, and two grid paths give the same bits."""
+    if not IR_INLINE_HELPERS:
         return numba.njit(**JIT_OPTIONS)(fn)
     return numba.njit(inline="always", **JIT_OPTIONS)(fn)
 

@@ -12,7 +12,7 @@ import math
 import numba
 import numpy as np
 
-from .._jit import inline_kernel, parallel_kernel
+from .._jit import helper_kernel, parallel_kernel
 from .display import srgb_encode
 
 # curve codes (tonemap._CURVES)
@@ -45,7 +45,7 @@ def encoding_lut(gamma=None):
     return np.append(enc, enc[-1])  # guard entry: index n - 1 + 1 is safe
 
 
-@inline_kernel
+@helper_kernel
 def curve(y, code, p):
     """Display luminance of world luminance ``y >= 0`` under the global curve ``code``.
 
@@ -66,7 +66,7 @@ def curve(y, code, p):
     return p[3] * math.log1p(lw) / math.log(2.0 + 8.0 * math.exp(p[2] * math.log(lw / p[1])))
 
 
-@inline_kernel
+@helper_kernel
 def _display_curve(y, code, p, table):
     """``curve`` for display values. Drago (four transcendental functions) is read from
     ``table``, its curve sampled over ``t = ln(L_w)`` from ``p[5]`` in steps of
@@ -85,7 +85,7 @@ def _display_curve(y, code, p, table):
     return curve(y, code, p)
 
 
-@inline_kernel
+@helper_kernel
 def _encode(x, enc, lut):
     if not x > 0.0:  # also NaN
         return 0.0

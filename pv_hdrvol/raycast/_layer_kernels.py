@@ -31,7 +31,7 @@ import math
 import numba
 import numpy as np
 
-from .._jit import kernel, mesh_helper, parallel_kernel
+from .._jit import helper_kernel, kernel, parallel_kernel
 from ._tet_kernels import _face_point, _face_products, _same_sign, pixel_ray
 
 #: per face (``face_setup``): 3 edges x (A, B, C), the plane (P, Q, R), n . R, n . U,
@@ -48,12 +48,12 @@ UNSURE = 1e-9
 LAYERS, COUNT, HITS = 0, 1, 2
 
 
-@mesh_helper
+@helper_kernel
 def _dot(ax, ay, az, bx, by, bz):
     return ax * bx + ay * by + az * bz
 
 
-@mesh_helper
+@helper_kernel
 def _edge(points, u, v, cam, ox, oy, oz, scale):
     """``(A, B, C)`` of the edge ``u -> v`` (formed from the lower-numbered corner)."""
     sign = 1.0
@@ -86,7 +86,7 @@ def _edge(points, u, v, cam, ox, oy, oz, scale):
         sign * (_dot(fx, fy, fz, cx, cy, cz) + _dot(ox, oy, oz, gx, gy, gz))
 
 
-@mesh_helper
+@helper_kernel
 def _eye(cam):
     """The camera position in the mesh's normalised frame, and the mesh's scale (``cam``:
     ``tets.camera_array``)."""
@@ -94,7 +94,7 @@ def _eye(cam):
     return (cam[0] - cam[15]) / scale, (cam[1] - cam[16]) / scale, (cam[2] - cam[17]) / scale, scale
 
 
-@mesh_helper
+@helper_kernel
 def _view_coordinate(q, n, half):
     """``camera_ray``'s view-plane coordinate of pixel column (or row) ``q`` of ``n``."""
     return ((q + 0.5) * (2.0 / n) - 1.0) * half
@@ -272,13 +272,13 @@ def face_setup(points, tri, normals, view, cam, faces):
             faces[f, 20 + 2 * e] = faces[f, 3 * e + 2] * inv
 
 
-@mesh_helper
+@helper_kernel
 def _norm(points, u):
     """``|points[u]|``."""
     return math.sqrt(_dot(points[u, 0], points[u, 1], points[u, 2], points[u, 0], points[u, 1], points[u, 2]))
 
 
-@mesh_helper
+@helper_kernel
 def _edge_scale(points, u, v, nu, nv, eye):
     """The scale of the terms of the edge ``u -> v``'s function and Plücker product,
     ``|a| |b| + |b - a| (|o| + spread)`` (the same for both directions), from the
@@ -418,7 +418,7 @@ def _sort_hits(ts, faces, enter, lo, hi):
         enter[j + 1] = e
 
 
-@mesh_helper
+@helper_kernel
 def _edge_bound(sigma, a, b, k, m, tol, pixel, to_col, col_shift):
     """How the edge function ``a x + b y + c`` (zero at view-plane ``x = k y + m``)
     bounds a row's pixels that may have the inside's sign ``sigma``: ``(kind, kc, mc)``,
@@ -432,7 +432,7 @@ def _edge_bound(sigma, a, b, k, m, tol, pixel, to_col, col_shift):
     return (1 if sigma * a > 0.0 else -1), k * to_col, m * to_col + col_shift
 
 
-@mesh_helper
+@helper_kernel
 def _bound(kind, k, m, y, lo, hi):
     """``[lo, hi]`` narrowed by an ``_edge_bound`` on row ``y``."""
     if kind > 0:

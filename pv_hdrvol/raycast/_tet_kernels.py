@@ -40,7 +40,7 @@ from typing import NamedTuple
 
 import numba
 
-from .._jit import kernel, mesh_helper, parallel_kernel
+from .._jit import helper_kernel, kernel, parallel_kernel
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
 from ._kernels import _accumulate, _finish, _marker_precision, _opacity, _start, table_position
 from ._shading_kernels import SH_FADE, fade_weight, light_factors
@@ -91,7 +91,7 @@ class TetParams(NamedTuple):
 
 
 # -- Plücker products -----------------------------------------------------------------------
-@mesh_helper
+@helper_kernel
 def _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
     """Product of the ray (origin o, direction d, moment m = o x d) with the edge a -> b.
 
@@ -134,7 +134,7 @@ def _pi(points, a, b, dx, dy, dz, mx, my, mz, ox, oy, oz):
     return sign * TIE if q >= 0.0 else -sign * TIE
 
 
-@mesh_helper
+@helper_kernel
 def _face_products(points, a, b, c, ox, oy, oz, dx, dy, dz):
     """The ray's products with the edges ``a -> b``, ``b -> c`` and ``c -> a`` of a face."""
     mx = oy * dz - oz * dy
@@ -145,12 +145,12 @@ def _face_products(points, a, b, c, ox, oy, oz, dx, dy, dz):
             _pi(points, c, a, dx, dy, dz, mx, my, mz, ox, oy, oz))
 
 
-@mesh_helper
+@helper_kernel
 def _same_sign(x, y, z):
     return (x >= 0.0 and y >= 0.0 and z >= 0.0) or (x <= 0.0 and y <= 0.0 and z <= 0.0)
 
 
-@mesh_helper
+@helper_kernel
 def _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz):
     """``(t, ua, ub, uc)``: where the ray meets triangle ``(a, b, c)`` and the point's
     barycentric weights; ``t = nan`` when the ray lies in the triangle's plane."""
@@ -181,13 +181,13 @@ def pixel_ray(cam, col, row, width, height):
 
 
 # -- integration of one segment -----------------------------------------------------------
-@mesh_helper
+@helper_kernel
 def _tpos(v, n, p):
     """Fractional table index of data value ``v`` (clamped to ``[0, n - 1]``)."""
     return table_position(v, p) * (n - 1)
 
 
-@mesh_helper
+@helper_kernel
 def _row(table, x):
     """Table row ``(r, g, b, sigma)`` interpolated at fractional index ``x``."""
     n = table.shape[0]
@@ -197,7 +197,7 @@ def _row(table, x):
             table[i, 2] + f * (table[i + 1, 2] - table[i, 2]), table[i, 3] + f * (table[i + 1, 3] - table[i, 3]))
 
 
-@mesh_helper
+@helper_kernel
 def _cumulative(table, s, x):
     """``int sigma ds`` and ``int c sigma ds`` (r, g, b) from the first knot to data value
     ``s`` (at fractional table index ``x``), then the colour (r, g, b) at ``s``."""
@@ -245,7 +245,7 @@ def cumulative_tables(table):
         table[i, 7] = table[i - 1, 7] + e0 * table[i - 1, 2] + e1 * table[i, 2]
 
 
-@mesh_helper
+@helper_kernel
 def _piece(marker, prec, state, tau, er, eg, eb, dr, dg, db, lit):
     """Composite a piece of optical depth ``tau``, emission ``(er, eg, eb) = int c sigma dt``
     (the colour's mean ``E / tau``) and colour change front to back ``(dr, dg, db)``.
@@ -273,7 +273,7 @@ def _piece(marker, prec, state, tau, er, eg, eb, dr, dg, db, lit):
                        max(eg * inv + k * dg, 0.0) * lit[1] + lit[4], max(eb * inv + k * db, 0.0) * lit[2] + lit[5])
 
 
-@mesh_helper
+@helper_kernel
 def _piece_linear(marker, prec, state, h, r0, g0, b0, a0, r1, g1, b1, a1, lit):
     """Composite a piece of length ``h`` along which colour and extinction go linearly
     from ``(r0, g0, b0, a0)`` to ``(r1, g1, b1, a1)``: exact optical depth, emission
@@ -350,13 +350,13 @@ def _segment(marker, prec, state, table, s0, x0, s1, x1, c0_ok, c0, length, p, l
 
 
 # -- one ray -------------------------------------------------------------------------------
-@mesh_helper
+@helper_kernel
 def _value_col(cells_f):
     """The float64 column of a record's first corner value: the last four are the values."""
     return cells_f.shape[1] - 4
 
 
-@mesh_helper
+@helper_kernel
 def _corners(cells_i, cell, face, a, b, c):
     """Local indices in ``cell`` of the points ``a, b, c`` of its face ``face``. A point
     repeated in a degenerate cell is matched once; a corner left unmatched (only in a
@@ -387,7 +387,7 @@ def _corners(cells_i, cell, face, a, b, c):
     return ia, ib, ic
 
 
-@mesh_helper
+@helper_kernel
 def _consistency(x, y, z):
     """How far the three products are from sharing a sign (larger: closer)."""
     return max(min(x, y, z), -max(x, y, z))

@@ -188,3 +188,21 @@ def test_only_piece_zero_renders_and_asks_for_the_whole_input():
     assert alg.GetOutput().GetDimensions() == (16, 12, 1)
     requested = source.GetOutputInformation(0).Get(SDDP.UPDATE_EXTENT())
     assert tuple(requested) == (-6, 6, -6, 6, -6, 6)  # the whole extent, not half of it
+
+
+def test_a_new_camera_reuses_the_plan_and_renders_as_the_python_api():
+    source, alg = _renderer()
+    alg.Update()
+    plan = alg._plan[1]
+    alg.SetCamera("xz")
+    rgba = _rgba(alg)
+    assert alg._plan[1] is plan  # only the camera changed: tables and skip structures are kept
+    source.Update()
+    direct = hv.render(source.GetOutput(), None, "xz", (16, 12), progress_bar=False)
+    np.testing.assert_array_equal(rgba, direct.rgba)
+    alg.SetStep(0.25)
+    alg.Update()
+    assert alg._plan[1] is not plan
+    alg.SetCmap("viridis")
+    alg.Update()
+    assert alg._plan[1].tf.colors[0].tolist() != plan.tf.colors[0].tolist()

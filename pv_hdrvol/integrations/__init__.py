@@ -15,26 +15,61 @@ from __future__ import annotations
 
 
 class VolumeCache:
-    """The :class:`~pv_hdrvol.GridVolume` of a dataset, kept while the dataset is unchanged.
+    """The :class:`~pv_hdrvol.GridVolume` (image data) or :class:`~pv_hdrvol.TetMesh`
+    (unstructured grid) of a dataset, kept while the dataset is unchanged.
 
-    A GridVolume carries what the first render builds (bricks, block ranges), so a
-    second render of the same data (another transfer function, camera or size) skips
-    that work. The key is the array choice and the dataset's VTK modification time,
-    which covers its arrays: after changing values in place through numpy, call
-    ``dataset.Modified()``, as VTK pipelines require too.
+    A GridVolume carries what the first render builds (bricks, block ranges), a TetMesh
+    its adjacency and boundary, so a second render of the same data (another transfer
+    function, camera or size) skips that work. The key is the array choice, the
+    geometry, and each array and the points and cells as VTK objects with their
+    modification times: not the dataset object, which a pipeline may hand over as a new
+    shallow copy at each execution (ParaView does). With ``dataset_mtime`` (the
+    default) the dataset's own modification time too: after changing values in place
+    through numpy, call ``dataset.Modified()``, as VTK pipelines require.
     """
 
-    def __init__(self):
+    def __init__(self, dataset_mtime=True):
         self._key = None
         self._volume = None
+        self._dataset_mtime = dataset_mtime
 
     def get(self, dataset, scalars, preference):
-        from ..data.grid import volume_from_dataset
-
-        key = (scalars, preference, dataset.GetMTime())
+        key = (scalars, preference, _content_key(dataset), dataset.GetMTime() if self._dataset_mtime else None)
         if key != self._key:
-            self._volume, self._key = volume_from_dataset(dataset, scalars=scalars, preference=preference), key
+            if dataset.GetClassName() == "vtkUnstructuredGrid":
+                from ..data.tets import tetmesh_from_dataset
+
+                self._volume = tetmesh_from_dataset(dataset, scalars=scalars, preference=preference)
+            else:
+                from ..data.grid import volume_from_dataset
+
+                self._volume = volume_from_dataset(dataset, scalars=scalars, preference=preference)
+            self._key = key
         return self._volume
+
+
+def _content_key(dataset):
+    """What identifies a dataset's content: its class and geometry, and every array,
+    its points and its cells as VTK objects with their modification times."""
+
+    def obj(o):
+        return None if o is None else (o.GetAddressAsString("vtkObject"), o.GetMTime())
+
+    parts = [dataset.GetClassName()]
+    for attributes in (dataset.GetPointData(), dataset.GetCellData()):
+        for i in range(attributes.GetNumberOfArrays()):
+            array = attributes.GetAbstractArray(i)
+            parts.append((array.GetName(), obj(array)))
+    if dataset.GetClassName() == "vtkUnstructuredGrid":
+        points = dataset.GetPoints()
+        parts += [obj(None if points is None else points.GetData()), obj(dataset.GetCells()),
+                  obj(dataset.GetCellTypesArray())]
+    else:
+        parts += [tuple(dataset.GetExtent()), tuple(dataset.GetSpacing()), tuple(dataset.GetOrigin())]
+        if hasattr(dataset, "GetDirectionMatrix"):
+            m = dataset.GetDirectionMatrix()
+            parts.append(tuple(m.GetElement(i, j) for i in range(3) for j in range(3)))
+    return tuple(parts)
 
 
 __all__ = ["VolumeCache"]

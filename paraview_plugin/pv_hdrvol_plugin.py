@@ -69,6 +69,7 @@ PRECISIONS = ("float32", "float64", "float16", "uint8")
 BLENDINGS = ("composite", "maximum", "minimum", "average", "additive")
 TONEMAP_OPERATORS = ("reinhard", "drago", "linear", "gamma", "durand", "fattal")
 SCALES = ("auto", "linear", "log", "symlog")
+LENSES = ("none", "magnifier", "fisheye")
 
 
 def _string_list(values, name="list"):
@@ -112,6 +113,8 @@ if HDRVolumeRenderer is not None:
         """Volume render image data or a tetrahedral mesh into an HDR image (pv_hdrvol)."""
 
         def __init__(self):
+            self._lens_settings = {"name": "none", "center": (0.5, 0.5), "radius": 0.25, "factor": 2.0,
+                                   "fov_degrees": 180.0}
             super().__init__()
             self._camera_mode = "Render View"
             # ParaView's camera, property by property; position == focal point: never set
@@ -142,6 +145,57 @@ if HDRVolumeRenderer is not None:
         @smdomain.intrange(min=1, max=8192)
         def SetImageSize(self, width, height):
             super().SetImageSize(width, height)
+            self._push_lens()  # its centre and radius are fractions of the image
+
+        # -- the lens (image data) ------------------------------------------------------
+        @smproperty.stringvector(name="Lens", default_values="none", number_of_elements=1)
+        @smdomain.xml(_string_list(LENSES) + _documentation(
+            "A magic lens (image data only): magnifier (Lens Center, Lens Radius, Lens Magnification) or "
+            "fisheye (Fisheye Field Of View), as pv_hdrvol.Magnifier and pv_hdrvol.Fisheye."))
+        def SetLensName(self, value):
+            if value not in LENSES:
+                raise ValueError(f"Lens must be one of {list(LENSES)}; got {value!r}")
+            self._lens_settings["name"] = value
+            self._push_lens()
+
+        @smproperty.doublevector(name="LensCenter", label="Lens Center", default_values=[0.5, 0.5])
+        @smdomain.xml(_documentation("The magnifier's centre as fractions of the image width and height "
+                                     "(0, 0: top left)."))
+        def SetLensCenter(self, x, y):
+            self._lens_settings["center"] = (x, y)
+            self._push_lens()
+
+        @smproperty.doublevector(name="LensRadius", label="Lens Radius", default_values=0.25)
+        @smdomain.doublerange(min=0.01, max=1.0)
+        def SetLensRadius(self, value):
+            self._lens_settings["radius"] = value
+            self._push_lens()
+
+        @smproperty.doublevector(name="LensMagnification", label="Lens Magnification", default_values=2.0)
+        @smdomain.doublerange(min=0.1, max=16.0)
+        def SetLensMagnification(self, value):
+            self._lens_settings["factor"] = value
+            self._push_lens()
+
+        @smproperty.doublevector(name="FisheyeFieldOfView", label="Fisheye Field Of View", default_values=180.0)
+        @smdomain.doublerange(min=1.0, max=360.0)
+        def SetFisheyeFieldOfView(self, value):
+            self._lens_settings["fov_degrees"] = value
+            self._push_lens()
+
+        def _push_lens(self):
+            lens = self._lens_settings
+            if lens["name"] == "none":
+                HDRVolumeRenderer.SetLens(self, None)
+                return
+            if lens["name"] == "fisheye":
+                made = pv_hdrvol.Fisheye(fov_degrees=lens["fov_degrees"])
+            else:
+                width, height = self.GetImageSize()
+                made = pv_hdrvol.Magnifier(center=(lens["center"][0] * width, lens["center"][1] * height),
+                                           radius=lens["radius"] * min(width, height), factor=lens["factor"])
+            if made != self.GetLens():  # lenses compare by their fields: re-execute only for a new one
+                HDRVolumeRenderer.SetLens(self, made)
 
         # -- render options (RenderOptions' names) ---------------------------------
         @smproperty.stringvector(name="Precision", default_values="float32", number_of_elements=1)

@@ -175,3 +175,21 @@ def test_progress_reaches_paraview_and_abort_is_honoured(plugin, shared_data):
     render.GlobalAlpha = 0.6
     assert _image(render).shape == (48, 64)
     simple.Delete(render)
+
+
+def test_magnifier_lens_equals_python_api(plugin, shared_data):
+    reader, array = _reader(shared_data, ENGINE)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[40, 30], Camera="xy",
+                                       TransferFunction="pv_hdrvol default", Lens="magnifier",
+                                       LensCenter=[0.4, 0.5], LensRadius=0.3, LensMagnification=3.0)
+    render.Scalars = ["POINTS", array]
+    image = _image(render)
+    data = servermanager.Fetch(reader)
+    lens = hv.Magnifier(center=(16.0, 15.0), radius=9.0, factor=3.0)
+    tf = image.settings(partial=True).tf  # the lens is not part of the settings
+    direct = hv.render(data, tf, hv.Camera.fit(data.GetBounds(), "xy"), (40, 30), lens=lens, scalars=array,
+                       progress_bar=False)
+    np.testing.assert_array_equal(image.rgba, direct.rgba)
+    render.Lens = "none"
+    assert not np.array_equal(_image(render).rgba, image.rgba)
+    simple.Delete(render)

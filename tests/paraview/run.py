@@ -16,6 +16,7 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 
 if __name__ == "__main__":
     sys.path.insert(0, ROOT)
+    os.environ["PV_HDRVOL_IN_PARAVIEW"] = "1"  # tests/conftest.py collects tests/paraview only then
     files = sorted(os.path.join(HERE, f) for f in os.listdir(HERE) if f.startswith("pv_") and f.endswith(".py"))
     args = sys.argv[1:]
     # pvbatch takes single-dash options for itself (-rs becomes --rs): -q -rs are set here

@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import REPO_ROOT, in_ci
@@ -105,8 +106,9 @@ def test_gui_loads_the_plugin_and_shows_the_image(shared_data, tmp_path):
     assert png.GetOutput().GetDimensions()[:2] == (400, 300)
     pixels = vtk_to_numpy(png.GetOutput().GetPointData().GetScalars())[:, :3].astype(int)
     # the image (not the view's grey-blue background, not black) covers part of the shot
-    warm = (pixels[:, 0] > pixels[:, 2] + 40).mean()
-    assert warm > 0.02, f"no rendered volume in the screenshot ({warm:.3f} of the pixels)"
+    warm = (pixels[:, 0] > pixels[:, 2] + 40).mean()  # 0.028 seen: the engine's dense parts
+    assert warm > 0.01, f"no rendered volume in the screenshot ({warm:.3f} of the pixels)"
+    assert len(np.unique(pixels, axis=0)) > 200  # a picture, not a few flat colours
 
 
 def test_without_numba_the_plugin_says_so_and_paraview_goes_on(tmp_path):

@@ -63,13 +63,21 @@ def _content_key(dataset):
     if dataset.GetClassName() == "vtkUnstructuredGrid":
         points = dataset.GetPoints()
         parts += [obj(None if points is None else points.GetData()), obj(dataset.GetCells()),
-                  obj(dataset.GetCellTypesArray())]
+                  obj(_cell_types(dataset))]
     else:
         parts += [tuple(dataset.GetExtent()), tuple(dataset.GetSpacing()), tuple(dataset.GetOrigin())]
         if hasattr(dataset, "GetDirectionMatrix"):
             m = dataset.GetDirectionMatrix()
             parts.append(tuple(m.GetElement(i, j) for i in range(3) for j in range(3)))
     return tuple(parts)
+
+
+def _cell_types(grid):
+    """The per-cell type array of an unstructured grid, in every VTK."""
+    try:
+        return grid.GetCellTypes()  # VTK >= 9.6 (GetCellTypesArray is deprecated there)
+    except TypeError:  # older VTK: GetCellTypes(vtkCellTypes) fills its argument
+        return grid.GetCellTypesArray()
 
 
 __all__ = ["VolumeCache"]

@@ -12,11 +12,10 @@ filter re-executes, the volume's bricks are kept between frames.
 """
 import argparse
 import os
-import tempfile
 
 from paraview import simple
 
-from pvpython_render import PLUGIN, demo_volume
+from pvpython_render import open_volume
 
 
 def main():
@@ -29,12 +28,7 @@ def main():
     args = parser.parse_args()
     os.makedirs(args.output, exist_ok=True)
 
-    if not hasattr(simple, "HDRVolumeRender"):  # not auto-loaded from PV_PLUGIN_PATH
-        simple.LoadPlugin(PLUGIN, ns=vars(simple))
-    path, array = (args.file, args.array) if args.file else demo_volume(tempfile.mkdtemp())
-    reader = simple.OpenDataFile(path)
-    reader.UpdatePipeline()
-    array = array or reader.PointData.keys()[0]
+    reader, array = open_volume(args.file, args.array)
     view = simple.GetActiveViewOrCreate("RenderView")
     simple.Show(reader, view)
     simple.ResetCamera(view)

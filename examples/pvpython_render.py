@@ -45,6 +45,18 @@ def demo_volume(folder):
     return path, ARRAY_NAME
 
 
+def open_volume(path=None, array=None):
+    """Load the plugin (unless PV_PLUGIN_PATH did), read ``path`` (default: the hydrogen
+    orbital) and return ``(reader, array name)`` (default: its first point array)."""
+    if not hasattr(simple, "HDRVolumeRender"):  # not auto-loaded from PV_PLUGIN_PATH
+        simple.LoadPlugin(PLUGIN, ns=vars(simple))
+    if path is None:
+        path, array = demo_volume(tempfile.mkdtemp())
+    reader = simple.OpenDataFile(path)
+    reader.UpdatePipeline()
+    return reader, array or reader.PointData.keys()[0]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("file", nargs="?", help="a volume ParaView reads (default: the hydrogen orbital)")
@@ -53,12 +65,7 @@ def main():
     parser.add_argument("--size", type=int, nargs=2, default=(512, 512), metavar=("W", "H"))
     args = parser.parse_args()
 
-    if not hasattr(simple, "HDRVolumeRender"):  # not auto-loaded from PV_PLUGIN_PATH
-        simple.LoadPlugin(PLUGIN, ns=vars(simple))
-    path, array = (args.file, args.array) if args.file else demo_volume(tempfile.mkdtemp())
-    reader = simple.OpenDataFile(path)
-    reader.UpdatePipeline()
-    array = array or reader.PointData.keys()[0]
+    reader, array = open_volume(args.file, args.array)
     lo, hi = reader.PointData[array].GetRange()
 
     # what a GUI user does: show the data, colour it, pick a preset and a log scale

@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
-from vtkmodules.vtkCommonCore import vtkCommand, vtkOutputWindow, vtkStringOutputWindow
+from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as SDDP
 from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
@@ -14,6 +14,7 @@ from vtkmodules.vtkRenderingCore import vtkCamera
 import pv_hdrvol as hv
 from pv_hdrvol.datasets import demo_transfer_function, hydrogen_orbital_array
 from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
+from vtk_capture import CapturedErrors
 
 W, H = 24, 64  # 64 rows: the render reports progress in more than one chunk
 
@@ -174,20 +175,6 @@ def test_input_is_not_modified():
         np.testing.assert_array_equal(vtk_to_numpy(data.GetPointData().GetArray(name)), values)
 
 
-class _CapturedErrors:
-    """Route the VTK output window to a string while the block runs (restoring the old one)."""
-
-    def __enter__(self):
-        self.previous = vtkOutputWindow.GetInstance()
-        self.window = vtkStringOutputWindow()
-        vtkOutputWindow.SetInstance(self.window)
-        return self
-
-    def __exit__(self, *exc):
-        vtkOutputWindow.SetInstance(self.previous)
-        self.text = self.window.GetOutput()
-
-
 @pytest.mark.parametrize(("scalars", "message"), [
     ("nope", "ScalarsError: scalars 'nope' not found; point arrays: "
              "['probability_density', 'vector'], cell arrays: ['ramp']"),
@@ -199,7 +186,7 @@ def test_errors_fail_the_update_with_the_message(scalars, message):
     alg.SetScalars(scalars)
     events = []
     alg.AddObserver(vtkCommand.ErrorEvent, lambda obj, event: events.append(event))
-    with _CapturedErrors() as captured:
+    with CapturedErrors() as captured:
         ok = alg.Update()
     assert ok is False
     assert events == ["ErrorEvent"]
@@ -208,7 +195,7 @@ def test_errors_fail_the_update_with_the_message(scalars, message):
     assert alg.GetOutputDataObject(0).GetNumberOfPoints() == 0  # the previous picture is gone
     # fixing the cause clears the error
     alg.SetScalars("probability_density")
-    with _CapturedErrors() as captured:
+    with CapturedErrors() as captured:
         assert alg.Update() is True
     assert alg.GetLastError() is None and captured.text == ""
 

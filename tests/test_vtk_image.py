@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
-from vtkmodules.vtkCommonCore import vtkCommand, vtkOutputWindow, vtkStringOutputWindow
+from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as SDDP
 from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter
@@ -18,6 +18,7 @@ from pv_hdrvol.integrations import vtk_image
 from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
 from pv_hdrvol.integrations.vtk_image import (READ_EXTENSIONS, HDRImageReader, HDRImageWriter, HDRToneMapper,
                                               HDRUpsampler)
+from vtk_capture import CapturedErrors
 
 W, H = 8, 6  # low-resolution renders; upsampled 4x to 32x24
 CAMERA = hv.Camera((9.0, -7.0, 5.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), view_angle=30.0)
@@ -88,23 +89,9 @@ def _assert_same_image(out, ref):
     assert _metadata(out) == _metadata(ref)
 
 
-class _CapturedErrors:
-    """Route the VTK output window to a string while the block runs (restoring the old one)."""
-
-    def __enter__(self):
-        self.previous = vtkOutputWindow.GetInstance()
-        self.window = vtkStringOutputWindow()
-        vtkOutputWindow.SetInstance(self.window)
-        return self
-
-    def __exit__(self, *exc):
-        vtkOutputWindow.SetInstance(self.previous)
-        self.text = self.window.GetOutput()
-
-
 def _fails_with(alg, message, update=None):
     """``alg`` fails its update: ``GetLastError() == message``, written to the output window."""
-    with _CapturedErrors() as captured:
+    with CapturedErrors() as captured:
         ok = (update or alg.Update)()
     assert ok in (False, 0)
     assert alg.GetLastError() == message
@@ -259,7 +246,7 @@ def test_tone_mapper_errors_fail_the_update(volume_render, setup, message):
     alg.SetOperator("reinhard")
     alg.SetParameters({})
     alg.SetRGBAArray(None)
-    with _CapturedErrors() as captured:
+    with CapturedErrors() as captured:
         assert alg.Update() is True
     assert alg.GetLastError() is None and captured.text == ""
 

@@ -315,8 +315,9 @@ if HDRVolumeRenderer is not None:
 
         @smproperty.intvector(name="FollowView", label="Follow View", default_values=1)
         @smdomain.xml('<BooleanDomain name="bool"/>' + _documentation(
-            "Keep the camera properties linked to the render view that was active when the filter was "
-            "made: rotating the view re-renders. Off: the camera stays where it is."))
+            "Keep the camera properties linked to the active render view (the one active when the filter "
+            "was made, or when this is switched on): rotating the view re-renders. Off: the camera stays "
+            "where it is."))
         def SetFollowView(self, value):
             self._follow_view = bool(value)  # the client side (this plugin's hook) links and unlinks
 
@@ -454,13 +455,20 @@ if HDRVolumeRenderer is not None:
             if proxy.GetXMLName() != "HDRVolumeRender" or proxy.GetGlobalIDAsString() in _seen:
                 continue
             _seen.add(proxy.GetGlobalIDAsString())
-            camera_set = list(proxy.CameraPosition) != list(proxy.CameraFocalPoint)
-            view = simple.GetActiveView()
-            if not camera_set and proxy.FollowView and view is not None and view.GetXMLName() == "RenderView":
-                _link_camera(proxy, view)
-            _use_array_color_map(proxy)
-            proxy.SMProxy.GetProperty("FollowView").AddObserver(
-                "ModifiedEvent", lambda *_, p=proxy: _follow_changed(p))
+            try:
+                camera_set = list(proxy.CameraPosition) != list(proxy.CameraFocalPoint)
+                view = simple.GetActiveView()
+                if not camera_set and proxy.FollowView and view is not None and view.GetXMLName() == "RenderView":
+                    _link_camera(proxy, view)
+                _use_array_color_map(proxy)
+                proxy.SMProxy.GetProperty("FollowView").AddObserver(
+                    "ModifiedEvent", lambda *_, p=proxy: _follow_changed(p))
+            except Exception as exc:  # an observer must not break ParaView: say it, go on
+                from vtkmodules.vtkCommonCore import vtkOutputWindow
+
+                vtkOutputWindow.GetInstance().DisplayWarningText(
+                    f"pv_hdrvol plugin: could not link HDR Volume Render to the view and the colour map "
+                    f"({type(exc).__name__}: {exc}); set its Camera and Lookup Table by hand\n")
 
     def _follow_changed(proxy):
         from paraview import simple

@@ -73,11 +73,14 @@ def _content_key(dataset):
 
 
 def _cell_types(grid):
-    """The per-cell type array of an unstructured grid, in every VTK."""
-    try:
-        return grid.GetCellTypes()  # VTK >= 9.6 (GetCellTypesArray is deprecated there)
-    except TypeError:  # older VTK: GetCellTypes(vtkCellTypes) fills its argument
-        return grid.GetCellTypesArray()
+    """The per-cell type array of an unstructured grid, without a deprecation warning in
+    any VTK: ``GetCellTypes()`` from 9.6 (which deprecates ``GetCellTypesArray``),
+    ``GetCellTypesArray()`` before (9.2 deprecates the old ``GetCellTypes``)."""
+    from vtkmodules.vtkCommonCore import vtkVersion
+
+    if (vtkVersion.GetVTKMajorVersion(), vtkVersion.GetVTKMinorVersion()) >= (9, 6):
+        return grid.GetCellTypes()
+    return grid.GetCellTypesArray()
 
 
 __all__ = ["VolumeCache"]

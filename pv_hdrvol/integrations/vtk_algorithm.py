@@ -61,7 +61,57 @@ def _bool_option_methods(field, meaning):
     return setter, getter, on, off
 
 
-class HDRVolumeRenderer(VTKPythonAlgorithmBase):
+class _ReportingAlgorithm(VTKPythonAlgorithmBase):
+    """A Python VTK algorithm whose pipeline passes report their exceptions.
+
+    VTK drops the Python traceback when any Python observer sees the error (PyVista
+    installs one on import), so an exception raised by a pipeline pass is also written
+    to the VTK output window, as VTK formats errors (``"<Class> (0x...): <Type>:
+    <message>"``, the class named by :attr:`REPORT_NAME` or the object's own class), and
+    kept for :meth:`GetLastError`; then it is raised again, so that VTK fails the update
+    (``Update()`` returns ``False``, an ``ErrorEvent`` fires). Subclasses implement
+    ``_execute(inInfo, outInfo)``, which ``RequestData`` runs.
+    """
+
+    #: The class name in error messages (``None``: the object's own class).
+    REPORT_NAME = None
+
+    def __init__(self, **ports):
+        super().__init__(**ports)
+        self._last_error = None
+
+    def GetLastError(self):
+        """``"<Type>: <message>"`` of the exception that made the last execution fail, else ``None``."""
+        return self._last_error
+
+    def _reporting(self, step, *args):
+        try:
+            return step(*args)
+        except Exception as exc:
+            self._last_error = f"{type(exc).__name__}: {exc}"
+            # VTK's own message format, so that PyVista's logging and ParaView parse it
+            where = traceback.extract_tb(exc.__traceback__)[-1]
+            address = self.GetAddressAsString("vtkObject").replace("Addr=", "")
+            vtkOutputWindow.GetInstance().DisplayErrorText(
+                f"ERROR: In {where.filename}, line {where.lineno}\n"
+                f"{self.REPORT_NAME or type(self).__name__} ({address}): {self._last_error}\n\n")
+            raise
+
+    def RequestData(self, request, inInfo, outInfo):
+        self._last_error = None
+        return self._reporting(self._execute, inInfo, outInfo)
+
+    def _execute(self, inInfo, outInfo):
+        raise NotImplementedError
+
+
+def _request_whole_extent(info):
+    """Ask an image input for all of it (a no-op for datasets without extents)."""
+    if info.Has(_SDDP.WHOLE_EXTENT()):
+        info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
+
+
+class HDRVolumeRenderer(_ReportingAlgorithm):
     """Volume render a ``vtkImageData`` or a tetrahedral ``vtkUnstructuredGrid`` into a 2-D
     float RGBA ``vtkImageData``.
 
@@ -113,6 +163,8 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
     (32, 24, 1)
     """
 
+    REPORT_NAME = "HDRVolumeRenderer"  # also for subclasses (the ParaView filter)
+
     def __init__(self):
         # vtkDataObject, not vtkDataSet: VTK would run a data-set filter once per block of
         # a multiblock input, rendering each block as if it were the whole volume
@@ -131,7 +183,6 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         self._lens = None
         self._labels = None
         self._label_styles = None
-        self._last_error = None
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
         # by the input object, which ParaView hands over as a new shallow copy each time
         self._volumes = VolumeCache(dataset_mtime=False)
@@ -410,10 +461,6 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         """The output ``vtkImageData`` (``GetOutputDataObject(port)``, as image algorithms have)."""
         return self.GetOutputDataObject(port)
 
-    def GetLastError(self):
-        """``"<Type>: <message>"`` of the exception that made the last execution fail, else ``None``."""
-        return self._last_error
-
     # -- pipeline ---------------------------------------------------------------------
     def RequestInformation(self, request, inInfo, outInfo):
         w, h = self._size
@@ -432,8 +479,7 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
         if _output_piece(outInfo) != 0:
             return 1
         info = inInfo[0].GetInformationObject(0)
-        if info.Has(_SDDP.WHOLE_EXTENT()):
-            info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
+        _request_whole_extent(info)
         info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
         info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
         return 1
@@ -453,23 +499,6 @@ class HDRVolumeRenderer(VTKPythonAlgorithmBase):
     def _should_abort(self):
         check = getattr(self, "CheckAbort", None)  # VTK >= 9.4 also sees upstream aborts
         return bool(check()) if check is not None else bool(self.GetAbortExecute())
-
-    def RequestData(self, request, inInfo, outInfo):
-        self._last_error = None
-        try:
-            return self._execute(inInfo, outInfo)
-        except Exception as exc:
-            self._last_error = f"{type(exc).__name__}: {exc}"
-            self._display_error(exc)
-            raise
-
-    def _display_error(self, exc):
-        # VTK's own message format, so that PyVista's logging and ParaView parse it
-        where = traceback.extract_tb(exc.__traceback__)[-1]
-        address = self.GetAddressAsString("vtkObject").replace("Addr=", "")
-        vtkOutputWindow.GetInstance().DisplayErrorText(
-            f"ERROR: In {where.filename}, line {where.lineno}\n"
-            f"HDRVolumeRenderer ({address}): {self._last_error}\n\n")
 
     def _execute(self, inInfo, outInfo):
         inp = vtkDataObject.GetData(inInfo[0])

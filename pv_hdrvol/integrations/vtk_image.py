@@ -20,12 +20,9 @@ from __future__ import annotations
 
 import numbers
 import os
-import traceback
 
 import numpy as np
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
-from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-from vtkmodules.vtkCommonCore import vtkOutputWindow
 from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkDataSet, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm, vtkStreamingDemandDrivenPipeline
 
@@ -34,6 +31,7 @@ from ..image.hdr import HDRImage
 from ..image.io import EXR_MAGIC, EXR_TYPES
 from ..image.tonemap import OPERATORS, _encoding, make_operator, tonemap
 from ..image.upsample import GUIDES, METHODS, SPATIAL, upsample
+from .vtk_algorithm import _ReportingAlgorithm, _request_whole_extent
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -48,44 +46,6 @@ _LOADED_CHANNELS = frozenset("RGBAZV")
 _MAGICS = {".exr": (EXR_MAGIC,), ".hdr": (b"#?RADIANCE", b"#?RGBE"), ".npy": (b"\x93NUMPY",)}
 
 
-class _ReportingAlgorithm(VTKPythonAlgorithmBase):
-    """A Python VTK algorithm whose pipeline passes report their exceptions.
-
-    VTK drops the Python traceback when any Python observer sees the error (PyVista
-    installs one on import), so an exception raised by a pipeline pass is also written
-    to the VTK output window, as VTK formats errors (``"<Class> (0x...): <Type>:
-    <message>"``), and kept for :meth:`GetLastError`; then it is raised again, so that
-    VTK fails the update (``Update()`` returns ``False``, an ``ErrorEvent`` fires).
-    """
-
-    def __init__(self, **ports):
-        super().__init__(**ports)
-        self._last_error = None
-
-    def GetLastError(self):
-        """``"<Type>: <message>"`` of the exception that made the last execution fail, else ``None``."""
-        return self._last_error
-
-    def _reporting(self, step, *args):
-        try:
-            return step(*args)
-        except Exception as exc:
-            self._last_error = f"{type(exc).__name__}: {exc}"
-            where = traceback.extract_tb(exc.__traceback__)[-1]
-            address = self.GetAddressAsString("vtkObject").replace("Addr=", "")
-            vtkOutputWindow.GetInstance().DisplayErrorText(
-                f"ERROR: In {where.filename}, line {where.lineno}\n"
-                f"{type(self).__name__} ({address}): {self._last_error}\n\n")
-            raise
-
-    def RequestData(self, request, inInfo, outInfo):
-        self._last_error = None
-        return self._reporting(self._execute, inInfo, outInfo)
-
-    def _execute(self, inInfo, outInfo):
-        raise NotImplementedError
-
-
 class _ImageOutput:
     """``GetOutput()`` as image algorithms have it."""
 
@@ -98,12 +58,6 @@ def _set_whole_extent(info, cols, rows):
     info.Set(_SDDP.WHOLE_EXTENT(), 0, cols - 1, 0, rows - 1, 0, 0)
     info.Set(vtkDataObject.SPACING(), 1.0, 1.0, 1.0)
     info.Set(vtkDataObject.ORIGIN(), 0.0, 0.0, 0.0)
-
-
-def _request_whole_extent(info):
-    """Ask an image input for all of it (a no-op for datasets without extents)."""
-    if info.Has(_SDDP.WHOLE_EXTENT()):
-        info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
 
 
 def _image_on(inInfo, port, who):

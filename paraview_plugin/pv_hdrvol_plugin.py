@@ -461,8 +461,10 @@ if HDRVolumeRenderer is not None:
                 if not camera_set and proxy.FollowView and view is not None and view.GetXMLName() == "RenderView":
                     _link_camera(proxy, view)
                 _use_array_color_map(proxy)
+                # by its ID, not the proxy itself: an observer on the proxy's own property that
+                # held it would keep the deleted filter (and its render plan) alive
                 proxy.SMProxy.GetProperty("FollowView").AddObserver(
-                    "ModifiedEvent", lambda *_, p=proxy: _follow_changed(p))
+                    "ModifiedEvent", lambda *_, gid=proxy.GetGlobalIDAsString(): _follow_changed(gid))
             except Exception as exc:  # an observer must not break ParaView: say it, go on
                 from vtkmodules.vtkCommonCore import vtkOutputWindow
 
@@ -470,9 +472,12 @@ if HDRVolumeRenderer is not None:
                     f"pv_hdrvol plugin: could not link HDR Volume Render to the view and the colour map "
                     f"({type(exc).__name__}: {exc}); set its Camera and Lookup Table by hand\n")
 
-    def _follow_changed(proxy):
+    def _follow_changed(gid):
         from paraview import simple
 
+        proxy = next((p for p in simple.GetSources().values() if p.GetGlobalIDAsString() == gid), None)
+        if proxy is None:
+            return
         _unlink_camera(proxy)
         view = simple.GetActiveView()
         if proxy.FollowView and view is not None and view.GetXMLName() == "RenderView":

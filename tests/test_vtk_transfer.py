@@ -206,3 +206,18 @@ def test_a_new_camera_reuses_the_plan_and_renders_as_the_python_api():
     alg.SetCmap("viridis")
     alg.Update()
     assert alg._plan[1].tf.colors[0].tolist() != plan.tf.colors[0].tolist()
+
+
+def test_a_colour_map_does_not_keep_a_dropped_algorithm_alive():
+    import gc
+    import weakref
+
+    ctf = _colors([(40.0, 0, 0, 0), (280.0, 1, 1, 1)])  # outlives the algorithm, as ParaView's does
+    _, alg = _renderer()
+    alg.SetLookupTable(ctf)
+    alg.Update()
+    ref = weakref.ref(alg)
+    del alg
+    gc.collect()
+    assert ref() is None
+    ctf.AddRGBPoint(100.0, 0.5, 0.5, 0.5)  # its observer outlives the algorithm harmlessly

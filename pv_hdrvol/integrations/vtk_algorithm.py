@@ -9,6 +9,7 @@ import dataclasses
 import numbers
 import time
 import traceback
+import weakref
 
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
 from vtkmodules.vtkCommonCore import vtkOutputWindow
@@ -293,9 +294,17 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             return
         if old is not None:
             old[0].RemoveObserver(old[1])
-        # editing the colour map in place (ParaView's Color Map Editor) re-executes
-        self._vtk_tf[slot] = None if function is None else [
-            function, function.AddObserver("ModifiedEvent", lambda *_: self.Modified())]
+        # editing the colour map in place (ParaView's Color Map Editor) re-executes; the
+        # observer holds this algorithm weakly, or a long-lived colour map would keep it
+        # (and its plan's arrays) alive after the pipeline drops it
+        this = weakref.ref(self)
+
+        def modified(*_):
+            algorithm = this()
+            if algorithm is not None:
+                algorithm.Modified()
+
+        self._vtk_tf[slot] = None if function is None else [function, function.AddObserver("ModifiedEvent", modified)]
         self.Modified()
 
     def SetLookupTable(self, colors):

@@ -193,3 +193,23 @@ def test_magnifier_lens_equals_python_api(plugin, shared_data):
     render.Lens = "none"
     assert not np.array_equal(_image(render).rgba, image.rgba)
     simple.Delete(render)
+
+
+def test_a_deleted_filter_is_freed(plugin, shared_data):
+    import gc
+    import weakref
+
+    reader, array = _reader(shared_data, ENGINE)
+    view = simple.CreateView("RenderView")
+    simple.SetActiveView(view)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[16, 16])  # linked to the view, its colour map
+    render.UpdatePipeline()
+    render.FollowView = 0
+    render.FollowView = 1  # relinks through the plugin's observer
+    assert list(render.CameraPosition) == list(view.CameraPosition)
+    algorithm = weakref.ref(render.GetClientSideObject())
+    simple.Delete(render)
+    del render
+    gc.collect()
+    assert algorithm() is None  # no observer keeps it (and its render plan) alive
+    simple.Delete(view)

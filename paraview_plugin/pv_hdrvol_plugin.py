@@ -70,6 +70,9 @@ BLENDINGS = ("composite", "maximum", "minimum", "average", "additive")
 TONEMAP_OPERATORS = ("reinhard", "drago", "linear", "gamma", "durand", "fattal")
 SCALES = ("auto", "linear", "log", "symlog")
 LENSES = ("none", "magnifier", "fisheye")
+#: The render view's camera properties, which HDR Volume Render has under the same names.
+CAMERA_PROPERTIES = ("CameraPosition", "CameraFocalPoint", "CameraViewUp", "CameraViewAngle",
+                     "CameraParallelProjection", "CameraParallelScale")
 
 
 def _string_list(values, name="list"):
@@ -122,6 +125,7 @@ if HDRVolumeRenderer is not None:
                                  "view_up": (0.0, 0.0, 1.0), "view_angle": 30.0,
                                  "parallel_projection": False, "parallel_scale": 1.0}
             self._tf_source = TRANSFER_FUNCTIONS[0]
+            self._cmap = self._scale = None  # the default transfer function's keywords
             self._lut = None
             self._opacity_function = None
             self._display = vtk_image.HDRToneMapper()
@@ -299,8 +303,8 @@ if HDRVolumeRenderer is not None:
             lut = None if default else self._lut
             HDRVolumeRenderer.SetLookupTable(self, lut)
             HDRVolumeRenderer.SetScalarOpacityFunction(self, None if lut is None else self._opacity_function)
-            HDRVolumeRenderer.SetCmap(self, getattr(self, "_cmap", None) if default else None)
-            HDRVolumeRenderer.SetScale(self, getattr(self, "_scale", None) if default else None)
+            HDRVolumeRenderer.SetCmap(self, self._cmap if default else None)
+            HDRVolumeRenderer.SetScale(self, self._scale if default else None)
 
         # -- the camera -------------------------------------------------------------
         @smproperty.stringvector(name="Camera", default_values="Render View", number_of_elements=1)
@@ -319,7 +323,7 @@ if HDRVolumeRenderer is not None:
             "was made, or when this is switched on): rotating the view re-renders. Off: the camera stays "
             "where it is."))
         def SetFollowView(self, value):
-            self._follow_view = bool(value)  # the client side (this plugin's hook) links and unlinks
+            pass  # nothing for the filter: the client side (this plugin's hook) links and unlinks
 
         @smproperty.doublevector(name="CameraPosition", label="Camera Position", default_values=[0.0, 0.0, 0.0])
         def SetCameraPosition(self, x, y, z):
@@ -394,8 +398,7 @@ if HDRVolumeRenderer is not None:
         from paraview import servermanager
 
         pxm = servermanager.ProxyManager()
-        for name in ("CameraPosition", "CameraFocalPoint", "CameraViewUp", "CameraViewAngle",
-                     "CameraParallelProjection", "CameraParallelScale"):
+        for name in CAMERA_PROPERTIES:
             link = servermanager.vtkSMPropertyLink()
             link.AddLinkedProperty(view.SMProxy, name, 1)   # vtkSMLink::INPUT
             link.AddLinkedProperty(proxy.SMProxy, name, 2)  # vtkSMLink::OUTPUT
@@ -407,8 +410,7 @@ if HDRVolumeRenderer is not None:
         from paraview import servermanager
 
         pxm = servermanager.ProxyManager()
-        for name in ("CameraPosition", "CameraFocalPoint", "CameraViewUp", "CameraViewAngle",
-                     "CameraParallelProjection", "CameraParallelScale"):
+        for name in CAMERA_PROPERTIES:
             pxm.UnRegisterLink(f"pv_hdrvol:{proxy.GetGlobalIDAsString()}:{name}")
 
     def follow_view(proxy, view=None):

@@ -351,7 +351,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             raise TypeError(f"pass either a lookup table or {', '.join(given)}, not both: the lookup table sets "
                             "colour, opacity, range and axis already")
         key = (colors, colors.GetMTime(), opacity, None if opacity is None else opacity.GetMTime())
-        if self._vtk_tf_made is None or any(a is not b and a != b for a, b in zip(key, self._vtk_tf_made[0])):
+        if self._vtk_tf_made is None or key != self._vtk_tf_made[0]:  # VTK objects compare by identity
             from .vtk_transfer import transfer_function_from_vtk
 
             self._vtk_tf_made = (key, transfer_function_from_vtk(colors, opacity))

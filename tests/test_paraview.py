@@ -46,6 +46,17 @@ def _paraview_environment():
     return env
 
 
+def _failure_text(output, tail=6000):
+    """The end of ``output``, and where it crashed: what was printed before Python's
+    "Fatal Python error" (the library's own message: X, OpenGL, LLVM) and the frames
+    nearest the crash, which a plain tail cuts off."""
+    text = output[-tail:]
+    crash = output.find("Fatal Python error")
+    if crash >= 0 and crash < len(output) - tail:
+        text = f"{output[max(0, crash - 3000):crash + 3000]}\n[...]\n{text}"
+    return text
+
+
 def test_plugin_checks_pass_in_pvbatch(shared_data):
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
@@ -55,7 +66,7 @@ def test_plugin_checks_pass_in_pvbatch(shared_data):
     done = subprocess.run(command, env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                           text=True, timeout=1800)
     sys.stdout.write(done.stdout[-6000:])
-    assert done.returncode == 0, f"pvbatch checks failed (exit {done.returncode}):\n{done.stdout[-6000:]}"
+    assert done.returncode == 0, f"pvbatch checks failed (exit {done.returncode}):\n{_failure_text(done.stdout)}"
     summary = done.stdout.strip().splitlines()[-1]
     assert " passed" in summary, summary
     if in_ci():  # a skipped check (no OpenEXR in ParaView's Python) must not pass CI
@@ -75,7 +86,7 @@ def test_one_rank_renders_the_whole_volume_under_mpi(shared_data):
     done = subprocess.run(command, env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                           text=True, timeout=900)
     sys.stdout.write(done.stdout[-4000:])
-    assert done.returncode == 0, f"the MPI run failed (exit {done.returncode}):\n{done.stdout[-4000:]}"
+    assert done.returncode == 0, f"the MPI run failed (exit {done.returncode}):\n{_failure_text(done.stdout, 4000)}"
     for line in ("rank 1: structured/engine_256x256x128_uint8.vti: a piece of",
                  "rank 0: structured/engine_256x256x128_uint8.vti: a piece of",
                  "rank 0: unstructured/bluntfin_187395tets.vtu: a piece of"):

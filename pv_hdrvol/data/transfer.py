@@ -194,6 +194,12 @@ class TransferFunction:
 
     from_colormap = ramp
 
+    @classmethod
+    def family(cls, bases, k=None, *, table_size=None):
+        """The family ``tau'(v) = sum_i k_i tau_i(v)`` of ``bases`` in extinction space
+        (:class:`TransferFunctionFamily`); ``k`` defaults to all ones (their sum)."""
+        return TransferFunctionFamily(bases, k, table_size=table_size)
+
     # -- evaluation --------------------------------------------------------------
     @property
     def vmin(self):
@@ -344,7 +350,10 @@ class TransferFunction:
     def from_dict(cls, data):
         """A function from :meth:`to_dict`'s form: keys ``values``, ``colors`` and
         ``opacities``, optionally ``scale``, ``linthresh``, ``color_space``,
-        ``table_size`` (the constructor's defaults when absent)."""
+        ``table_size`` (the constructor's defaults when absent); or a
+        :class:`TransferFunctionFamily`'s form (keys ``bases`` and ``weights``)."""
+        if hasattr(data, "keys") and "bases" in data:
+            return TransferFunctionFamily.from_dict(data)
         keywords = _check_keys("TransferFunction", data, required=("values", "colors", "opacities"),
                                optional=("scale", "linthresh", "color_space", "table_size"))
         return cls(keywords.pop("values"), keywords.pop("colors"), keywords.pop("opacities"), **keywords)
@@ -352,6 +361,144 @@ class TransferFunction:
     def __repr__(self):
         return (f"TransferFunction({self.values.size} points, range [{self.vmin:.6g}, {self.vmax:.6g}], "
                 f"scale={self.scale!r}, color_space={self.color_space!r}, table_size={self.table_size})")
+
+
+class TransferFunctionFamily(TransferFunction):
+    """A weighted sum of basis transfer functions in extinction space.
+
+    ``tau'(v) = sum_i k_i tau_i(v)`` with ``k_i >= 0`` (Gao et al. 2003, Eq. 2): the
+    opacity of any ray segment is then ``1 - prod_i (1 - a_i)^{k_i}`` (Eq. 3), with
+    ``a_i`` the opacity basis ``i`` alone gives the segment, exactly, whatever the
+    data along it. Plenoptic opacity functions computed once per basis
+    (:class:`pv_hdrvol.culling.PlenopticOpacity`) therefore stay valid for every
+    weight vector: changing ``k`` needs no recomputation.
+
+    Parameters
+    ----------
+    bases : sequence of TransferFunction
+        At least one. They share ``scale`` and ``linthresh``; the family's range is the
+        union of theirs, and outside its own range a basis takes its end entries.
+    k : sequence of float, optional
+        One weight ``>= 0`` per basis (default all 1: the sum of the bases).
+    table_size : int, optional
+        Entries of the table; default the largest of the bases' own.
+
+    Notes
+    -----
+    Extinction, not opacity, is what is weighted: ``sigma'(v) = sum_i k_i sigma_i(v)``
+    with ``sigma_i = -ln(1 - a_i global_alpha) / unit_distance``. Scaling *opacity*
+    (``a -> k a``) would not compose along a ray: for ``k < 1``, ``1 - (1 - a)^k >= k a``
+    (Bernoulli), so the block opacities of a culling scheme would overestimate the
+    true ones. The family's colour is the extinction-weighted mean of the bases'
+    colours, ``c' = sum_i k_i sigma_i c_i / sum_i k_i sigma_i`` (the emission of a
+    mixture of absorbers; where no basis absorbs, the ``k``-weighted mean).
+
+    References
+    ----------
+    J. Gao, J. Huang, H.-W. Shen, J. A. Kohl, "Visibility culling using plenoptic
+    opacity functions for large volume visualization", IEEE Visualization 2003.
+
+    Examples
+    --------
+    >>> skin = TransferFunction([0.0, 1.0], [[1, 0.8, 0.6]] * 2, [0.2, 0.2])
+    >>> bone = TransferFunction([0.0, 1.0], [[1, 1, 1]] * 2, [0.5, 0.0])
+    >>> fam = TransferFunction.family([skin, bone], k=[0.5, 2.0])
+    >>> expected = 1 - (1 - 0.2) ** 0.5 * (1 - 0.5) ** 2.0
+    >>> bool(abs(float(fam.opacity_at(0.0)) - expected) < 1e-15)
+    True
+    """
+
+    def __init__(self, bases, k=None, *, table_size=None):
+        if isinstance(bases, (TransferFunction, str, bytes)) or not hasattr(bases, "__len__"):
+            raise TypeError(f"bases must be a sequence of TransferFunction; got {type(bases).__name__}")
+        bases = tuple(bases)
+        if not bases:
+            raise ValueError("a transfer-function family needs at least one basis; got none")
+        for i, b in enumerate(bases):
+            if not isinstance(b, TransferFunction) or isinstance(b, TransferFunctionFamily):
+                raise TypeError(f"bases[{i}] must be a TransferFunction (not a family); got {type(b).__name__}")
+        scales = {(b.scale, float(b.linthresh)) for b in bases}
+        if len(scales) > 1:
+            raise ValueError(f"the bases of a family must share scale and linthresh; got {sorted(scales)}")
+        weights = np.ones(len(bases)) if k is None else np.array(k, dtype=np.float64).reshape(-1)
+        if weights.shape != (len(bases),):
+            raise ValueError(f"k must have one weight per basis ({len(bases)}); got {weights.size}")
+        if not np.all(np.isfinite(weights)) or np.any(weights < 0):
+            raise ValueError(f"family weights k must be finite and >= 0; got {weights.tolist()}")
+        self.bases = bases
+        self.k = weights
+        self.k.flags.writeable = False
+        values = np.unique(np.concatenate([b.values for b in bases]))
+        scale, linthresh = bases[0].scale, bases[0].linthresh
+        size = max(b.table_size for b in bases) if table_size is None else table_size
+        super().__init__(values, self.color_at(values), self.opacity_at(values), scale=scale, linthresh=linthresh,
+                         table_size=size)
+
+    def with_weights(self, k):
+        """The same bases with weights ``k`` (cheap: no basis is recomputed)."""
+        return TransferFunctionFamily(self.bases, k, table_size=self.table_size)
+
+    def _basis_sigmas(self, values, global_alpha=1.0):
+        """``(p, n)`` extinction per unit distance of each basis at ``values``."""
+        return np.stack([-np.log1p(-np.minimum(b.opacity_at(values) * global_alpha, _ALPHA_MAX))
+                         for b in self.bases])
+
+    def _mix(self, values, global_alpha=1.0):
+        sigmas = self._basis_sigmas(values, global_alpha) * self.k[:, None]
+        sigma = sigmas.sum(axis=0)
+        colors = np.stack([b.color_at(values) for b in self.bases])  # (p, n, 3)
+        weights = np.where(sigma > 0, sigmas, self.k[:, None] * np.ones_like(sigma))
+        total = weights.sum(axis=0)
+        color = np.einsum("pn,pnc->nc", weights, colors) / np.where(total > 0, total, 1.0)[:, None]
+        return color, sigma
+
+    def color_at(self, values):
+        """Extinction-weighted mean colour of the bases at data ``values``."""
+        return self._mix(np.atleast_1d(np.asarray(values, dtype=np.float64)))[0].reshape(np.shape(values) + (3,))
+
+    def opacity_at(self, values):
+        """``1 - prod_i (1 - a_i)^{k_i}``: opacity of one unit distance at ``values``."""
+        sigma = (self._basis_sigmas(np.atleast_1d(np.asarray(values, dtype=np.float64))) * self.k[:, None]).sum(0)
+        return (-np.expm1(-sigma)).reshape(np.shape(values))
+
+    def table(self, dtype=np.float64, global_alpha=1.0, unit_distance=1.0, size=None):
+        """Colour and ``sigma' = sum_i k_i sigma_i`` on the family's axis (see
+        :meth:`TransferFunction.table`): each basis is evaluated on the same entries, so
+        the table's interpolation is the weighted sum of the bases' interpolations."""
+        size = self.table_size if size is None else as_int("table size", size, low=2, high=MAX_TABLE_SIZE)
+        key = (np.dtype(dtype).str, float(global_alpha), float(unit_distance), size)
+        if key not in self._tables:
+            a0, a1 = self.axis_range
+            values = _scale_inverse(np.linspace(a0, a1, size), self.scale, self.linthresh)
+            values[0], values[-1] = self.vmin, self.vmax
+            rgb, sigma = self._mix(values, global_alpha)
+            self._tables = {key: (np.ascontiguousarray(rgb, dtype=dtype),
+                                  np.ascontiguousarray(sigma / unit_distance, dtype=dtype))}
+        return self._tables[key]
+
+    def basis_tables(self, global_alpha=1.0, unit_distance=1.0, size=None):
+        """``(p, size)`` float64 extinction of each basis on the family's table entries."""
+        size = self.table_size if size is None else as_int("table size", size, low=2, high=MAX_TABLE_SIZE)
+        a0, a1 = self.axis_range
+        values = _scale_inverse(np.linspace(a0, a1, size), self.scale, self.linthresh)
+        values[0], values[-1] = self.vmin, self.vmax
+        return self._basis_sigmas(values, global_alpha) / unit_distance
+
+    def to_dict(self):
+        """Plain values: ``{"bases": [basis.to_dict(), ...], "weights": [...], "table_size": n}``."""
+        return {"bases": [b.to_dict() for b in self.bases], "weights": self.k.tolist(),
+                "table_size": int(self.table_size)}
+
+    @classmethod
+    def from_dict(cls, data):
+        keywords = _check_keys("TransferFunctionFamily", data, required=("bases", "weights"),
+                               optional=("table_size",))
+        bases = [TransferFunction.from_dict(b) for b in keywords["bases"]]
+        return cls(bases, keywords["weights"], table_size=keywords.get("table_size"))
+
+    def __repr__(self):
+        return (f"TransferFunctionFamily({len(self.bases)} bases, k={self.k.tolist()}, "
+                f"range [{self.vmin:.6g}, {self.vmax:.6g}], scale={self.scale!r}, table_size={self.table_size})")
 
 
 def _check_keys(kind, data, required, optional=()):

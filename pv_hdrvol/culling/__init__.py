@@ -1,0 +1,1 @@
+"""Visibility culling with plenoptic opacity functions (Gao et al. 2003)."""

@@ -1,0 +1,231 @@
+"""Kernels of plenoptic opacity functions: per-block minimum optical depth over the
+block's screen footprint for many orthographic views, and the front-to-back culling
+pass over an opacity buffer. Arrays in, arrays out; validation is in ``pof.py``."""
+import math
+
+import numpy as np
+
+from .._jit import kernel
+
+LINEAR, LOG, SYMLOG = 0, 1, 2
+
+
+@kernel
+def _position(v, scale, linthresh, axis_lo, axis_inv):
+    """Position in [0, 1] of ``v`` on a transfer function's axis."""
+    if scale == LOG:
+        if v > 0.0:
+            a = math.log10(v)
+        else:
+            return 0.0
+    elif scale == SYMLOG:
+        a = math.copysign(math.log10(1.0 + abs(v) / linthresh), v)
+    else:
+        a = v
+    u = (a - axis_lo) * axis_inv
+    if u < 0.0:
+        return 0.0
+    if u > 1.0:
+        return 1.0
+    return u
+
+
+@kernel
+def _trilinear(values, x, y, z):
+    """Trilinear value of ``values`` (z, y, x) at point coordinates ``(x, y, z)``."""
+    nz, ny, nx = values.shape
+    x = min(max(x, 0.0), nx - 1.0)
+    y = min(max(y, 0.0), ny - 1.0)
+    z = min(max(z, 0.0), nz - 1.0)
+    xi = min(int(x), nx - 2)
+    yi = min(int(y), ny - 2)
+    zi = min(int(z), nz - 2)
+    fx = x - xi
+    fy = y - yi
+    fz = z - zi
+    c00 = values[zi, yi, xi] + fx * (values[zi, yi, xi + 1] - values[zi, yi, xi])
+    c10 = values[zi, yi + 1, xi] + fx * (values[zi, yi + 1, xi + 1] - values[zi, yi + 1, xi])
+    c01 = values[zi + 1, yi, xi] + fx * (values[zi + 1, yi, xi + 1] - values[zi + 1, yi, xi])
+    c11 = values[zi + 1, yi + 1, xi] + fx * (values[zi + 1, yi + 1, xi + 1] - values[zi + 1, yi + 1, xi])
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    return c0 + fz * (c1 - c0)
+
+
+@kernel
+def _chord(ox, oy, oz, dx, dy, dz, lo, hi):
+    """``(t0, t1)`` of the line ``o + t d`` through the box ``[lo, hi]`` (``t1 <= t0``: missed)."""
+    t0 = -math.inf
+    t1 = math.inf
+    for axis in range(3):
+        o = ox if axis == 0 else (oy if axis == 1 else oz)
+        d = dx if axis == 0 else (dy if axis == 1 else dz)
+        if d != 0.0:
+            ta = (lo[axis] - o) / d
+            tb = (hi[axis] - o) / d
+            if ta > tb:
+                ta, tb = tb, ta
+            t0 = max(t0, ta)
+            t1 = min(t1, tb)
+        elif o < lo[axis] or o > hi[axis]:
+            return 1.0, 0.0
+    return t0, t1
+
+
+@kernel
+def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv, lo_index, hi_index, frames, pitch,
+                    step, chord_min, out):
+    """Smallest optical depth of one block over its footprint, for every view and basis.
+
+    ``values`` (z, y, x) the whole volume (so samples near the block's faces read their
+    neighbours); ``spacing`` (3,); ``sigma`` (p, n) extinction per world unit of each
+    basis at ``n`` equidistant entries of the axis; ``lo_index``/``hi_index`` the block's
+    point-index box (x, y, z); ``frames`` (V, 9): view direction, right, up per view.
+    Pixels are the centres ``((i + 1/2) pitch, (j + 1/2) pitch)`` of a lattice in the
+    view plane through the world origin; a pixel belongs to the footprint when its ray's
+    chord through the block is at least ``chord_min`` (> 0). Samples at the midpoints
+    of segments of length ``step`` from the block's entry, the last one shorter, as the
+    ray caster marches. NaN samples are empty. ``out`` (V, p) receives the minimum
+    optical depth (``inf`` when no pixel qualifies).
+    """
+    n_views = frames.shape[0]
+    p = sigma.shape[0]
+    n = sigma.shape[1]
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for a in range(3):
+        lo[a] = lo_index[a] * spacing[a]
+        hi[a] = hi_index[a] * spacing[a]
+    cx = 0.5 * (lo[0] + hi[0])
+    cy = 0.5 * (lo[1] + hi[1])
+    cz = 0.5 * (lo[2] + hi[2])
+    radius = 0.5 * math.sqrt((hi[0] - lo[0]) ** 2 + (hi[1] - lo[1]) ** 2 + (hi[2] - lo[2]) ** 2) + 1.0
+    depth = np.empty(p)
+    for v in range(n_views):
+        dx, dy, dz = frames[v, 0], frames[v, 1], frames[v, 2]
+        rx, ry, rz = frames[v, 3], frames[v, 4], frames[v, 5]
+        ux, uy, uz = frames[v, 6], frames[v, 7], frames[v, 8]
+        u0 = math.inf
+        u1 = -math.inf
+        w0 = math.inf
+        w1 = -math.inf
+        for c in range(8):
+            px = hi[0] if c & 1 else lo[0]
+            py = hi[1] if c & 2 else lo[1]
+            pz = hi[2] if c & 4 else lo[2]
+            pu = px * rx + py * ry + pz * rz
+            pw = px * ux + py * uy + pz * uz
+            u0 = min(u0, pu)
+            u1 = max(u1, pu)
+            w0 = min(w0, pw)
+            w1 = max(w1, pw)
+        back = cx * dx + cy * dy + cz * dz - radius
+        for q in range(p):
+            out[v, q] = math.inf
+        for j in range(int(math.ceil(w0 / pitch - 0.5)), int(math.floor(w1 / pitch - 0.5)) + 1):
+            wc = (j + 0.5) * pitch
+            for i in range(int(math.ceil(u0 / pitch - 0.5)), int(math.floor(u1 / pitch - 0.5)) + 1):
+                uc = (i + 0.5) * pitch
+                ox = uc * rx + wc * ux + back * dx
+                oy = uc * ry + wc * uy + back * dy
+                oz = uc * rz + wc * uz + back * dz
+                t0, t1 = _chord(ox, oy, oz, dx, dy, dz, lo, hi)
+                if t1 - t0 < chord_min:
+                    continue
+                for q in range(p):
+                    depth[q] = 0.0
+                n_seg = max(1, int(math.ceil((t1 - t0) / step)))
+                for k in range(n_seg):
+                    ta = t0 + k * step
+                    length = step if k < n_seg - 1 else t1 - ta
+                    tm = ta + 0.5 * length
+                    s = _trilinear(values, (ox + tm * dx) / spacing[0], (oy + tm * dy) / spacing[1],
+                                   (oz + tm * dz) / spacing[2])
+                    if s != s:
+                        continue
+                    x = _position(s, scale, linthresh, axis_lo, axis_inv) * (n - 1)
+                    e = min(int(x), n - 2)
+                    f = x - e
+                    for q in range(p):
+                        depth[q] += (sigma[q, e] + f * (sigma[q, e + 1] - sigma[q, e])) * length
+                for q in range(p):
+                    if depth[q] < out[v, q]:
+                        out[v, q] = depth[q]
+
+
+@kernel
+def cull_blocks(order, lo_world, hi_world, alpha, camera, width, height, threshold, chord_min, halo, opacity,
+                visible):
+    """Front-to-back visibility over an opacity buffer (Gao et al. 2003, section 3.3).
+
+    ``order`` the candidate blocks front to back; ``lo_world``/``hi_world`` (B, 3) their
+    boxes; ``alpha`` (B,) their conservative opacity for this view; ``camera`` the
+    orthographic frame (position, right, up, forward, half width, half height);
+    ``opacity`` (height, width) the buffer, updated in place; ``visible`` (B,) set to 1
+    for the blocks kept. A block is culled when every pixel it may touch (centre ray
+    through the box grown by ``halo``) has opacity >= ``threshold``; a kept block
+    composites ``alpha`` into the pixels whose centre ray crosses it over at least
+    ``chord_min``.
+    """
+    px, py, pz = camera[0], camera[1], camera[2]
+    rx, ry, rz = camera[3], camera[4], camera[5]
+    ux, uy, uz = camera[6], camera[7], camera[8]
+    dx, dy, dz = camera[9], camera[10], camera[11]
+    half_w, half_h = camera[12], camera[13]
+    pitch_x = 2.0 * half_w / width
+    pitch_y = 2.0 * half_h / height
+    lo = np.empty(3)
+    hi = np.empty(3)
+    glo = np.empty(3)
+    ghi = np.empty(3)
+    for b in order:
+        for a in range(3):
+            lo[a] = lo_world[b, a]
+            hi[a] = hi_world[b, a]
+            glo[a] = lo[a] - halo
+            ghi[a] = hi[a] + halo
+        u0 = math.inf
+        u1 = -math.inf
+        w0 = math.inf
+        w1 = -math.inf
+        for c in range(8):
+            qx = (ghi[0] if c & 1 else glo[0]) - px
+            qy = (ghi[1] if c & 2 else glo[1]) - py
+            qz = (ghi[2] if c & 4 else glo[2]) - pz
+            pu = qx * rx + qy * ry + qz * rz
+            pw = qx * ux + qy * uy + qz * uz
+            u0 = min(u0, pu)
+            u1 = max(u1, pu)
+            w0 = min(w0, pw)
+            w1 = max(w1, pw)
+        # columns: x = (col + 1/2) pitch_x - half_w; rows: y = half_h - (row + 1/2) pitch_y
+        c0 = max(0, int(math.ceil((u0 + half_w) / pitch_x - 0.5)))
+        c1 = min(width - 1, int(math.floor((u1 + half_w) / pitch_x - 0.5)))
+        r0 = max(0, int(math.ceil((half_h - w1) / pitch_y - 0.5)))
+        r1 = min(height - 1, int(math.floor((half_h - w0) / pitch_y - 0.5)))
+        hidden = True
+        for row in range(r0, r1 + 1):
+            for col in range(c0, c1 + 1):
+                if opacity[row, col] >= threshold:
+                    continue
+                x = (col + 0.5) * pitch_x - half_w
+                y = half_h - (row + 0.5) * pitch_y
+                t0, t1 = _chord(px + x * rx + y * ux, py + x * ry + y * uy, pz + x * rz + y * uz, dx, dy, dz,
+                                glo, ghi)
+                if t1 > t0:
+                    hidden = False
+                    break
+            if not hidden:
+                break
+        if hidden:
+            continue
+        visible[b] = 1
+        keep = 1.0 - alpha[b]
+        for row in range(r0, r1 + 1):
+            for col in range(c0, c1 + 1):
+                x = (col + 0.5) * pitch_x - half_w
+                y = half_h - (row + 0.5) * pitch_y
+                t0, t1 = _chord(px + x * rx + y * ux, py + x * ry + y * uy, pz + x * rz + y * uz, dx, dy, dz,
+                                lo, hi)
+                if t1 - t0 >= chord_min:
+                    opacity[row, col] = 1.0 - (1.0 - opacity[row, col]) * keep

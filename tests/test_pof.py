@@ -1,0 +1,174 @@
+"""Plenoptic opacity functions and culling (Gao et al. 2003; ../shared/notes/methods.md
+section A.5): analytic block opacities, the lower-bound encodings, visibility order,
+and a culled render equal to the unculled one bit for bit."""
+import math
+
+import numpy as np
+import pytest
+
+import pv_hdrvol as hv
+from pv_hdrvol.culling import _kernels as K
+from pv_hdrvol.culling.cull import render_mask, visibility_order, visible_blocks
+from pv_hdrvol.culling.pof import (N_PHI, N_THETA, PlenopticOpacity, _poly_design, fit_polynomial, spike_filter,
+                                   view_angles)
+from pv_hdrvol.raycast.grid import BlockGrid, as_volume
+
+pytestmark = pytest.mark.core
+
+FLAT = hv.TransferFunction([0.0, 10.0], [[1, 1, 1]] * 2, [0.2, 0.2])
+SIGMA = -math.log(0.8)  # per voxel
+
+
+def _min_depth(values, frame, lo, hi, pitch=1.0, step=1.0, chord_min=1.0, tf=FLAT):
+    sigma = np.ascontiguousarray(hv.TransferFunction.family([tf]).basis_tables(1.0, 1.0))
+    a0, a1 = tf.axis_range
+    out = np.empty((1, 1))
+    K.block_min_depth(np.ascontiguousarray(values, dtype=np.float64), np.ones(3), sigma, 0, 1.0, a0, 1 / (a1 - a0),
+                      np.array(lo), np.array(hi), np.array([frame], dtype=np.float64), pitch, step, chord_min, out)
+    return out[0, 0]
+
+
+def test_homogeneous_block_seen_along_an_axis():
+    """T-POF-15: every footprint pixel crosses 16 voxels: optical depth 16 sigma exactly."""
+    values = np.full((33, 33, 33), 5.0)
+    for frame in ([0, 0, 1, 1, 0, 0, 0, 1, 0], [1, 0, 0, 0, 1, 0, 0, 0, 1], [0, -1, 0, 0, 0, 1, 1, 0, 0]):
+        assert _min_depth(values, frame, [16, 0, 16], [32, 16, 32]) == pytest.approx(16 * SIGMA, rel=1e-14)
+
+
+def test_homogeneous_block_oblique_minimum_is_the_shortest_chord():
+    """Oblique views: the minimum optical depth is sigma times the shortest chord (>= chord_min)
+    among the lattice's pixel centres, computed here independently with numpy."""
+    values = np.full((33, 33, 33), 5.0)
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        right = np.cross(d, [0, 0, 1.0])
+        right /= np.linalg.norm(right)
+        up = np.cross(right, d)
+        lo, hi = np.array([0.0, 16, 0]), np.array([16.0, 32, 16])
+        centre = 0.5 * (lo + hi)
+        # pixel centres (i + 1/2, j + 1/2) in the view plane through the origin
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        u, w = corners @ right, corners @ up
+        i = np.arange(math.floor(u.min()) - 1, math.ceil(u.max()) + 1) + 0.5
+        j = np.arange(math.floor(w.min()) - 1, math.ceil(w.max()) + 1) + 0.5
+        uu, ww = np.meshgrid(i, j)
+        origins = uu[..., None] * right + ww[..., None] * up + (centre @ d - 40) * d
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ta, tb = (lo - origins) / d, (hi - origins) / d
+        chord = np.minimum(ta, tb).max(-1), np.maximum(ta, tb).min(-1)
+        length = chord[1] - chord[0]
+        expected = length[length >= 1.0].min() * SIGMA
+        got = _min_depth(values, np.concatenate([d, right, up]), lo.astype(int), hi.astype(int))
+        assert got == pytest.approx(expected, rel=1e-12)
+
+
+def test_empty_and_nan_blocks_have_zero_pof_and_are_never_visible():
+    """T-POF-14: a block whose values meet no extinction has POF 0 and is never kept."""
+    values = np.full((17, 17, 33), 5.0)
+    values[:, :, 16:] = -1.0  # below the function's range: its first entry, opacity 0
+    zero_at_start = hv.TransferFunction([0.0, 4.0, 10.0], [[1, 1, 1]] * 3, [0.0, 0.0, 0.5])
+    pof = PlenopticOpacity.compute(values, [zero_at_start], block_size=16, threads=1)
+    assert pof.nonempty[..., 0].tolist() == [[[True, False]]]
+    # the empty block is 0; the other is not, though its face shares the empty side's
+    # points (pixels crossing only that face see no opacity: its minimum may be 0)
+    assert pof.table[0, 0, 1].max() == 0 and pof.table[0, 0, 0].max() > 0
+    camera = hv.Camera.fit(as_volume(values).bounds, "iso", parallel_projection=True)
+    result = visible_blocks(pof, values, camera, (32, 32))
+    assert result.visible.tolist() == [[[True, False]]]
+    assert result.statistics == {"blocks": 2, "nonempty": 1, "visible": 1, "culled": 0, "culled_fraction": 0.0}
+
+
+def test_uint8_table_and_polynomial_stay_below_the_float_minimum():
+    """T-POF-7, T-POF-8: floor quantisation and the shifted polynomial are lower bounds
+    at all 1,296 sample views."""
+    rng = np.random.default_rng(5)
+    theta, phi = view_angles()
+    design = _poly_design(theta[:, None], phi[None, :]).reshape(-1, 10)
+    tables = np.clip(0.5 + 0.05 * rng.random((20, N_THETA, N_PHI)), 0, 1)
+    coef = fit_polynomial(tables)
+    assert coef.dtype == np.float32 and coef.shape == (20, 10)
+    assert np.all(coef.astype(np.float64) @ design.T <= tables.reshape(20, -1))
+    # a table that is itself a cubic in (theta, phi) comes back to float32 rounding
+    cubic = (design @ (0.02 * rng.normal(size=(10, 20)))).T + 0.5
+    fitted = fit_polynomial(cubic.reshape(20, N_THETA, N_PHI)).astype(np.float64) @ design.T
+    assert np.all(fitted <= cubic) and np.max(cubic - fitted) < 1e-6
+    q = np.floor(tables * 255).astype(np.uint8)
+    assert np.all(q / 255.0 <= tables) and np.all(tables - q / 255.0 < 1 / 255)
+
+
+def test_spike_filter_never_raises_and_removes_a_spike():
+    table = np.full((N_THETA, N_PHI), 0.3)
+    table[0, 5] = 0.9  # theta = 0 neighbours theta = 350 deg: the filter wraps
+    table[7, 7] = 0.1
+    out = spike_filter(table)
+    assert np.all(out <= table)
+    assert out[0, 5] == pytest.approx(0.3) and out[7, 7] == pytest.approx(0.1)
+
+
+def test_visibility_order_puts_occluders_first():
+    """T-POF-9: along random rays through a small block grid, the blocks a ray crosses
+    appear in the order it crosses them."""
+    shape = (3, 4, 5)
+    rng = np.random.default_rng(6)
+    for _ in range(30):
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        rank = np.empty(int(np.prod(shape)), dtype=np.int64)
+        rank[visibility_order(shape, d)] = np.arange(rank.size)
+        start = rng.random(3) * np.array(shape[::-1]) - 20 * d
+        t = np.linspace(0, 40, 4001)
+        points = start + t[:, None] * d
+        inside = np.all((points >= 0) & (points < np.array(shape[::-1])), axis=1)
+        cells = np.floor(points[inside]).astype(int)
+        flat = (cells[:, 2] * shape[1] + cells[:, 1]) * shape[2] + cells[:, 0]
+        crossed = flat[np.r_[True, np.diff(flat) != 0]]
+        assert np.all(np.diff(rank[crossed]) > 0)
+
+
+def _opaque_scene():
+    rng = np.random.default_rng(0)
+    values = 0.6 + 0.4 * rng.random((33, 33, 33))
+    tf = hv.TransferFunction([0.0, 0.5, 1.0], [[1, 0.5, 0.2], [1, 0.5, 0.2], [1, 1, 1]], [0.0, 0.9, 0.99])
+    return as_volume(values), tf
+
+
+def test_culled_render_equals_the_unculled_render_bit_for_bit():
+    """T-POF-3 in practice: with the ray caster's termination at the culling threshold
+    (transmittance 0.05), rendering only the visible blocks changes no pixel."""
+    volume, tf = _opaque_scene()
+    pof = PlenopticOpacity.compute(volume, [tf], block_size=8)
+    camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
+    result = visible_blocks(pof, volume, camera, (64, 64))
+    stats = result.statistics
+    assert stats["nonempty"] == 64 and stats["culled"] >= 8  # at least the hidden core
+    mask = render_mask(result, pof, 4, BlockGrid.of(volume, 4).shape)
+    full = hv.render(volume, tf, camera, (64, 64), termination=0.05, progress_bar=False)
+    culled = hv.render(volume, tf, camera, (64, 64), termination=0.05, block_mask=mask, progress_bar=False)
+    np.testing.assert_array_equal(culled.rgba, full.rgba)
+    # a weaker family culls less: k scales extinction, the block opacities drop
+    weak = visible_blocks(pof, volume, camera, (64, 64), k=[0.05]).statistics
+    assert weak["culled"] < stats["culled"]
+
+
+def test_save_load_and_bad_input(tmp_path):
+    volume, tf = _opaque_scene()
+    pof = PlenopticOpacity.compute(volume, [tf], block_size=16)
+    path = tmp_path / "scene.pof.npz"
+    pof.save(path)
+    back = PlenopticOpacity.load(path)
+    np.testing.assert_array_equal(back.table, pof.table)
+    np.testing.assert_array_equal(back.poly, pof.poly)
+    assert back.block_size == 16 and back.dims == pof.dims and back.bases[0].to_dict() == tf.to_dict()
+    camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
+    with pytest.raises(ValueError, match=r"these POFs describe a volume of \(33, 33, 33\) points; got \(33, 33, 17\)"):
+        visible_blocks(pof, volume.values[:17], camera, (8, 8))
+    with pytest.raises(ValueError, match="POF culling needs an orthographic camera"):
+        visible_blocks(pof, volume, hv.Camera.fit(volume.bounds, "iso"), (8, 8))
+    with pytest.raises(ValueError, match=r"k must be 1 finite weights >= 0; got \[-1.0\]"):
+        visible_blocks(pof, volume, camera, (8, 8), k=[-1.0])
+    with pytest.raises(ValueError, match="block_size must be a power of two; got 12"):
+        PlenopticOpacity.compute(volume, [tf], block_size=12)
+    with pytest.raises(ValueError, match=r"must be a multiple of the render's block_size \(32\)"):
+        render_mask(visible_blocks(pof, volume, camera, (8, 8)), pof, 32, (1, 1, 1))

@@ -24,7 +24,7 @@ __version__ = "0.1.0"
 
 
 def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, preference="point", options=None,
-           block_mask=None, lens=None, labels=None, label_styles=None, progress_bar=None, progress=None,
+           block_mask=None, cull=None, lens=None, labels=None, label_styles=None, progress_bar=None, progress=None,
            cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
     """Render a volume to an :class:`HDRImage` (see :func:`render_volume` for all options).
 
@@ -40,7 +40,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
     from .raycast.grid import as_volume
 
     if is_unstructured(data):
-        for name, value in (("block_mask", block_mask), ("lens", lens), ("labels", labels),
+        for name, value in (("block_mask", block_mask), ("cull", cull), ("lens", lens), ("labels", labels),
                             ("label_styles", label_styles)):
             if value is not None:
                 raise ValueError(f"{name}= is not supported for tetrahedral meshes")
@@ -54,7 +54,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
         from .data.grid import labels_from_dataset
 
         labels = labels_from_dataset(data, labels, preference)
-    return render_volume(volume, tf, camera, size, options, block_mask=block_mask, lens=lens, labels=labels,
+    return render_volume(volume, tf, camera, size, options, block_mask=block_mask, cull=cull, lens=lens, labels=labels,
                          label_styles=label_styles, progress_bar=progress_bar, progress=progress, **tf_keywords,
                          **option_kwargs)
 

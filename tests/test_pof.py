@@ -172,3 +172,52 @@ def test_save_load_and_bad_input(tmp_path):
         PlenopticOpacity.compute(volume, [tf], block_size=12)
     with pytest.raises(ValueError, match=r"must be a multiple of the render's block_size \(32\)"):
         render_mask(visible_blocks(pof, volume, camera, (8, 8)), pof, 32, (1, 1, 1))
+
+
+def test_render_with_cull_uses_the_family_weights_and_reports_counts():
+    volume, tf = _opaque_scene()
+    pof = PlenopticOpacity.compute(volume, [tf], block_size=8)
+    camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
+    family = hv.TransferFunction.family([tf], [2.0])
+    full = hv.render(volume, family, camera, (48, 48), termination=0.05, progress_bar=False)
+    image = hv.render(volume, family, camera, (48, 48), termination=0.05, cull=pof, progress_bar=False)
+    np.testing.assert_array_equal(image.rgba, full.rgba)
+    stats = image.metadata["culling"]
+    expected = visible_blocks(pof, volume, camera, (48, 48), k=[2.0]).statistics
+    assert {key: stats[key] for key in expected} == expected and stats["culled"] > 0
+    assert stats["threshold"] == 0.95 and stats["encoding"] == "table" and stats["seconds"] >= 0
+    assert image.metadata["settings"]["not_stored"] == ["cull"]
+    # the basis itself is the family with k = 1
+    plain = hv.render(volume, tf, camera, (48, 48), termination=0.05, cull=pof, progress_bar=False)
+    assert plain.metadata["culling"]["visible"] == visible_blocks(pof, volume, camera, (48, 48)).statistics["visible"]
+
+
+def test_render_options_scale_the_weights_conservatively():
+    from pv_hdrvol.culling.cull import Culling
+
+    volume, tf = _opaque_scene()
+    pof = PlenopticOpacity.compute(volume, [tf], block_size=16)
+    culling = Culling(pof)
+    family = hv.TransferFunction.family([tf], [1.5])
+    # a longer unit distance divides every extinction by it: exactly k / 2
+    k = culling.weights_for(family, hv.RenderOptions(opacity_unit_distance=2.0), 1.0)
+    assert k.tolist() == [0.75]
+    # global_alpha < 1: the smallest ratio of -ln(1 - a g) to -ln(1 - a) over the table
+    k = culling.weights_for(family, hv.RenderOptions(global_alpha=0.5), 1.0)
+    a = tf.opacity_at(np.linspace(0.5, 1.0, 1001))
+    assert k[0] <= 1.5 * np.min(-np.log1p(-0.5 * a) / -np.log1p(-a)) + 1e-12
+
+
+def test_cull_refuses_what_it_cannot_bound():
+    volume, tf = _opaque_scene()
+    pof = PlenopticOpacity.compute(volume, [tf], block_size=16)
+    camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
+    other = hv.TransferFunction([0.0, 1.0], [[1, 1, 1]] * 2, [0.5, 0.5])
+    with pytest.raises(ValueError, match=r"cull= needs the render's tf to be TransferFunction.family\(pof.bases, k\)"):
+        hv.render(volume, other, camera, (8, 8), cull=pof, progress_bar=False)
+    with pytest.raises(ValueError, match="cull= applies to blending='composite' without gradient_opacity"):
+        hv.render(volume, tf, camera, (8, 8), cull=pof, blending="maximum", progress_bar=False)
+    with pytest.raises(ValueError, match="POF culling needs an orthographic camera"):
+        hv.render(volume, tf, hv.Camera.fit(volume.bounds, "iso"), (8, 8), cull=pof, progress_bar=False)
+    with pytest.raises(TypeError, match="cull must be a PlenopticOpacity or Culling; got str"):
+        hv.render(volume, tf, camera, (8, 8), cull="pof", progress_bar=False)

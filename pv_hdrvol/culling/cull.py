@@ -101,3 +101,90 @@ def render_mask(result, pof, render_block_size, render_shape):
     r = pof.block_size // render_block_size
     mask = result.visible.repeat(r, 0).repeat(r, 1).repeat(r, 2)
     return np.ascontiguousarray(mask[:render_shape[0], :render_shape[1], :render_shape[2]])
+
+
+@dataclass(frozen=True)
+class Culling:
+    """POF culling as a render takes it: ``render(..., cull=Culling(pof, threshold=0.9))``
+    (``cull=pof`` is ``Culling(pof)``).
+
+    Parameters
+    ----------
+    pof : PlenopticOpacity
+        Of the volume rendered, for the bases of the render's transfer function.
+    threshold : float
+        Opacity at which a pixel counts as opaque (the paper's 0.95). A culled block
+        lies behind at least this opacity on every pixel it covers, so it changes a
+        pixel by at most ``(1 - threshold)`` times what it would emit there; with the
+        render's ``termination = 1 - threshold`` it changes none.
+    encoding : {"table", "poly"}
+    lookup : {"min4", "nearest", "bilinear"}
+        See :meth:`PlenopticOpacity.view_minimum`.
+    """
+
+    pof: object
+    threshold: float = DEFAULT_THRESHOLD
+    encoding: str = "table"
+    lookup: str = "min4"
+
+    def __post_init__(self):
+        from .pof import PlenopticOpacity
+
+        if not isinstance(self.pof, PlenopticOpacity):
+            raise TypeError(f"cull needs a PlenopticOpacity; got {type(self.pof).__name__}")
+        object.__setattr__(self, "threshold",
+                           as_real("threshold", self.threshold, low=0, high=1, low_open=True, high_open=True))
+        from .._validate import as_choice
+
+        as_choice("encoding", self.encoding, ("table", "poly"))
+        as_choice("lookup", self.lookup, ("min4", "nearest", "bilinear"))
+
+    def weights_for(self, tf, options, unit):
+        """The family weights ``k`` for which the POFs bound the render's extinction.
+
+        ``tf`` must be a family of the POFs' bases (or one of them). The render's
+        ``global_alpha`` and ``opacity_unit_distance`` change each basis's extinction
+        from the POFs' ``sigma_i`` to ``sigma_i'``; the weights returned are ``k_i``
+        times the smallest ratio ``sigma_i' / sigma_i`` over the table, so the bound
+        holds for any of them (exactly ``unit / opacity_unit_distance`` at
+        ``global_alpha = 1``)."""
+        from ..data.transfer import TransferFunctionFamily
+
+        bases = self.pof.bases
+        keys = [b.to_dict() for b in bases]
+        if isinstance(tf, TransferFunctionFamily) and [b.to_dict() for b in tf.bases] == keys:
+            k = np.array(tf.k, dtype=np.float64)
+        elif not isinstance(tf, TransferFunctionFamily) and tf.to_dict() in keys:
+            k = np.array([1.0 if key == tf.to_dict() else 0.0 for key in keys])
+        else:
+            raise ValueError("cull= needs the render's tf to be TransferFunction.family(pof.bases, k) (or one of "
+                             f"the {len(bases)} bases the POFs were computed for); got {tf!r}")
+        family = TransferFunctionFamily(bases)
+        computed = family.basis_tables(1.0, unit)
+        distance = unit if options.opacity_unit_distance is None else options.opacity_unit_distance
+        rendered = family.basis_tables(options.global_alpha, distance)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(computed > 0, rendered / computed, np.inf).min(axis=1)
+        return k * np.where(np.isfinite(ratio), ratio, 0.0)
+
+    def mask_for(self, volume, tf, camera, size, options, render_shape):
+        """``(mask, statistics)``: the render's block mask (shape ``render_shape``) and
+        the culling's counts and time."""
+        import time
+
+        start = time.perf_counter()
+        if options.blending != "composite" or options.gradient_opacity is not None:
+            raise ValueError("cull= applies to blending='composite' without gradient_opacity (the POFs bound the "
+                             "transfer function's extinction only)")
+        k = self.weights_for(tf, options, float(np.min(volume.spacing)))
+        result = visible_blocks(self.pof, volume, camera, size, k, threshold=self.threshold, encoding=self.encoding,
+                                lookup=self.lookup)
+        mask = render_mask(result, self.pof, options.block_size, render_shape)
+        stats = dict(result.statistics, threshold=self.threshold, encoding=self.encoding, lookup=self.lookup,
+                     block_size=self.pof.block_size, seconds=time.perf_counter() - start)
+        return mask, stats
+
+
+def as_culling(cull):
+    """``Culling(cull)`` for a PlenopticOpacity; a Culling as it is."""
+    return cull if isinstance(cull, Culling) else Culling(cull)

@@ -259,6 +259,12 @@ class PlenopticOpacity:
         total = np.where(k > 0, log_keep * k, 0.0).sum(axis=-1)
         return -np.expm1(total)
 
+    def mask_for(self, volume, tf, camera, size, options, render_shape):
+        """What ``render(..., cull=pof)`` calls: :meth:`Culling.mask_for` with the defaults."""
+        from .cull import Culling
+
+        return Culling(self).mask_for(volume, tf, camera, size, options, render_shape)
+
     # -- files -------------------------------------------------------------------------
     def save(self, path):
         """Write an ``.npz`` file (tables, polynomials, how they were computed, the bases)."""

@@ -47,7 +47,7 @@ class HDRVolAccessor:
 
     def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point", lens=None,
                labels=None, label_styles=None, progress_bar=None, progress=None, *, cmap=None, clim=None,
-               opacity=None, scale=None, **options):
+               opacity=None, scale=None, cull=None, **options):
         """Ray cast the dataset into a linear float :class:`~pv_hdrvol.HDRImage`.
 
         The dataset is not modified.
@@ -96,6 +96,9 @@ class HDRVolAccessor:
             renders run in short chunks either way, so Ctrl-C stops them.
         progress : callable, optional
             ``progress(fraction)``; returning ``False`` aborts with ``RuntimeError``.
+        cull : PlenopticOpacity or Culling, optional
+            Image data only: skip blocks hidden behind opaque ones
+            (:func:`~pv_hdrvol.render_volume`); ``img.metadata["culling"]`` has the counts.
         **options
             :class:`~pv_hdrvol.RenderOptions` fields: ``step``, ``precision``,
             ``global_alpha``, ``opacity_unit_distance``, ``termination``,
@@ -127,7 +130,7 @@ class HDRVolAccessor:
         if self._dataset.GetClassName() == "vtkUnstructuredGrid":
             from ..raycast.tets import render_tets
 
-            for name, value in (("lens", lens), ("labels", labels), ("label_styles", label_styles)):
+            for name, value in (("lens", lens), ("labels", labels), ("label_styles", label_styles), ("cull", cull)):
                 if value is not None:
                     raise ValueError(f"{name}= is not supported for tetrahedral meshes")
             return render_tets(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
@@ -138,7 +141,7 @@ class HDRVolAccessor:
             from ..data.grid import labels_from_dataset
 
             labels = labels_from_dataset(self._dataset, labels, preference)
-        return render_volume(volume, tf, cam, size, lens=lens, labels=labels, label_styles=label_styles,
+        return render_volume(volume, tf, cam, size, lens=lens, labels=labels, label_styles=label_styles, cull=cull,
                              progress_bar=progress_bar, progress=progress, cmap=cmap, clim=clim, opacity=opacity,
                              scale=scale, **options)
 

@@ -324,7 +324,7 @@ def _axis_position(values, params):
     return (axis - params.axis_lo) * params.axis_inv_range
 
 
-def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None,
+def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None, cull=None,
                   lens=None, labels=None, label_styles=None, progress=None, progress_bar=None, cmap=None, clim=None,
                   opacity=None, scale=None, **option_kwargs):
     r"""Ray cast an image volume into an :class:`~pv_hdrvol.HDRImage`.
@@ -364,6 +364,11 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     block_mask : ndarray of bool, shape ``BlockGrid(volume, block_size).shape``, optional
         Render only these blocks (visibility culling, parallel rendering). Blocks
         outside the mask are treated as empty.
+    cull : PlenopticOpacity or Culling, optional
+        Visibility culling (:mod:`pv_hdrvol.culling`): blocks hidden behind accumulated
+        opacity >= the threshold (0.95) on every pixel they cover are not sampled.
+        Orthographic cameras, ``blending="composite"``, a ``tf`` of the POFs' bases.
+        The image's ``metadata["culling"]`` holds the counts and the culling's time.
     labels : ndarray of int, shape (z, y, x) as the volume, optional
         A segmentation: two-level rendering (Hauser et al. 2001). Each sample takes the
         label of its nearest grid point; ``label_styles`` gives a label its own
@@ -412,7 +417,8 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     """
     plan = GridPlan(volume, tf, options, labels=labels, label_styles=label_styles, cmap=cmap, clim=clim,
                     opacity=opacity, scale=scale, **option_kwargs)
-    return plan.execute(camera, size, lens=lens, block_mask=block_mask, progress=progress, progress_bar=progress_bar)
+    return plan.execute(camera, size, lens=lens, block_mask=block_mask, cull=cull, progress=progress,
+                        progress_bar=progress_bar)
 
 
 def _window_rays(rays, window):
@@ -530,8 +536,8 @@ class GridPlan:
                                    min(volume.dims) < 2)
         return self._prepared
 
-    def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, window=None, progress=None,
-                progress_bar=None):
+    def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, cull=None, window=None,
+                progress=None, progress_bar=None):
         """Render the plan: ``camera``, ``size``, ``lens``, ``block_mask``, ``progress`` and
         ``progress_bar`` as :func:`render_volume`. Returns an :class:`~pv_hdrvol.HDRImage`.
 
@@ -585,6 +591,14 @@ class GridPlan:
             if mask.dtype != np.bool_:
                 raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
             mask = mask.astype(np.uint8)
+        culling = None
+        if cull is not None:
+            if not callable(getattr(cull, "mask_for", None)):
+                raise TypeError(f"cull must be a PlenopticOpacity or Culling; got {type(cull).__name__}")
+            if not isinstance(camera, Camera) or lens is not None or styles is not None:
+                raise ValueError("cull= needs a Camera (no Rays, no lens) and no label styles")
+            culled, culling = cull.mask_for(volume, tf, camera, (width, height), opts, blocks.shape)
+            mask = culled.astype(np.uint8) if mask is None else mask & culled
         active, leap = _skip_structure(volume, blocks, opts, styles, table, params, mask)
 
         out_dtype = np.float64 if prec == "float64" else np.float32
@@ -660,12 +674,15 @@ class GridPlan:
             "transfer_function": repr(tf),
             "camera": repr(camera) if isinstance(camera, Camera) else "rays",
             "settings": settings_metadata(tf, camera, (width, height), opts, lens=lens, labels=self.labels,
-                                          label_styles=self.label_styles, block_mask=block_mask, window=window),
+                                          label_styles=self.label_styles, block_mask=block_mask, window=window,
+                                          cull=cull),
             "render_seconds": elapsed,
             "samples": int(samples.sum()),
         }
         if lens is not None:
             meta["lens"] = repr(lens)
+        if culling is not None:
+            meta["culling"] = culling
         if opts.blending != "composite":
             meta["blending"] = opts.blending
         if opts.gradient_opacity is not None:

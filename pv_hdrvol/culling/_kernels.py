@@ -101,6 +101,7 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
     cz = 0.5 * (lo[2] + hi[2])
     radius = 0.5 * math.sqrt((hi[0] - lo[0]) ** 2 + (hi[1] - lo[1]) ** 2 + (hi[2] - lo[2]) ** 2) + 1.0
     depth = np.empty(p)
+    inv_x, inv_y, inv_z = 1.0 / spacing[0], 1.0 / spacing[1], 1.0 / spacing[2]
     for v in range(n_views):
         dx, dy, dz = frames[v, 0], frames[v, 1], frames[v, 2]
         rx, ry, rz = frames[v, 3], frames[v, 4], frames[v, 5]
@@ -120,6 +121,7 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
             w0 = min(w0, pw)
             w1 = max(w1, pw)
         back = cx * dx + cy * dy + cz * dz - radius
+        ex, ey, ez = dx * inv_x, dy * inv_y, dz * inv_z
         for q in range(p):
             out[v, q] = math.inf
         for j in range(int(math.ceil(w0 / pitch - 0.5)), int(math.floor(w1 / pitch - 0.5)) + 1):
@@ -134,20 +136,26 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
                     continue
                 for q in range(p):
                     depth[q] = 0.0
+                # in point coordinates: o' = o / spacing, d' = d / spacing (t stays in world units)
+                vx, vy, vz = ox * inv_x, oy * inv_y, oz * inv_z
                 n_seg = max(1, int(math.ceil((t1 - t0) / step)))
                 for k in range(n_seg):
                     ta = t0 + k * step
                     length = step if k < n_seg - 1 else t1 - ta
                     tm = ta + 0.5 * length
-                    s = _trilinear(values, (ox + tm * dx) / spacing[0], (oy + tm * dy) / spacing[1],
-                                   (oz + tm * dz) / spacing[2])
+                    s = _trilinear(values, vx + tm * ex, vy + tm * ey, vz + tm * ez)
                     if s != s:
                         continue
                     x = _position(s, scale, linthresh, axis_lo, axis_inv) * (n - 1)
                     e = min(int(x), n - 2)
                     f = x - e
+                    above = True
                     for q in range(p):
                         depth[q] += (sigma[q, e] + f * (sigma[q, e + 1] - sigma[q, e])) * length
+                        if depth[q] < out[v, q]:
+                            above = False
+                    if above:  # depth only grows along the ray: this pixel cannot lower a minimum
+                        break
                 for q in range(p):
                     if depth[q] < out[v, q]:
                         out[v, q] = depth[q]

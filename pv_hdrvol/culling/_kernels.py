@@ -162,13 +162,14 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
 
 
 @kernel
-def cull_blocks(order, lo_world, hi_world, alpha, camera, width, height, threshold, chord_min, halo, opacity,
-                visible):
+def cull_blocks(order, lo_world, hi_world, alpha, camera, width, height, window, threshold, chord_min, halo,
+                opacity, visible):
     """Front-to-back visibility over an opacity buffer (Gao et al. 2003, section 3.3).
 
     ``order`` the candidate blocks front to back; ``lo_world``/``hi_world`` (B, 3) their
     boxes; ``alpha`` (B,) their conservative opacity for this view; ``camera`` the
     orthographic frame (position, right, up, forward, half width, half height);
+    ``window`` (col0, row0, col1, row1), inclusive: the pixels considered (a tile);
     ``opacity`` (height, width) the buffer, updated in place; ``visible`` (B,) set to 1
     for the blocks kept. A block is culled when every pixel it may touch (centre ray
     through the box grown by ``halo``) has opacity >= ``threshold``; a kept block
@@ -207,10 +208,12 @@ def cull_blocks(order, lo_world, hi_world, alpha, camera, width, height, thresho
             w0 = min(w0, pw)
             w1 = max(w1, pw)
         # columns: x = (col + 1/2) pitch_x - half_w; rows: y = half_h - (row + 1/2) pitch_y
-        c0 = max(0, int(math.ceil((u0 + half_w) / pitch_x - 0.5)))
-        c1 = min(width - 1, int(math.floor((u1 + half_w) / pitch_x - 0.5)))
-        r0 = max(0, int(math.ceil((half_h - w1) / pitch_y - 0.5)))
-        r1 = min(height - 1, int(math.floor((half_h - w0) / pitch_y - 0.5)))
+        c0 = max(window[0], int(math.ceil((u0 + half_w) / pitch_x - 0.5)))
+        c1 = min(window[2], int(math.floor((u1 + half_w) / pitch_x - 0.5)))
+        r0 = max(window[1], int(math.ceil((half_h - w1) / pitch_y - 0.5)))
+        r1 = min(window[3], int(math.floor((half_h - w0) / pitch_y - 0.5)))
+        if c0 > c1 or r0 > r1:
+            continue
         hidden = True
         for row in range(r0, r1 + 1):
             for col in range(c0, c1 + 1):

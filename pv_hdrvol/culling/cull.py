@@ -51,12 +51,14 @@ def visibility_order(shape, d):
 
 
 def visible_blocks(pof, volume, camera, size, k=None, *, threshold=DEFAULT_THRESHOLD, encoding="table",
-                   lookup="min4"):
+                   lookup="min4", window=None):
     """The blocks of ``volume`` a render with ``camera`` and ``size`` must sample.
 
     ``pof``: :class:`~pv_hdrvol.culling.pof.PlenopticOpacity` of ``volume``; ``k``: the
     family's weights (default all 1). Orthographic cameras only: the paper's order and
-    POFs assume parallel rays.
+    POFs assume parallel rays. ``window=(col, row, width, height)``: the blocks that
+    tile of the image needs (its own opacity buffer; the union over tiles of an
+    image is the whole image's set).
     """
     from ..raycast.grid import as_volume
 
@@ -88,18 +90,31 @@ def visible_blocks(pof, volume, camera, size, k=None, *, threshold=DEFAULT_THRES
     pitch = 2.0 * cam[13] / height
     halo = pitch * np.sqrt(0.5)  # a pixel's square lies within this of its centre
     chord_min = pof.chord_min * float(np.min(spacing))
-    K.cull_blocks(order, lo, hi, np.ascontiguousarray(alpha.reshape(-1)), cam, width, height, threshold, chord_min,
-                  halo, opacity, visible)
+    if window is None:
+        limits = np.array([0, 0, width - 1, height - 1], dtype=np.int64)
+    else:
+        col, row, w, h = (int(x) for x in window)
+        if w < 1 or h < 1 or col < 0 or row < 0 or col + w > width or row + h > height:
+            raise ValueError(f"window must be (col, row, width, height) inside the {width}x{height} image; got {window}")
+        limits = np.array([col, row, col + w - 1, row + h - 1], dtype=np.int64)
+    K.cull_blocks(order, lo, hi, np.ascontiguousarray(alpha.reshape(-1)), cam, width, height, limits, threshold,
+                  chord_min, halo, opacity, visible)
     return CullResult(visible.reshape(shape).astype(bool), nonempty, opacity)
 
 
 def render_mask(result, pof, render_block_size, render_shape):
     """The POF blocks' visibility on the ray caster's (finer) block grid."""
-    if pof.block_size % render_block_size:
-        raise ValueError(f"the POF block size ({pof.block_size}) must be a multiple of the render's block_size "
+    return expand_mask(result.visible, pof.block_size, render_block_size, render_shape)
+
+
+def expand_mask(blocks, block_size, render_block_size, render_shape):
+    """(bz, by, bx) bool over blocks of ``block_size`` cells as the ray caster's
+    ``block_mask`` (blocks of ``render_block_size``, shape ``render_shape``)."""
+    if block_size % render_block_size:
+        raise ValueError(f"the POF block size ({block_size}) must be a multiple of the render's block_size "
                          f"({render_block_size})")
-    r = pof.block_size // render_block_size
-    mask = result.visible.repeat(r, 0).repeat(r, 1).repeat(r, 2)
+    r = block_size // render_block_size
+    mask = blocks.repeat(r, 0).repeat(r, 1).repeat(r, 2)
     return np.ascontiguousarray(mask[:render_shape[0], :render_shape[1], :render_shape[2]])
 
 

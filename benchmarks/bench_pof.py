@@ -77,14 +77,15 @@ def main():
     parser.add_argument("--datasets", default="engine,bonsai,head,tooth")
     parser.add_argument("--threads", type=int, default=os.cpu_count())
     parser.add_argument("--termination", type=float, default=1e-6)
+    parser.add_argument("--block-size", type=int, default=16)
     args = parser.parse_args()
     size = (args.size, args.size)
     print(f"# bench_pof: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"load {os.getloadavg()[0]:.2f}, size {args.size}, threads {args.threads}")
+          f"load {os.getloadavg()[0]:.2f}, size {args.size}, threads {args.threads}, blocks {args.block_size}^3")
     rows = []
     for name, vol, bases, settings in scenes(args.datasets.split(",")):
         t = time.perf_counter()
-        pof = PlenopticOpacity.compute(vol, bases, threads=args.threads)
+        pof = PlenopticOpacity.compute(vol, bases, block_size=args.block_size, threads=args.threads)
         pre = time.perf_counter() - t
         n_compute = int(pof.nonempty.any(-1).sum())
         print(f"{name}: POF of {pof.nonempty.shape[:3]} blocks ({n_compute} non-empty for some basis) in {pre:.1f} s "
@@ -97,9 +98,9 @@ def main():
             t_cull = time.perf_counter() - t
             poly = visible_blocks(pof, vol, camera, size, k, encoding="poly")
             ne = table.nonempty
-            r1 = ert_oracle(vol, family, camera, size, nonempty=ne)
+            r1 = ert_oracle(vol, family, camera, size, block_size=args.block_size, nonempty=ne)
             t = time.perf_counter()
-            r2, renders = exact_sequential(vol, family, camera, size, nonempty=ne)
+            r2, renders = exact_sequential(vol, family, camera, size, block_size=args.block_size, nonempty=ne)
             t_r2 = time.perf_counter() - t
             n_ne, n_tab, n_poly, n_r2, n_r1 = (int(x.sum()) for x in (ne, table.visible, poly.visible, r2, r1))
             false = int((r1 & ~table.visible).sum())

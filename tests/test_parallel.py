@@ -122,7 +122,7 @@ def _mpiexec():
     """The mpiexec beside this Python: the mpich wheel's for pip's mpi4py, Debian's Open
     MPI one (/usr/bin) for Debian's python3-mpi4py; never a mismatched pair from PATH."""
     try:
-        import mpi4py  # noqa: F401
+        import mpi4py  # noqa: F401 (only whether it is there)
     except ImportError:
         if in_ci():
             pytest.fail("mpi4py is missing (pip install -e '.[test]' installs mpi4py and mpich)", pytrace=False)
@@ -137,9 +137,10 @@ def _mpiexec():
 
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_mpi_ranks_give_the_serial_image_bit_for_bit(ranks):
-    # Open MPI (Debian's Python uses /usr/bin/mpiexec) refuses root without these
+    # Open MPI (Debian's Python uses /usr/bin/mpiexec) refuses root, and more ranks than
+    # cores, without these; MPICH ignores them
     env = dict(os.environ, PYTHONPATH=str(REPO_ROOT), NUMBA_NUM_THREADS="1", OMPI_ALLOW_RUN_AS_ROOT="1",
-               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
     done = subprocess.run([_mpiexec(), "-n", str(ranks), sys.executable, str(REPO_ROOT / "tests" / "mpi" /
                                                                              "render_check.py")],
                           env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
@@ -147,3 +148,25 @@ def test_mpi_ranks_give_the_serial_image_bit_for_bit(ranks):
     assert done.returncode == 0, done.stdout[-4000:]
     lines = [line for line in done.stdout.splitlines() if line.startswith("OK ")]
     assert len(lines) == 4 and all(f"ranks={ranks} " in line for line in lines), done.stdout[-4000:]
+
+
+def test_command_line_precomputes_and_renders(tmp_path, capsys):
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.parallel.__main__ import main
+
+    volume, tf = _opaque_scene()
+    grid = pv.ImageData(dimensions=volume.dims)
+    grid.point_data["v"] = volume.values.reshape(-1)
+    grid.save(tmp_path / "vol.vti")
+    (tmp_path / "tf.json").write_text(__import__("json").dumps(tf.to_dict()))
+    assert main(["pof", str(tmp_path / "vol.vti"), "--tf", str(tmp_path / "tf.json"), "--block-size", "8",
+                 "-o", str(tmp_path / "vol.pof.npz")]) == 0
+    assert main(["render", str(tmp_path / "vol.vti"), "--pof", str(tmp_path / "vol.pof.npz"), "--k", "2",
+                 "--size", "40", "30", "--serial", "-o", str(tmp_path / "frame.exr")]) == 0
+    out = capsys.readouterr().out
+    assert "(5, 5, 6) blocks of 8^3, 150 non-empty, 1 bases" in out and "1 ranks" in out
+    pof = PlenopticOpacity.load(tmp_path / "vol.pof.npz")
+    camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
+    expected = render_parallel(volume, hv.TransferFunction.family([tf], [2.0]), camera, (40, 30), pof=pof, comm=None)
+    saved = hv.load(tmp_path / "frame.exr")
+    np.testing.assert_array_equal(saved.rgba, expected.rgba)

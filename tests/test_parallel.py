@@ -170,3 +170,23 @@ def test_command_line_precomputes_and_renders(tmp_path, capsys):
     expected = render_parallel(volume, hv.TransferFunction.family([tf], [2.0]), camera, (40, 30), pof=pof, comm=None)
     saved = hv.load(tmp_path / "frame.exr")
     np.testing.assert_array_equal(saved.rgba, expected.rgba)
+
+
+def test_simulation_accounts_for_every_block_and_pixel():
+    from pv_hdrvol.parallel.simulate import BlockCosts, simulate
+
+    shape = (2, 3, 4)
+    rects = {b: ((b % 4) * 10, (b // 4) * 5, 10, 5) for b in range(24)}  # a 40 x 30 image tiled by blocks
+    costs = BlockCosts(shape, (40, 30), np.ones(24, bool), np.arange(24) * 1e-3 + 1e-3, np.ones(24, int), rects,
+                       1e-5, np.ones(24, bool), 1e-8, 16)
+    rows = simulate(costs, [1, 2, 3, 4, 24], "hilbert", network=(1e-6, 1e9))
+    one = rows[0]
+    assert one["speedup"] == 1.0 and one["messages"] == 0 and one["blocks_max"] == 24
+    # one rank: every block's time, every block tested, every pixel composited once
+    assert one["render"] == pytest.approx(costs.seconds.sum())
+    assert one["cull"] == pytest.approx(24 * 1e-5)
+    assert one["composite"] == pytest.approx(24 * 50 * 1e-8)
+    for row in rows[1:]:
+        assert row["blocks_min"] * row["ranks"] <= 24 <= row["blocks_max"] * row["ranks"]
+        assert row["blocks_max"] - row["blocks_min"] <= 1 and row["speedup"] > 1
+        assert row["efficiency"] == pytest.approx(row["speedup"] / row["ranks"])

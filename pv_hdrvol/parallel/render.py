@@ -91,6 +91,27 @@ def block_rect(lo, hi, camera, size):
     return (c0, r0, c1 - c0 + 1, r1 - r0 + 1) if c1 >= c0 and r1 >= r0 else None
 
 
+def block_partials(plan, volume, camera, size, block_size, blocks):
+    """``(block, rect, image)`` for each flat block index of ``blocks`` on screen: the
+    block rendered alone (``plan.execute`` with a one-block mask) over its screen
+    rectangle ``rect = (col, row, w, h)``; ``image.metadata["samples"]`` counts its samples."""
+    opts = plan.options
+    shape = tuple(max(1, -(-max(n - 1, 1) // block_size)) for n in volume.dims[::-1])
+    render_shape = BlockGrid.of(plan.source, opts.block_size).shape
+    origin, spacing = np.asarray(volume.origin, float), np.asarray(volume.spacing, float)
+    for b in blocks:
+        idx = np.array(np.unravel_index(int(b), shape)[::-1])
+        lo_pt = idx * block_size
+        hi_pt = np.minimum(lo_pt + block_size, np.array(volume.dims) - 1)
+        rect = block_rect(origin + lo_pt * spacing, origin + hi_pt * spacing, camera, size)
+        if rect is None:
+            continue
+        one = np.zeros(shape, dtype=bool)
+        one.reshape(-1)[int(b)] = True
+        mask = expand_mask(one, block_size, opts.block_size, render_shape)
+        yield int(b), rect, plan.execute(camera, size, block_mask=mask, window=rect, progress_bar=False)
+
+
 def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD, curve="hilbert", block_size=None,
                     threshold=DEFAULT_THRESHOLD, root=0, **options):
     """Render ``volume`` with the blocks spread over the ranks of ``comm``.
@@ -169,22 +190,11 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
     order = visibility_order(shape, cam[9:12])
     position = np.empty(order.size, dtype=np.int64)
     position[order] = np.arange(order.size)
-    render_shape = BlockGrid.of(plan.source, opts.block_size).shape
-    idx = np.stack(np.unravel_index(np.arange(order.size), shape), axis=-1)[:, ::-1]
-    lo_pt = idx * bs
-    hi_pt = np.minimum(lo_pt + bs, np.array(volume.dims) - 1)
-    origin, spacing = np.asarray(volume.origin, float), np.asarray(volume.spacing, float)
     outgoing = [[] for _ in range(n_ranks)]
     rendered = 0
     samples = 0
-    for b in np.nonzero(visible & (owner.reshape(-1) == rank))[0]:
-        rect = block_rect(origin + lo_pt[b] * spacing, origin + hi_pt[b] * spacing, camera, size)
-        if rect is None:
-            continue
-        one = np.zeros(shape, dtype=bool)
-        one.reshape(-1)[b] = True
-        mask = expand_mask(one, bs, opts.block_size, render_shape)
-        part = plan.execute(camera, size, block_mask=mask, window=rect, progress_bar=False)
+    mine = np.nonzero(visible & (owner.reshape(-1) == rank))[0]
+    for b, rect, part in block_partials(plan, volume, camera, size, bs, mine):
         rendered += 1
         samples += part.metadata["samples"]
         if not part.rgba[..., 3].any():

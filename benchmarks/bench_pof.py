@@ -78,6 +78,7 @@ def main():
     parser.add_argument("--threads", type=int, default=os.cpu_count())
     parser.add_argument("--termination", type=float, default=1e-6)
     parser.add_argument("--block-size", type=int, default=16)
+    parser.add_argument("--chord-min", type=float, default=1.0)
     args = parser.parse_args()
     size = (args.size, args.size)
     print(f"# bench_pof: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
@@ -85,7 +86,8 @@ def main():
     rows = []
     for name, vol, bases, settings in scenes(args.datasets.split(",")):
         t = time.perf_counter()
-        pof = PlenopticOpacity.compute(vol, bases, block_size=args.block_size, threads=args.threads)
+        pof = PlenopticOpacity.compute(vol, bases, block_size=args.block_size, chord_min=args.chord_min,
+                                       threads=args.threads)
         pre = time.perf_counter() - t
         n_compute = int(pof.nonempty.any(-1).sum())
         print(f"{name}: POF of {pof.nonempty.shape[:3]} blocks ({n_compute} non-empty for some basis) in {pre:.1f} s "

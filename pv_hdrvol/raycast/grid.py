@@ -13,9 +13,9 @@ from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, 
 from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction, auto_transfer_function,
                              scale_forward)
 from ..image.hdr import HDRImage
-from .._validate import as_int, as_size
+from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
-from ..rays.camera import Camera, Rays, as_camera
+from ..rays.camera import Camera, Rays, as_camera, check_window
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
@@ -423,12 +423,7 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
 
 def _window_rays(rays, window):
     """The rays of ``window = (col, row, width, height)``, a rectangle of ``rays``' image."""
-    if isinstance(window, (str, bytes)) or not hasattr(window, "__len__") or len(window) != 4:
-        raise TypeError(f"window must be (col, row, width, height); got {window!r}")
-    col, row = (as_int(f"window[{k}]", window[k], low=0) for k in (0, 1))
-    w, h = (as_int(f"window[{k}]", window[k], low=1) for k in (2, 3))
-    if col + w > rays.width or row + h > rays.height:
-        raise ValueError(f"window {tuple(window)} reaches outside the {rays.width}x{rays.height} image")
+    col, row, w, h = check_window(window, rays.width, rays.height)
 
     def cut(a, k):
         return np.ascontiguousarray(a.reshape(rays.height, rays.width, k)[row:row + h, col:col + w].reshape(-1, k))
@@ -543,8 +538,8 @@ class GridPlan:
 
         ``window=(col, row, width, height)``: render only that rectangle of the image of
         ``size`` (a tile: sort-first parallel rendering, a region refined first); the
-        result is that window, pixel for pixel the same as the full render's. The
-        window's rays are cut from the whole image's (48 bytes a pixel of ``size``).
+        result is that window, pixel for pixel the same as the full render's (a camera
+        makes only the window's rays; given rays are cut).
         """
         tf, opts, table, sigma = self.tf, self.options, self.table, self.sigma
         camera = as_camera(camera, self.source.bounds)
@@ -562,7 +557,7 @@ class GridPlan:
             rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
         width, height = (rays.width, rays.height) if rays is not None else as_size(size)
         if window is not None:
-            rays = _window_rays(rays if rays is not None else camera.rays((width, height)), window)
+            rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
             width, height = rays.width, rays.height
         lod = _check_lod(rays) if rays is not None else None
         prec = opts.precision

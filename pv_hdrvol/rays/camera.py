@@ -7,7 +7,19 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .._validate import as_choice, as_real, as_size, as_vector
+from .._validate import as_choice, as_int, as_real, as_size, as_vector
+
+
+def check_window(window, width, height):
+    """``(col, row, w, h)`` as ints after checking it is a rectangle inside a ``width x
+    height`` image."""
+    if isinstance(window, (str, bytes)) or not hasattr(window, "__len__") or len(window) != 4:
+        raise TypeError(f"window must be (col, row, width, height); got {window!r}")
+    col, row = (as_int(f"window[{k}]", window[k], low=0) for k in (0, 1))
+    w, h = (as_int(f"window[{k}]", window[k], low=1) for k in (2, 3))
+    if col + w > width or row + h > height:
+        raise ValueError(f"window {tuple(window)} reaches outside the {width}x{height} image")
+    return col, row, w, h
 
 
 class Rays(NamedTuple):
@@ -112,12 +124,15 @@ class Camera:
         """Distance from position to focal point."""
         return float(np.linalg.norm(np.subtract(self.focal_point, self.position)))
 
-    def rays(self, size):
+    def rays(self, size, window=None):
         """One ray through the centre of each pixel.
 
         Parameters
         ----------
         size : int or (width, height)
+        window : (col, row, width, height), optional
+            Only the rays of this rectangle of the image (the same values as cutting
+            them out of the whole image's, without making those).
 
         Returns
         -------
@@ -126,11 +141,13 @@ class Camera:
             parallel rays start on the plane through ``position`` normal to the view.
         """
         w, h = as_size(size)
+        col, row, ww, wh = (0, 0, w, h) if window is None else check_window(window, w, h)
         right, up, fwd = self.basis()
         half_h = self.parallel_scale if self.parallel_projection else math.tan(math.radians(self.view_angle) / 2)
         half_w = half_h * w / h
-        x = ((np.arange(w) + 0.5) * (2.0 / w) - 1.0) * half_w
-        y = (1.0 - (np.arange(h) + 0.5) * (2.0 / h)) * half_h
+        x = ((np.arange(col, col + ww) + 0.5) * (2.0 / w) - 1.0) * half_w
+        y = (1.0 - (np.arange(row, row + wh) + 0.5) * (2.0 / h)) * half_h
+        w, h = ww, wh
         pos = np.asarray(self.position)
         grid = x[None, :, None] * right + y[:, None, None] * up  # (h, w, 3)
         if self.parallel_projection:

@@ -362,3 +362,35 @@ def test_matplotlib_stays_out_of_a_render_without_colorbar(volume_file, tmp_path
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env)
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines()[-1] == "[]"
+
+
+def test_render_with_pof_culls_and_matches_library(tmp_path, capsys):
+    from pv_hdrvol.culling.pof import PlenopticOpacity
+
+    rng = np.random.default_rng(11)
+    grid = pv.ImageData(dimensions=(45, 37, 40))
+    grid.point_data["v"] = 0.6 + 0.4 * rng.random(grid.n_points)
+    path = tmp_path / "opaque.vti"
+    grid.save(path)
+    tf = hv.TransferFunction([0.0, 0.5, 1.0], [[1, 0.5, 0.2], [0.2, 0.5, 1], [1, 1, 1]], [0.0, 0.9, 0.99])
+    pof = PlenopticOpacity.compute(grid, [tf], block_size=8)
+    pof.save(tmp_path / "opaque.pof.npz")
+    out_exr = tmp_path / "c.exr"
+    assert main(["render", str(path), "--pof", str(tmp_path / "opaque.pof.npz"), "--k", "1.5", "--size", "40", "32",
+                 "-o", str(out_exr), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    family = hv.TransferFunction.family([tf], [1.5])
+    ref = hv.render(grid, family, hv.Camera.fit(grid.bounds, "iso", parallel_projection=True), (40, 32), cull=pof)
+    image = hv.load(out_exr)
+    np.testing.assert_array_equal(image.rgba, ref.rgba)
+    stats = ref.metadata["culling"]
+    assert stats["culled"] > 0
+    assert _stat_line(out, "culled blocks").startswith(f"{stats['culled']} of {stats['nonempty']} non-empty")
+    for extra, message in ((["--cmap", "gray"], "--pof renders the family of its bases"),
+                           (["--k", "1", "2"], "k must have one weight per basis")):
+        with pytest.raises(SystemExit):
+            main(["render", str(path), "--pof", str(tmp_path / "opaque.pof.npz"), "-o", str(out_exr), *extra])
+        assert message in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["render", str(path), "--k", "1", "-o", str(out_exr)])
+    assert "--k weighs the bases of --pof; give --pof FILE.npz" in capsys.readouterr().err

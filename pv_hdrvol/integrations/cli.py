@@ -115,6 +115,12 @@ def build_parser():
     tf.add_argument("--scale", choices=SCALES, default=None,
                     help="axis (default: log when the positive data span > 3 decades)")
     p.set_defaults(handler=_cmd_render, subparser=p)
+    g = p.add_argument_group("visibility culling (image volumes; an orthographic camera; docs/culling.md)")
+    g.add_argument("--pof", default=None, metavar="FILE.npz",
+                   help="plenoptic opacity functions of this volume (python -m pv_hdrvol.parallel pof): render the "
+                        "family of their bases and skip the blocks they show hidden")
+    g.add_argument("--k", type=float, nargs="+", default=None, metavar="K",
+                   help="the family's weights, one per basis of --pof (default all 1)")
 
     p = sub.add_parser("demo", help="render the hydrogen 3d_z2 orbital (no input needed)",
                        description="Render pv_hdrvol.datasets.hydrogen_orbital() with its demo transfer function "
@@ -212,11 +218,16 @@ def _cmd_render(args):
     except (ScalarsError, ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
     tf = _transfer_function(args, volume)
+    cull = None
+    if args.pof is not None:
+        tf, cull = _culling(args, volume, tf)
+    elif args.k is not None:
+        raise UserError("--k weighs the bases of --pof; give --pof FILE.npz")
     if tf is None and args.colorbar:  # the bar needs the function the core would choose
         from ..raycast.grid import default_transfer_function
 
         tf = default_transfer_function(volume)
-    image = _render(args, volume, tf, default_view="iso")
+    image = _render(args, volume, tf, default_view="iso", cull=cull)
     image.metadata["source_file"] = str(path)
     _write(image, output, png, args, tf, volume.name.strip())
     shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
@@ -340,7 +351,26 @@ def _lens(args):
     return None
 
 
-def _render(args, volume, tf, default_view, zoom=1.0):
+def _culling(args, volume, tf):
+    """``(family, pof)`` of ``--pof`` and ``--k``."""
+    from ..culling.pof import PlenopticOpacity
+    from ..data.transfer import TransferFunction
+
+    if tf is not None:
+        raise UserError("--pof renders the family of its bases: leave out --cmap, --clim, --opacity and --scale")
+    if hasattr(volume, "n_cells"):
+        raise UserError("--pof culls blocks of image data; tetrahedral meshes have none")
+    path = _existing_file(args.pof)
+    try:
+        pof = PlenopticOpacity.load(path)
+        pof.check_volume(volume)
+        family = TransferFunction.family(pof.bases, args.k)
+    except (ValueError, TypeError, OSError, KeyError) as exc:
+        raise UserError(f"--pof {str(path)!r}: {exc}") from None
+    return family, pof
+
+
+def _render(args, volume, tf, default_view, zoom=1.0, cull=None):
     from .. import Camera, render
     from ..raycast.memory import RenderMemoryError
 
@@ -352,10 +382,13 @@ def _render(args, volume, tf, default_view, zoom=1.0):
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         size = _size(args.size)
-        camera = Camera.fit(volume.bounds, args.view or default_view, zoom=zoom)
+        # culling's visibility order and block opacities are the orthographic ones
+        camera = Camera.fit(volume.bounds, args.view or default_view, zoom=zoom, parallel_projection=cull is not None)
         lens = _lens(args)
         if lens is not None:
             options["lens"] = lens
+        if cull is not None:
+            options["cull"] = cull
         return render(volume, tf, camera, size, progress_bar=progress, **options)
     except (ValueError, TypeError, RenderMemoryError) as exc:  # a too large --size is a user error too
         raise UserError(str(exc)) from None
@@ -505,6 +538,10 @@ def _print_stats(image, title):
     print(f"  distinct luminance levels:  {s['distinct_luminance_levels']}")
     if s["nan_pixels"]:
         print(f"  NaN pixels:                 {s['nan_pixels']}")
+    culling = image.metadata.get("culling")
+    if isinstance(culling, dict):
+        print(f"  culled blocks:              {culling['culled']} of {culling['nonempty']} non-empty "
+              f"({culling['culled_fraction']:.1%}), in {culling['seconds'] * 1e3:.1f} ms")
 
 
 if __name__ == "__main__":  # pragma: no cover

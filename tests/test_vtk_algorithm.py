@@ -296,3 +296,33 @@ def test_an_extent_that_does_not_start_at_zero_is_placed_where_vtk_places_it():
     b = hv.render(moved, tf, camera, (12, 10), progress_bar=False)
     assert a.rgba[..., 3].max() > 0.1
     np.testing.assert_array_equal(a.rgba, b.rgba)
+
+
+def test_cull_with_plenoptic_opacity():
+    """SetCull(pof): the same pixels and counts as hv.render(..., cull=pof)."""
+    from pv_hdrvol.culling.pof import PlenopticOpacity
+
+    rng = np.random.default_rng(11)
+    img = vtkImageData()
+    img.SetDimensions(33, 33, 33)
+    arr = numpy_to_vtk(0.6 + 0.4 * rng.random(33**3), deep=True)
+    arr.SetName("v")
+    img.GetPointData().SetScalars(arr)
+    tf = hv.TransferFunction([0.0, 0.5, 1.0], [[1, 0.5, 0.2], [0.2, 0.5, 1], [1, 1, 1]], [0.0, 0.9, 0.99])
+    pof = PlenopticOpacity.compute(img, [tf], block_size=8)
+    family = hv.TransferFunction.family([tf], [1.2])
+    cam = hv.Camera.fit(img.GetBounds(), "iso", parallel_projection=True)
+    alg = _renderer(img)
+    alg.SetTransferFunction(family)
+    alg.SetCamera({"position": cam.position, "focal_point": cam.focal_point, "view_up": cam.view_up,
+                   "parallel_projection": True, "parallel_scale": cam.parallel_scale})
+    alg.SetCull(pof)
+    assert alg.GetCull() is pof
+    alg.Update()
+    ref = hv.render(img, family, cam, (W, H), cull=pof)
+    assert ref.metadata["culling"]["culled"] > 0
+    out = hv.HDRImage.from_pyvista(alg.GetOutput())
+    np.testing.assert_array_equal(out.rgba, ref.rgba)
+    assert out.metadata["culling"]["culled"] == ref.metadata["culling"]["culled"]
+    with pytest.raises(TypeError, match="cull must be a PlenopticOpacity or Culling, or None; got str"):
+        alg.SetCull("head.pof.npz")

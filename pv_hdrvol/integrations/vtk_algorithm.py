@@ -182,6 +182,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._default_tf = None  # (data, keywords, the data's default transfer function)
         self._camera = None
         self._lens = None
+        self._cull = None
         self._labels = None
         self._label_styles = None
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
@@ -450,6 +451,22 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         """The lens set last, or ``None``."""
         return self._lens
 
+    def SetCull(self, cull):
+        """Visibility culling of image data: a :class:`~pv_hdrvol.culling.pof.PlenopticOpacity`
+        of the input (or a ``Culling`` with its threshold), or ``None``. The transfer
+        function must then be a family of its bases (``SetTransferFunction(
+        TransferFunction.family(pof.bases, k))``) and the camera orthographic; the
+        output's metadata hold the culling's counts (docs/culling.md)."""
+        if cull is not None and not callable(getattr(cull, "mask_for", None)):
+            raise TypeError(f"cull must be a PlenopticOpacity or Culling, or None; got {type(cull).__name__}")
+        if cull is not self._cull:
+            self._cull = cull
+            self.Modified()
+
+    def GetCull(self):
+        """The culling set last, or ``None``."""
+        return self._cull
+
     def SetLabels(self, name, styles=None):
         """Two-level rendering: the input's array ``name`` (same association as the
         scalars) labels the voxels and ``styles`` (``{label: tf | blending | (tf,
@@ -524,8 +541,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                 or inp.GetNumberOfPoints() == 0:
             raise ValueError(f"HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on input "
                              f"port 0; got {'nothing' if inp is None else kind}")
-        if kind == "vtkUnstructuredGrid" and (self._lens is not None or self._labels is not None):
-            raise ValueError("SetLens and SetLabels apply to image data only, not to tetrahedral meshes")
+        if kind == "vtkUnstructuredGrid" and (self._lens is not None or self._labels is not None
+                                              or self._cull is not None):
+            raise ValueError("SetLens, SetLabels and SetCull apply to image data only, not to tetrahedral meshes")
         scalars, preference = self._scalars_to_render()
         camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
                            inp.GetBounds())
@@ -552,7 +570,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                 image = plan.execute(camera, self._size, progress=progress, progress_bar=False)
             else:
                 # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm
-                image = plan.execute(camera, self._size, lens=self._lens, progress=progress, progress_bar=False)
+                image = plan.execute(camera, self._size, lens=self._lens, cull=self._cull, progress=progress,
+                                     progress_bar=False)
         except RuntimeError:
             if self._should_abort():
                 out.Initialize()  # an aborted render leaves no output

@@ -115,7 +115,7 @@ def test_tetrahedral_mesh_input():
     np.testing.assert_array_equal(depth, ref.depth)
     alg.SetLens(hv.Fisheye())
     assert not alg.Update()
-    assert alg.GetLastError() == ("ValueError: SetLens and SetLabels apply to image data only, not to "
+    assert alg.GetLastError() == ("ValueError: SetLens, SetLabels and SetCull apply to image data only, not to "
                                   "tetrahedral meshes")
 
 

@@ -128,6 +128,8 @@ if HDRVolumeRenderer is not None:
             self._cmap = self._scale = None  # the default transfer function's keywords
             self._lut = None
             self._opacity_function = None
+            self._pof_file, self._pof_weights = "", ""
+            self._pof = None  # (path, modification time, PlenopticOpacity)
             self._display = vtk_image.HDRToneMapper()
             self._display_operator = "reinhard"
             self._push_camera()
@@ -305,6 +307,43 @@ if HDRVolumeRenderer is not None:
             HDRVolumeRenderer.SetScalarOpacityFunction(self, None if lut is None else self._opacity_function)
             HDRVolumeRenderer.SetCmap(self, self._cmap if default else None)
             HDRVolumeRenderer.SetScale(self, self._scale if default else None)
+
+        # -- visibility culling -----------------------------------------------------
+        @smproperty.stringvector(name="POFFile", label="POF File", default_values="", number_of_elements=1)
+        @smdomain.filelist()
+        @smhint.filechooser(extensions="npz", file_description="plenoptic opacity functions")
+        @smdomain.xml(_documentation(
+            "Plenoptic opacity functions of the input (python -m pv_hdrvol.parallel pof): render the family "
+            "of their bases, weighted by Family Weights, and skip the blocks they show hidden. Image data "
+            "and a parallel projection only; the colour map is not used. Empty: no culling."))
+        def SetPOFFile(self, value):
+            self._pof_file = value or ""
+            self._push_culling()
+
+        @smproperty.stringvector(name="FamilyWeights", label="Family Weights", default_values="",
+                                 number_of_elements=1)
+        @smdomain.xml(_documentation("The weight k_i >= 0 of each basis of the POF File, comma-separated "
+                                     "(empty: all 1)."))
+        def SetFamilyWeights(self, value):
+            self._pof_weights = value or ""
+            self._push_culling()
+
+        def _push_culling(self):
+            if not self._pof_file:
+                HDRVolumeRenderer.SetCull(self, None)
+                HDRVolumeRenderer.SetTransferFunction(self, None)
+                return
+            from pv_hdrvol import TransferFunction
+            from pv_hdrvol.culling.pof import PlenopticOpacity
+
+            stamp = os.path.getmtime(self._pof_file)
+            if self._pof is None or self._pof[:2] != (self._pof_file, stamp):
+                self._pof = (self._pof_file, stamp, PlenopticOpacity.load(self._pof_file))
+            pof = self._pof[2]
+            text = self._pof_weights.replace(";", ",")
+            weights = [float(x) for x in text.split(",") if x.strip()] or None
+            HDRVolumeRenderer.SetTransferFunction(self, TransferFunction.family(pof.bases, weights))
+            HDRVolumeRenderer.SetCull(self, pof)
 
         # -- the camera -------------------------------------------------------------
         @smproperty.stringvector(name="Camera", default_values="Render View", number_of_elements=1)

@@ -213,3 +213,37 @@ def test_a_deleted_filter_is_freed(plugin, shared_data):
     gc.collect()
     assert algorithm() is None  # no observer keeps it (and its render plan) alive
     simple.Delete(view)
+
+
+def test_pof_file_culls_with_the_family_of_its_bases(plugin, tmp_path):
+    """POF File + Family Weights: the family of the POF's bases, culled, as hv.render(cull=)."""
+    from pv_hdrvol.culling.pof import PlenopticOpacity
+
+    wavelet = simple.Wavelet(WholeExtent=[0, 32, 0, 32, 0, 32])  # 4^3 blocks of 8^3
+    wavelet.UpdatePipeline()
+    data = servermanager.Fetch(wavelet)
+    tf = hv.TransferFunction([30.0, 100.0, 280.0], [[1, 0.5, 0.2], [1, 0.8, 0.5], [1, 1, 1]], [0.9, 0.95, 0.99])
+    pof = PlenopticOpacity.compute(data, [tf], block_size=8, threads=1)
+    path = tmp_path / "wavelet.pof.npz"
+    pof.save(path)
+    view = simple.CreateView("RenderView")
+    view.CameraParallelProjection = 1
+    simple.SetActiveView(view)
+    simple.Show(wavelet, view)
+    simple.ResetCamera(view)
+    render = plugin["HDRVolumeRender"](Input=wavelet, ImageSize=[40, 32])
+    render.POFFile = str(path)
+    render.FamilyWeights = "1.5"
+    image = _image(render)
+    culling = image.metadata["culling"]
+    assert culling["culled"] > 0, culling
+    camera = image.settings(partial=True).camera  # the POF itself is not a setting
+    assert camera.parallel_projection and list(camera.position) == list(view.CameraPosition)
+    family = hv.TransferFunction.family([tf], [1.5])
+    direct = hv.render(data, family, camera, (40, 32), scalars="RTData", cull=pof, progress_bar=False)
+    np.testing.assert_array_equal(image.rgba, direct.rgba)
+    assert direct.metadata["culling"]["culled"] == culling["culled"]
+    render.POFFile = ""  # off: the colour map again, no culling
+    assert "culling" not in _image(render).metadata
+    simple.Delete(render)
+    simple.Delete(view)

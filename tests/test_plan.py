@@ -100,3 +100,26 @@ def test_a_window_is_the_full_render_cut(volume, kwargs):
         plan.execute("iso", (24, 20), window=(20, 0, 5, 5))
     with pytest.raises(TypeError, match=r"window must be \(col, row, width, height\); got 3"):
         plan.execute("iso", (24, 20), window=3)
+
+
+def test_box_mask_leap_radii_are_safe():
+    """A one-box block mask (a block of a parallel render) takes its leap radii from the
+    box: 0 on active blocks, never larger than the dilation's (so no active block is
+    leapt over)."""
+    from pv_hdrvol.raycast.grid import _box_leap_radius, _mask_box, leap_radius
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        shape = tuple(rng.integers(1, 9, size=3))
+        lo = np.array([rng.integers(0, n) for n in shape])
+        hi = np.array([rng.integers(a, n) for a, n in zip(lo, shape)])
+        mask = np.zeros(shape, bool)
+        mask[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1, lo[2]:hi[2] + 1] = True
+        active = mask & (rng.random(shape) < 0.6)
+        box = _mask_box(mask)
+        assert box is not None and np.array_equal(box[0], lo) and np.array_equal(box[1], hi)
+        fast, exact = _box_leap_radius(active, box), leap_radius(active)
+        assert np.array_equal(fast == 0, active) and np.all(fast <= np.maximum(exact, 1))
+    two = np.zeros((3, 3, 3), bool)
+    two[0, 0, 0] = two[2, 2, 2] = True
+    assert _mask_box(two) is None

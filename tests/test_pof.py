@@ -24,7 +24,7 @@ def _min_depth(values, frame, lo, hi, pitch=1.0, step=1.0, chord_min=1.0, tf=FLA
     a0, a1 = tf.axis_range
     out = np.empty((1, 1))
     K.block_min_depth(np.ascontiguousarray(values, dtype=np.float64), np.ones(3), sigma, 0, 1.0, a0, 1 / (a1 - a0),
-                      np.array(lo), np.array(hi), np.array([frame], dtype=np.float64), pitch, step, chord_min, out)
+                      np.array(lo), np.array(hi), np.array([frame], dtype=np.float64), pitch, step, chord_min, False, out)
     return out[0, 0]
 
 
@@ -221,3 +221,25 @@ def test_cull_refuses_what_it_cannot_bound():
         hv.render(volume, tf, hv.Camera.fit(volume.bounds, "iso"), (8, 8), cull=pof, progress_bar=False)
     with pytest.raises(TypeError, match="cull must be a PlenopticOpacity or Culling; got str"):
         hv.render(volume, tf, camera, (8, 8), cull="pof", progress_bar=False)
+
+
+def test_a_tiny_block_without_footprint_pixels_gets_zero_not_one():
+    """A corner block one cell on each side has, at most views, no pixel crossing it over
+    chord_min: its POF is 0 there (nothing known), never 1."""
+    values = np.full((18, 18, 18), 5.0)  # block (1, 1, 1) holds the single cell 16..17 on each axis
+    pof = PlenopticOpacity.compute(values, [FLAT], block_size=16, threads=1)
+    tiny = pof.table[1, 1, 1, 0]
+    assert tiny.max() <= math.floor(255 * (1 - math.exp(-SIGMA * math.sqrt(3))))  # no chord is longer
+    assert (tiny == 0).any()
+
+
+def test_nonempty_pixel_footprint_is_the_papers_unsafe_reading():
+    """footprint="nonempty_pixels" ignores the pixels where the basis is 0: a half-empty
+    block gets its full half's opacity (higher than the conservative minimum)."""
+    values = np.full((17, 17, 17), 5.0)
+    values[:, :, :9] = -1.0  # the x < 8 half is below the function's range: opacity 0
+    zero_below = hv.TransferFunction([0.0, 4.0, 10.0], [[1, 1, 1]] * 3, [0.0, 0.0, 0.5])
+    safe = PlenopticOpacity.compute(values, [zero_below], threads=1)
+    paper = PlenopticOpacity.compute(values, [zero_below], footprint="nonempty_pixels", threads=1)
+    assert safe.table.max() == 0  # every view has pixels through the empty half only
+    assert np.all(paper.table >= safe.table) and paper.table.max() > 100

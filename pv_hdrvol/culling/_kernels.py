@@ -74,7 +74,7 @@ def _chord(ox, oy, oz, dx, dy, dz, lo, hi):
 
 @kernel
 def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv, lo_index, hi_index, frames, pitch,
-                    step, chord_min, out):
+                    step, chord_min, skip_empty_pixels, out):
     """Smallest optical depth of one block over its footprint, for every view and basis.
 
     ``values`` (z, y, x) the whole volume (so samples near the block's faces read their
@@ -85,8 +85,10 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
     view plane through the world origin; a pixel belongs to the footprint when its ray's
     chord through the block is at least ``chord_min`` (> 0). Samples at the midpoints
     of segments of length ``step`` from the block's entry, the last one shorter, as the
-    ray caster marches. NaN samples are empty. ``out`` (V, p) receives the minimum
-    optical depth (``inf`` when no pixel qualifies).
+    ray caster marches. NaN samples are empty. ``skip_empty_pixels``: a basis's minimum
+    ignores pixels where it is 0 (the paper's "non-empty pixels" reading: not
+    conservative). ``out`` (V, p) receives the minimum optical depth (``inf`` when no
+    pixel qualifies).
     """
     n_views = frames.shape[0]
     p = sigma.shape[0]
@@ -157,7 +159,7 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
                     if above:  # depth only grows along the ray: this pixel cannot lower a minimum
                         break
                 for q in range(p):
-                    if depth[q] < out[v, q]:
+                    if depth[q] < out[v, q] and not (skip_empty_pixels and depth[q] == 0.0):
                         out[v, q] = depth[q]
 
 

@@ -79,15 +79,18 @@ def main():
     parser.add_argument("--termination", type=float, default=1e-6)
     parser.add_argument("--block-size", type=int, default=16)
     parser.add_argument("--chord-min", type=float, default=1.0)
+    parser.add_argument("--footprint", default="chord", choices=("chord", "nonempty_pixels"),
+                        help="nonempty_pixels: the paper's unsafe reading (false culls are counted)")
     args = parser.parse_args()
     size = (args.size, args.size)
     print(f"# bench_pof: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"load {os.getloadavg()[0]:.2f}, size {args.size}, threads {args.threads}, blocks {args.block_size}^3")
+          f"load {os.getloadavg()[0]:.2f}, size {args.size}, threads {args.threads}, blocks {args.block_size}^3, "
+          f"footprint {args.footprint}, chord_min {args.chord_min}")
     rows = []
     for name, vol, bases, settings in scenes(args.datasets.split(",")):
         t = time.perf_counter()
         pof = PlenopticOpacity.compute(vol, bases, block_size=args.block_size, chord_min=args.chord_min,
-                                       threads=args.threads)
+                                       footprint=args.footprint, threads=args.threads)
         pre = time.perf_counter() - t
         n_compute = int(pof.nonempty.any(-1).sum())
         print(f"{name}: POF of {pof.nonempty.shape[:3]} blocks ({n_compute} non-empty for some basis) in {pre:.1f} s "

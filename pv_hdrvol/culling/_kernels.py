@@ -6,28 +6,7 @@ import math
 import numpy as np
 
 from .._jit import kernel
-
-LINEAR, LOG, SYMLOG = 0, 1, 2
-
-
-@kernel
-def _position(v, scale, linthresh, axis_lo, axis_inv):
-    """Position in [0, 1] of ``v`` on a transfer function's axis."""
-    if scale == LOG:
-        if v > 0.0:
-            a = math.log10(v)
-        else:
-            return 0.0
-    elif scale == SYMLOG:
-        a = math.copysign(math.log10(1.0 + abs(v) / linthresh), v)
-    else:
-        a = v
-    u = (a - axis_lo) * axis_inv
-    if u < 0.0:
-        return 0.0
-    if u > 1.0:
-        return 1.0
-    return u
+from ..raycast._kernels_ext import _position  # (v, scale code, axis low, 1 / axis range, linthresh)
 
 
 @kernel
@@ -50,6 +29,27 @@ def _trilinear(values, x, y, z):
     c0 = c00 + fy * (c10 - c00)
     c1 = c01 + fy * (c11 - c01)
     return c0 + fz * (c1 - c0)
+
+
+@kernel
+def _project_box(lo, hi, px, py, pz, rx, ry, rz, ux, uy, uz):
+    """``(u0, u1, w0, w1)``: the extent along ``right`` and ``up`` of the box ``[lo, hi]``
+    seen from ``p`` (orthographic)."""
+    u0 = math.inf
+    u1 = -math.inf
+    w0 = math.inf
+    w1 = -math.inf
+    for c in range(8):
+        qx = (hi[0] if c & 1 else lo[0]) - px
+        qy = (hi[1] if c & 2 else lo[1]) - py
+        qz = (hi[2] if c & 4 else lo[2]) - pz
+        pu = qx * rx + qy * ry + qz * rz
+        pw = qx * ux + qy * uy + qz * uz
+        u0 = min(u0, pu)
+        u1 = max(u1, pu)
+        w0 = min(w0, pw)
+        w1 = max(w1, pw)
+    return u0, u1, w0, w1
 
 
 @kernel
@@ -108,20 +108,7 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
         dx, dy, dz = frames[v, 0], frames[v, 1], frames[v, 2]
         rx, ry, rz = frames[v, 3], frames[v, 4], frames[v, 5]
         ux, uy, uz = frames[v, 6], frames[v, 7], frames[v, 8]
-        u0 = math.inf
-        u1 = -math.inf
-        w0 = math.inf
-        w1 = -math.inf
-        for c in range(8):
-            px = hi[0] if c & 1 else lo[0]
-            py = hi[1] if c & 2 else lo[1]
-            pz = hi[2] if c & 4 else lo[2]
-            pu = px * rx + py * ry + pz * rz
-            pw = px * ux + py * uy + pz * uz
-            u0 = min(u0, pu)
-            u1 = max(u1, pu)
-            w0 = min(w0, pw)
-            w1 = max(w1, pw)
+        u0, u1, w0, w1 = _project_box(lo, hi, 0.0, 0.0, 0.0, rx, ry, rz, ux, uy, uz)
         back = cx * dx + cy * dy + cz * dz - radius
         ex, ey, ez = dx * inv_x, dy * inv_y, dz * inv_z
         for q in range(p):
@@ -148,7 +135,7 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
                     s = _trilinear(values, vx + tm * ex, vy + tm * ey, vz + tm * ez)
                     if s != s:
                         continue
-                    x = _position(s, scale, linthresh, axis_lo, axis_inv) * (n - 1)
+                    x = _position(s, scale, axis_lo, axis_inv, linthresh) * (n - 1)
                     e = min(int(x), n - 2)
                     f = x - e
                     above = True
@@ -195,20 +182,7 @@ def cull_blocks(order, lo_world, hi_world, alpha, camera, width, height, window,
             hi[a] = hi_world[b, a]
             glo[a] = lo[a] - halo
             ghi[a] = hi[a] + halo
-        u0 = math.inf
-        u1 = -math.inf
-        w0 = math.inf
-        w1 = -math.inf
-        for c in range(8):
-            qx = (ghi[0] if c & 1 else glo[0]) - px
-            qy = (ghi[1] if c & 2 else glo[1]) - py
-            qz = (ghi[2] if c & 4 else glo[2]) - pz
-            pu = qx * rx + qy * ry + qz * rz
-            pw = qx * ux + qy * uy + qz * uz
-            u0 = min(u0, pu)
-            u1 = max(u1, pu)
-            w0 = min(w0, pw)
-            w1 = max(w1, pw)
+        u0, u1, w0, w1 = _project_box(glo, ghi, px, py, pz, rx, ry, rz, ux, uy, uz)
         # columns: x = (col + 1/2) pitch_x - half_w; rows: y = half_h - (row + 1/2) pitch_y
         c0 = max(window[0], int(math.ceil((u0 + half_w) / pitch_x - 0.5)))
         c1 = min(window[2], int(math.floor((u1 + half_w) / pitch_x - 0.5)))

@@ -336,6 +336,9 @@ if HDRVolumeRenderer is not None:
             from pv_hdrvol import TransferFunction
             from pv_hdrvol.culling.pof import PlenopticOpacity
 
+            if not os.path.isfile(self._pof_file):
+                raise ValueError(f"POF File {self._pof_file!r} is not a file (python -m pv_hdrvol.parallel pof "
+                                 f"writes one)")
             stamp = os.path.getmtime(self._pof_file)
             if self._pof is None or self._pof[:2] != (self._pof_file, stamp):
                 self._pof = (self._pof_file, stamp, PlenopticOpacity.load(self._pof_file))

@@ -147,7 +147,7 @@ def test_mpi_ranks_give_the_serial_image_bit_for_bit(ranks):
                           timeout=600)
     assert done.returncode == 0, done.stdout[-4000:]
     lines = [line for line in done.stdout.splitlines() if line.startswith("OK ")]
-    assert len(lines) == 4 and all(f"ranks={ranks} " in line for line in lines), done.stdout[-4000:]
+    assert len(lines) == 5 and all(f"ranks={ranks} " in line for line in lines), done.stdout[-4000:]
 
 
 def test_command_line_precomputes_and_renders(tmp_path, capsys):

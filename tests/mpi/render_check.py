@@ -51,9 +51,27 @@ def main():
                   f"visible={image.metadata['parallel']['visible']} rel_err_vs_single_pass={err:.3g}", flush=True)
 
 
+def one_block_scene(comm):
+    """Every rank but one holds no visible block: they send nothing and still composite
+    and gather their tiles."""
+    values = np.zeros((40, 37, 45))
+    values[18:22, 18:22, 18:22] = 1.0  # inside one 8^3 block only
+    tf = hv.TransferFunction([0.0, 0.5, 1.0], [[1, 1, 1]] * 3, [0.0, 0.0, 0.5])
+    volume = as_volume(values)
+    camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
+    image = render_parallel(volume, tf, camera, (50, 41), comm=comm, block_size=8, precision="float64")
+    if comm.rank == 0:
+        serial = render_parallel(volume, tf, camera, (50, 41), comm=None, block_size=8, precision="float64")
+        assert np.array_equal(image.rgba, serial.rgba) and image.rgba[..., 3].max() > 0.1
+        rendered = [r["rendered"] for r in image.metadata["parallel"]["per_rank"]]
+        assert sorted(rendered) == [0] * (comm.size - 1) + [1], rendered
+        print(f"OK ranks={comm.size} one visible block, rendered per rank {rendered}", flush=True)
+
+
 if __name__ == "__main__":
     try:
         main()
+        one_block_scene(MPI.COMM_WORLD)
     except BaseException:
         traceback.print_exc()
         sys.stdout.flush()

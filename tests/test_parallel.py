@@ -190,3 +190,15 @@ def test_simulation_accounts_for_every_block_and_pixel():
         assert row["blocks_min"] * row["ranks"] <= 24 <= row["blocks_max"] * row["ranks"]
         assert row["blocks_max"] - row["blocks_min"] <= 1 and row["speedup"] > 1
         assert row["efficiency"] == pytest.approx(row["speedup"] / row["ranks"])
+
+
+def test_a_failing_rank_ends_the_job_instead_of_hanging_it():
+    """Rank 1 raises before the first collective; rank 0 would wait in it forever. The
+    script's MPI.COMM_WORLD.Abort ends the whole job with a non-zero status."""
+    env = dict(os.environ, PYTHONPATH=str(REPO_ROOT), NUMBA_NUM_THREADS="1", OMPI_ALLOW_RUN_AS_ROOT="1",
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", PV_HDRVOL_FAIL_RANK="1")
+    done = subprocess.run([_mpiexec(), "-n", "2", sys.executable, str(REPO_ROOT / "tests" / "mpi" / "render_check.py")],
+                          env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          timeout=300)
+    assert done.returncode != 0
+    assert "rank 1 fails on purpose" in done.stdout

@@ -242,6 +242,20 @@ def _active_blocks(minimum, maximum, opts, styles, table, params):
     return _visible(minimum, maximum, table[:, 3], params)
 
 
+def _base_active(volume, blocks, opts, styles, table, params):
+    """``_active_blocks`` without a mask, cached on the volume like the skip structures:
+    the renders of one scene under many masks (each block of a parallel render, each
+    culling) classify the block grid once (12 ms for the engine's 131,072 blocks)."""
+    def build():
+        return _active_blocks(blocks.minimum, blocks.maximum, opts, styles, table, params)
+
+    if styles is not None:
+        return build()
+    key = (blocks.block_size, opts.blending, opts.skip_empty, params.scale, params.axis_lo, params.axis_inv_range,
+           params.linthresh, params.precision, table.shape[0], content_digest(table[:, 3]))
+    return cached(volume.cache, "active_blocks", key, build, _SKIP_CACHE)
+
+
 def _skip_structure(volume, blocks, opts, styles, table, params, mask):
     """``(active, leap)``: the blocks to sample (uint8, z, y, x) and their leap radii
     (``leap_radius``, flat), cached on the volume for the last few transfer functions.
@@ -252,7 +266,7 @@ def _skip_structure(volume, blocks, opts, styles, table, params, mask):
     keeps no copy); labelled renders are not cached.
     """
     def build():
-        active = _active_blocks(blocks.minimum, blocks.maximum, opts, styles, table, params)
+        active = _base_active(volume, blocks, opts, styles, table, params)
         if mask is not None:
             active = active & mask
             box = _mask_box(mask)
@@ -301,13 +315,13 @@ def _box_leap_radius(active, box, cap=255):
     samples are taken either way (leaps only cross empty blocks)."""
     lo, hi = box
     shape = active.shape
-    dist = np.zeros(shape, dtype=np.int64)
-    for axis in range(3):
-        i = np.arange(shape[axis])
-        d = np.maximum(np.maximum(lo[axis] - i, i - hi[axis]), 0)
-        dist = np.maximum(dist, d.reshape([-1 if a == axis else 1 for a in range(3)]))
-    radius = np.where(dist > 0, np.minimum(dist, cap), np.where(np.asarray(active).astype(bool), 0, 1))
-    return np.ascontiguousarray(radius.astype(np.uint8))
+    # per axis, the distance to the box (capped: uint8), broadcast to the grid
+    d = [np.minimum(np.maximum(np.maximum(lo[a] - np.arange(n), np.arange(n) - hi[a]), 0), cap).astype(np.uint8)
+         for a, n in enumerate(shape)]
+    radius = np.maximum(np.maximum(d[0][:, None, None], d[1][None, :, None]), d[2][None, None, :])
+    inside = (slice(lo[0], hi[0] + 1), slice(lo[1], hi[1] + 1), slice(lo[2], hi[2] + 1))
+    radius[inside] = np.where(np.asarray(active[inside]).astype(bool), 0, 1)
+    return np.ascontiguousarray(radius)
 
 
 def leap_radius(active, cap=255):
@@ -638,8 +652,8 @@ class GridPlan:
         # mask the skip structure already holds the visible blocks
         if styles is not None or opts.blending != "composite":
             visible = True
-        elif opts.skip_empty and mask is None:
-            visible = bool(active.any())
+        elif opts.skip_empty:  # the unmasked classification: whether the function shows anything at all
+            visible = bool(_base_active(volume, blocks, opts, styles, table, params).any())
         else:
             visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
         reason = empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,

@@ -161,6 +161,7 @@ def test_save_load_and_bad_input(tmp_path):
     np.testing.assert_array_equal(back.table, pof.table)
     np.testing.assert_array_equal(back.poly, pof.poly)
     assert back.block_size == 16 and back.dims == pof.dims and back.bases[0].to_dict() == tf.to_dict()
+    assert back.footprint == pof.footprint == "chord"
     camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
     with pytest.raises(ValueError, match=r"these POFs describe a volume of \(33, 33, 33\) points; got \(33, 33, 17\)"):
         visible_blocks(pof, volume.values[:17], camera, (8, 8))

@@ -126,13 +126,15 @@ class PlenopticOpacity:
         How they were computed (block edge in cells, volume points (x, y, z), ...).
     """
 
-    def __init__(self, table, poly, nonempty, *, block_size, dims, spacing, pitch, step, chord_min, bases):
+    def __init__(self, table, poly, nonempty, *, block_size, dims, spacing, pitch, step, chord_min, bases,
+                 footprint="chord"):
         self.table, self.poly, self.nonempty = table, poly, nonempty
         self.block_size = int(block_size)
         self.dims = tuple(int(n) for n in dims)
         self.spacing = np.asarray(spacing, dtype=np.float64)
         self.pitch, self.step, self.chord_min = float(pitch), float(step), float(chord_min)
         self.bases = list(bases)
+        self.footprint = footprint
 
     @property
     def grid_shape(self):
@@ -220,10 +222,8 @@ class PlenopticOpacity:
         alpha = spike_filter(alpha.reshape(shape + (p, N_THETA, N_PHI)))
         table = np.floor(alpha * 255.0).astype(np.uint8)
         poly = fit_polynomial(alpha)
-        pof = cls(table, poly, nonempty, block_size=block_size, dims=dims, spacing=volume.spacing,
-                  pitch=pitch / unit, step=step / unit, chord_min=chord_min / unit, bases=bases)
-        pof.footprint = footprint
-        return pof
+        return cls(table, poly, nonempty, block_size=block_size, dims=dims, spacing=volume.spacing,
+                   pitch=pitch / unit, step=step / unit, chord_min=chord_min / unit, bases=bases, footprint=footprint)
 
     # -- run time ----------------------------------------------------------------------
     def view_minimum(self, d, *, encoding="table", lookup="min4"):
@@ -282,6 +282,7 @@ class PlenopticOpacity:
 
         meta = {"version": FILE_VERSION, "block_size": self.block_size, "dims": list(self.dims),
                 "spacing": self.spacing.tolist(), "pitch": self.pitch, "step": self.step, "chord_min": self.chord_min,
+                "footprint": self.footprint,
                 "bases": [b.to_dict() for b in self.bases]}
         np.savez_compressed(path, table=self.table, poly=self.poly, nonempty=self.nonempty,
                             meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8))
@@ -296,7 +297,8 @@ class PlenopticOpacity:
                 raise ValueError(f"{path}: POF file version {meta.get('version')!r}; this version reads {FILE_VERSION}")
             return cls(f["table"], f["poly"], f["nonempty"], block_size=meta["block_size"], dims=meta["dims"],
                        spacing=meta["spacing"], pitch=meta["pitch"], step=meta["step"], chord_min=meta["chord_min"],
-                       bases=[TransferFunction.from_dict(b) for b in meta["bases"]])
+                       bases=[TransferFunction.from_dict(b) for b in meta["bases"]],
+                       footprint=meta.get("footprint", "chord"))
 
     def check_volume(self, volume, block_size=None):
         """Raise ``ValueError`` unless ``volume`` is the shape (and spacing) these POFs describe."""

@@ -10,6 +10,7 @@ import numpy as np
 
 from .._validate import as_real
 from ..rays.camera import Camera
+from ..raycast.grid import _grid_shape
 from . import _kernels as K
 
 #: The paper's threshold: a pixel at accumulated opacity 0.95 counts as opaque.
@@ -34,6 +35,18 @@ class CullResult:
         v = int(self.visible.sum())
         return {"blocks": int(self.visible.size), "nonempty": n, "visible": v, "culled": n - v,
                 "culled_fraction": (n - v) / n if n else 0.0}
+
+
+def block_boxes(volume, block_size, blocks=None):
+    """``(lo, hi)`` (B, 3) world boxes of blocks of ``block_size`` cells (x, y, z), for the
+    flat z-y-x block indices ``blocks`` (default all): block ``(k, j, i)`` spans points
+    ``i * block_size`` to ``min((i + 1) * block_size, nx - 1)`` along x, and so on."""
+    shape = _grid_shape(volume.dims, block_size)
+    flat = np.arange(int(np.prod(shape))) if blocks is None else np.asarray(blocks, dtype=np.int64).reshape(-1)
+    lo_pt = np.stack(np.unravel_index(flat, shape), axis=-1)[:, ::-1] * block_size
+    hi_pt = np.minimum(lo_pt + block_size, np.array(volume.dims) - 1)
+    origin, spacing = np.asarray(volume.origin, dtype=np.float64), np.asarray(volume.spacing, dtype=np.float64)
+    return np.ascontiguousarray(origin + lo_pt * spacing), np.ascontiguousarray(origin + hi_pt * spacing)
 
 
 def visibility_order(shape, d):
@@ -76,20 +89,14 @@ def visible_blocks(pof, volume, camera, size, k=None, *, threshold=DEFAULT_THRES
     weights = np.ones(pof.n_bases) if k is None else np.asarray(k, dtype=np.float64)
     nonempty = (pof.nonempty & (weights > 0)).any(axis=-1)
     shape = pof.grid_shape
-    b = pof.block_size
-    idx = np.stack(np.meshgrid(*(np.arange(n) for n in shape), indexing="ij"), axis=-1).reshape(-1, 3)[:, ::-1]
-    lo_pt = idx * b
-    hi_pt = np.minimum(lo_pt + b, np.array(volume.dims) - 1)
-    origin, spacing = np.asarray(volume.origin, dtype=np.float64), np.asarray(volume.spacing, dtype=np.float64)
-    lo = np.ascontiguousarray(origin + lo_pt * spacing)
-    hi = np.ascontiguousarray(origin + hi_pt * spacing)
+    lo, hi = block_boxes(volume, pof.block_size)
     order = visibility_order(shape, d)
     order = np.ascontiguousarray(order[nonempty.reshape(-1)[order]])
     opacity = np.zeros((height, width))
     visible = np.zeros(int(np.prod(shape)), dtype=np.uint8)
     pitch = 2.0 * cam[13] / height
     halo = pitch * np.sqrt(0.5)  # a pixel's square lies within this of its centre
-    chord_min = pof.chord_min * float(np.min(spacing))
+    chord_min = pof.chord_min * float(np.min(volume.spacing))
     if window is None:
         limits = np.array([0, 0, width - 1, height - 1], dtype=np.int64)
     else:
@@ -199,7 +206,3 @@ class Culling:
                      block_size=self.pof.block_size, seconds=time.perf_counter() - start)
         return mask, stats
 
-
-def as_culling(cull):
-    """``Culling(cull)`` for a PlenopticOpacity; a Culling as it is."""
-    return cull if isinstance(cull, Culling) else Culling(cull)

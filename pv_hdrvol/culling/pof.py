@@ -164,7 +164,7 @@ class PlenopticOpacity:
         half-empty block gets its full half's opacity over its whole footprint), for
         measuring what the paper's numbers may rest on.
         """
-        from ..raycast.grid import as_volume
+        from ..raycast.grid import _grid_shape, as_volume
 
         volume = as_volume(volume)
         bases = _as_bases(bases)
@@ -187,7 +187,7 @@ class PlenopticOpacity:
         axis_inv = 1.0 / (a1 - a0) if a1 > a0 else 0.0
         values = np.ascontiguousarray(volume.values, dtype=np.float64)
         dims = volume.dims
-        shape = tuple(max(1, -(-max(n - 1, 1) // block_size)) for n in dims[::-1])
+        shape = _grid_shape(dims, block_size)
         nonempty = _nonempty(values, shape, block_size, sigma, family)
         theta, phi = view_angles()
         frames = view_frames(direction(theta[:, None], phi[None, :]).reshape(-1, 3))

@@ -15,14 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays.camera import Camera
-from .cull import DEFAULT_THRESHOLD, render_mask, visibility_order
-
-
-def _block_boxes(volume, block_size, shape):
-    idx = np.stack(np.meshgrid(*(np.arange(n) for n in shape), indexing="ij"), axis=-1).reshape(-1, 3)[:, ::-1]
-    lo_pt = idx * block_size
-    hi_pt = np.minimum(lo_pt + block_size, np.array(volume.dims) - 1)
-    return volume.origin + lo_pt * volume.spacing, volume.origin + hi_pt * volume.spacing
+from ..raycast.grid import _grid_shape
+from .cull import DEFAULT_THRESHOLD, block_boxes, expand_mask, visibility_order
 
 
 def ert_oracle(volume, tf, camera, size, *, block_size=16, threshold=DEFAULT_THRESHOLD, nonempty=None, **options):
@@ -51,7 +45,7 @@ def ert_oracle(volume, tf, camera, size, *, block_size=16, threshold=DEFAULT_THR
     t1 = np.nan_to_num(np.maximum(ta, tb), nan=np.inf).min(axis=1)
     depth = image.depth.reshape(-1)
     end = np.minimum(t1, depth)
-    shape = tuple(max(1, -(-max(n - 1, 1) // block_size)) for n in volume.dims[::-1])
+    shape = _grid_shape(volume.dims, block_size)
     marked = np.zeros(shape, dtype=bool)
     for r in np.nonzero(t1 > t0)[0]:
         n = int(np.ceil((t1[r] - t0[r]) / step_world))
@@ -74,12 +68,12 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
     if not isinstance(camera, Camera) or not camera.parallel_projection:
         raise ValueError("exact_sequential needs an orthographic Camera")
     volume = as_volume(volume)
-    shape = tuple(max(1, -(-max(n - 1, 1) // block_size)) for n in volume.dims[::-1])
+    shape = _grid_shape(volume.dims, block_size)
     nonempty = np.ones(shape, dtype=bool) if nonempty is None else nonempty
     width, height = (size, size) if np.isscalar(size) else size
     cam = camera.kernel_array((width, height))
     rays = camera.rays((width, height))
-    lo, hi = _block_boxes(volume, block_size, shape)
+    lo, hi = block_boxes(volume, block_size)
     pitch = 2.0 * cam[13] / height
     halo = pitch * np.sqrt(0.5)
     render_shape = BlockGrid.of(volume, render_block_size).shape
@@ -87,16 +81,6 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
     visible = np.zeros(int(np.prod(shape)), dtype=bool)
     renders = 0
 
-    class _One:  # the single-block result render_mask expects
-        def __init__(self, flat):
-            self.visible = np.zeros(shape, dtype=bool)
-            self.visible.reshape(-1)[flat] = True
-
-    class _Pof:
-        pass
-
-    pof = _Pof()
-    pof.block_size = block_size
     for b in visibility_order(shape, cam[9:12]):
         if not nonempty.reshape(-1)[b]:
             continue
@@ -109,7 +93,9 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
         if touched.any() and np.all(opacity[touched] >= threshold):
             continue
         visible[b] = True
-        mask = render_mask(_One(b), pof, render_block_size, render_shape)
+        one = np.zeros(shape, dtype=bool)
+        one.reshape(-1)[b] = True
+        mask = expand_mask(one, block_size, render_block_size, render_shape)
         alpha = render(volume, tf, camera, (width, height), block_mask=mask, termination=0.0, progress_bar=False,
                        **options).rgba[..., 3].reshape(-1).astype(np.float64)
         renders += 1

@@ -29,12 +29,12 @@ import time
 import numpy as np
 
 from .._validate import as_int
-from ..culling.cull import DEFAULT_THRESHOLD, expand_mask, visibility_order, visible_blocks
+from ..culling.cull import DEFAULT_THRESHOLD, block_boxes, expand_mask, visibility_order, visible_blocks
 from ..culling.pof import PlenopticOpacity, _nonempty
 from ..data.transfer import TransferFunctionFamily
 from ..image.hdr import HDRImage
 from ..rays.camera import Camera, as_size
-from ..raycast.grid import BlockGrid, GridPlan, as_volume
+from ..raycast.grid import BlockGrid, GridPlan, _grid_shape, as_volume
 from .composite import composite, tile_grid
 from .distribute import assign
 
@@ -96,14 +96,12 @@ def block_partials(plan, volume, camera, size, block_size, blocks):
     block rendered alone (``plan.execute`` with a one-block mask) over its screen
     rectangle ``rect = (col, row, w, h)``; ``image.metadata["samples"]`` counts its samples."""
     opts = plan.options
-    shape = tuple(max(1, -(-max(n - 1, 1) // block_size)) for n in volume.dims[::-1])
+    shape = _grid_shape(volume.dims, block_size)
     render_shape = BlockGrid.of(plan.source, opts.block_size).shape
-    origin, spacing = np.asarray(volume.origin, float), np.asarray(volume.spacing, float)
-    for b in blocks:
-        idx = np.array(np.unravel_index(int(b), shape)[::-1])
-        lo_pt = idx * block_size
-        hi_pt = np.minimum(lo_pt + block_size, np.array(volume.dims) - 1)
-        rect = block_rect(origin + lo_pt * spacing, origin + hi_pt * spacing, camera, size)
+    blocks = np.asarray(blocks, dtype=np.int64).reshape(-1)
+    lo, hi = block_boxes(volume, block_size, blocks)
+    for b, box_lo, box_hi in zip(blocks, lo, hi):
+        rect = block_rect(box_lo, box_hi, camera, size)
         if rect is None:
             continue
         one = np.zeros(shape, dtype=bool)
@@ -164,7 +162,7 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
         raise ValueError(f"block_size {bs} differs from the POF's ({pof.block_size})")
     if bs % opts.block_size:
         raise ValueError(f"block_size ({bs}) must be a multiple of the render's block_size option ({opts.block_size})")
-    shape = tuple(max(1, -(-max(n - 1, 1) // bs)) for n in volume.dims[::-1])
+    shape = _grid_shape(volume.dims, bs)
     tiles = tile_grid(n_ranks, *size)
     tile = tiles[rank]
     cam = camera.kernel_array(size)

@@ -24,7 +24,8 @@ def _min_depth(values, frame, lo, hi, pitch=1.0, step=1.0, chord_min=1.0, tf=FLA
     a0, a1 = tf.axis_range
     out = np.empty((1, 1))
     K.block_min_depth(np.ascontiguousarray(values, dtype=np.float64), np.ones(3), sigma, 0, 1.0, a0, 1 / (a1 - a0),
-                      np.array(lo), np.array(hi), np.array([frame], dtype=np.float64), pitch, step, chord_min, False, out)
+                      np.array(lo), np.array(hi), np.array([frame], dtype=np.float64), pitch, step, chord_min, False, out,
+                      np.empty((1, 1, 1)))
     return out[0, 0]
 
 
@@ -244,3 +245,91 @@ def test_nonempty_pixel_footprint_is_the_papers_unsafe_reading():
     paper = PlenopticOpacity.compute(values, [zero_below], footprint="nonempty_pixels", threads=1)
     assert safe.table.max() == 0  # every view has pixels through the empty half only
     assert np.all(paper.table >= safe.table) and paper.table.max() > 100
+
+
+def _block_depths(values, sigma, tf, lo, hi, frames):
+    """Minimum optical depth (V, p) and POF sets (V, p, p) of one block, from the kernel."""
+    a0, a1 = tf.axis_range
+    out, sets = np.empty((len(frames), sigma.shape[0])), np.empty((len(frames), sigma.shape[0], sigma.shape[0]))
+    K.block_min_depth(values, np.ones(3), np.ascontiguousarray(sigma), 0, 1.0, a0, 1 / (a1 - a0), np.array(lo),
+                      np.array(hi), frames, 1.0, 1.0, 1.0, False, out, sets)
+    return out, sets
+
+
+def test_multi_basis_bounds_conservative_below_and_pof_sets_above_the_true_minimum():
+    """T-POF-4, T-POF-5 at every sample view of a block of random data with two bases:
+    the conservative ``1 - prod (1 - POF_i)^{k_i}`` is at most the family's true minimum
+    opacity over the footprint (the family rendered as one basis); the POF-set estimate
+    (each basis's minimising pixel under the family) is at least that minimum, and
+    equal to it where the minimising pixel is one of the candidates."""
+    from pv_hdrvol.culling.pof import direction, view_frames
+
+    rng = np.random.default_rng(11)
+    values = np.ascontiguousarray(rng.uniform(0, 10, size=(9, 9, 9)))
+    low = hv.TransferFunction([0.0, 5.0, 10.0], [[1, 0, 0]] * 3, [0.3, 0.0, 0.0])
+    high = hv.TransferFunction([0.0, 5.0, 10.0], [[0, 0, 1]] * 3, [0.0, 0.05, 0.4])
+    theta, phi = view_angles()
+    frames = view_frames(direction(theta[:, None], phi[None, :]).reshape(-1, 3))
+    sigma = hv.TransferFunction.family([low, high]).basis_tables(1.0, 1.0)
+    depth, sets = _block_depths(values, sigma, low, [0, 0, 0], [8, 8, 8], frames)
+    np.testing.assert_array_equal(np.diagonal(sets, axis1=1, axis2=2), depth)  # POF_ii is the basis's POF
+    exceed = []
+    for k in ([1.0, 1.0], [0.25, 2.0], [3.0, 0.1]):
+        k = np.array(k)
+        true, _ = _block_depths(values, (k[:, None] * sigma).sum(0, keepdims=True), low, [0, 0, 0], [8, 8, 8],
+                                frames)
+        conservative = depth @ k  # optical depths: 1 - prod (1 - a_i)^{k_i} = 1 - exp(-sum k_i D_i)
+        estimate = (sets @ k).min(axis=1)
+        assert np.all(conservative <= true[:, 0] * (1 + 1e-12))
+        assert np.all(estimate >= true[:, 0] * (1 - 1e-12))
+        exceed.append(np.mean(estimate > true[:, 0] * (1 + 1e-9)))
+        assert np.mean(conservative < true[:, 0] * (1 - 1e-9)) > 0.5  # the bound is loose here
+    assert max(exceed) > 0  # and the set estimate overshoots at some views: not a bound
+
+
+def test_pof_sets_are_stored_looked_up_and_saved(tmp_path):
+    values = np.full((17, 17, 33), 5.0)
+    values[:, :, 16:] = 8.0
+    low = hv.TransferFunction([0.0, 6.0, 10.0], [[1, 0, 0]] * 3, [0.3, 0.0, 0.0])
+    high = hv.TransferFunction([0.0, 6.0, 10.0], [[0, 0, 1]] * 3, [0.0, 0.0, 0.4])
+    plain = PlenopticOpacity.compute(values, [low, high], threads=1)
+    assert plain.sets is None
+    with pytest.raises(ValueError, match=r"method='sets' needs POF sets: PlenopticOpacity.compute\(..., sets=True\)"):
+        plain.block_opacity([1.0, 0, 0], method="sets")
+    pof = PlenopticOpacity.compute(values, [low, high], sets=True, threads=1)
+    np.testing.assert_array_equal(pof.table, plain.table)
+    assert pof.sets.shape == (1, 1, 2, 2, 2, N_THETA, N_PHI) and pof.sets.dtype == np.uint8
+    for i in range(2):
+        np.testing.assert_array_equal(pof.sets[..., i, i, :, :], pof.table[..., i, :, :])
+    d = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    k = np.array([0.5, 2.0])
+    sets = pof.block_opacity(d, k, method="sets")
+    bound = pof.block_opacity(d, k)
+    assert sets.shape == (1, 1, 2) and np.all(sets >= bound - 1e-15)
+    # "nearest" takes one sample view: the formula on the stored uint8 sets by hand
+    from pv_hdrvol.culling.pof import angles_of
+
+    theta, phi = view_angles()
+    t, f = angles_of(d)
+    i = int(np.argmin(np.abs(np.angle(np.exp(1j * (theta - t))))))
+    j = int(np.argmin(np.abs(phi - f)))
+    q = pof.sets[..., i, j].astype(np.float64) / 255.0  # (1, 1, 2, i, j)
+    expected = (1 - np.exp((np.log1p(-np.minimum(q, 1.0)) * k).sum(-1))).min(-1)
+    np.testing.assert_allclose(pof.block_opacity(d, k, method="sets", lookup="nearest"), expected, rtol=1e-12)
+    path = tmp_path / "sets.pof.npz"
+    pof.save(path)
+    np.testing.assert_array_equal(PlenopticOpacity.load(path).sets, pof.sets)
+    from pv_hdrvol.culling.cull import Culling
+
+    with pytest.raises(ValueError, match="method='sets' needs the table encoding and POFs computed with sets=True"):
+        Culling(plain, method="sets")
+    camera = hv.Camera.fit(as_volume(values).bounds, "iso", parallel_projection=True)
+    # every stored set entry is >= the basis's (filtered, floored) POF, so the sets cull
+    # at least what the conservative method culls
+    assert np.all(pof.sets >= pof.table[..., None, :, :, :])  # sets[..., i, j] >= table[..., j]
+    centre = np.array([16.0, 8.0, 8.0])
+    for d in ([1.0, 0, 0.01], [-1.0, 0.2, 0.1], [0.6, 0.6, 0.5]):
+        camera = hv.Camera(tuple(centre - 60 * np.array(d)), tuple(centre), (0.0, 0.0, 1.0), parallel_projection=True,
+                           parallel_scale=20.0)
+        kept = visible_blocks(pof, values, camera, (32, 32), k, method="sets").visible
+        assert np.all(kept <= visible_blocks(pof, values, camera, (32, 32), k).visible)

@@ -74,7 +74,7 @@ def _chord(ox, oy, oz, dx, dy, dz, lo, hi):
 
 @kernel
 def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv, lo_index, hi_index, frames, pitch,
-                    step, chord_min, skip_empty_pixels, out):
+                    step, chord_min, skip_empty_pixels, out, sets):
     """Smallest optical depth of one block over its footprint, for every view and basis.
 
     ``values`` (z, y, x) the whole volume (so samples near the block's faces read their
@@ -88,7 +88,10 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
     ray caster marches. NaN samples are empty. ``skip_empty_pixels``: a basis's minimum
     ignores pixels where it is 0 (the paper's "non-empty pixels" reading: not
     conservative). ``out`` (V, p) receives the minimum optical depth (``inf`` when no
-    pixel qualifies).
+    pixel qualifies); ``sets`` (V, p, p) the paper's POF sets: ``sets[v, i, j]`` is basis
+    ``j``'s optical depth at the pixel where basis ``i`` has its minimum (the first such
+    pixel; ``inf`` when none). A pixel that stops early cannot lower any minimum, so the
+    pixels recorded there were marched to the end for every basis.
     """
     n_views = frames.shape[0]
     p = sigma.shape[0]
@@ -113,6 +116,8 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
         ex, ey, ez = dx * inv_x, dy * inv_y, dz * inv_z
         for q in range(p):
             out[v, q] = math.inf
+            for r in range(p):
+                sets[v, q, r] = math.inf
         for j in range(int(math.ceil(w0 / pitch - 0.5)), int(math.floor(w1 / pitch - 0.5)) + 1):
             wc = (j + 0.5) * pitch
             for i in range(int(math.ceil(u0 / pitch - 0.5)), int(math.floor(u1 / pitch - 0.5)) + 1):
@@ -148,6 +153,8 @@ def block_min_depth(values, spacing, sigma, scale, linthresh, axis_lo, axis_inv,
                 for q in range(p):
                     if depth[q] < out[v, q] and not (skip_empty_pixels and depth[q] == 0.0):
                         out[v, q] = depth[q]
+                        for r in range(p):
+                            sets[v, q, r] = depth[r]
 
 
 @kernel

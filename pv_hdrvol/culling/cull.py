@@ -64,14 +64,15 @@ def visibility_order(shape, d):
 
 
 def visible_blocks(pof, volume, camera, size, k=None, *, threshold=DEFAULT_THRESHOLD, encoding="table",
-                   lookup="min4", window=None):
+                   lookup="min4", method="conservative", window=None):
     """The blocks of ``volume`` a render with ``camera`` and ``size`` must sample.
 
     ``pof``: :class:`~pv_hdrvol.culling.pof.PlenopticOpacity` of ``volume``; ``k``: the
     family's weights (default all 1). Orthographic cameras only: the paper's order and
     POFs assume parallel rays. ``window=(col, row, width, height)``: the blocks that
     tile of the image needs (its own opacity buffer; the union over tiles of an
-    image is the whole image's set).
+    image is the whole image's set). ``encoding``, ``lookup`` and ``method``: see
+    :meth:`PlenopticOpacity.block_opacity`.
     """
     from ..raycast.grid import as_volume
 
@@ -85,7 +86,7 @@ def visible_blocks(pof, volume, camera, size, k=None, *, threshold=DEFAULT_THRES
     width, height = (size, size) if np.isscalar(size) else (int(size[0]), int(size[1]))
     cam = camera.kernel_array((width, height))
     d = cam[9:12]
-    alpha = pof.block_opacity(d, k, encoding=encoding, lookup=lookup)
+    alpha = pof.block_opacity(d, k, encoding=encoding, lookup=lookup, method=method)
     weights = np.ones(pof.n_bases) if k is None else np.asarray(k, dtype=np.float64)
     nonempty = (pof.nonempty & (weights > 0)).any(axis=-1)
     shape = pof.grid_shape
@@ -142,12 +143,15 @@ class Culling:
     encoding : {"table", "poly"}
     lookup : {"min4", "nearest", "bilinear"}
         See :meth:`PlenopticOpacity.view_minimum`.
+    method : {"conservative", "sets"}
+        See :meth:`PlenopticOpacity.block_opacity` (``"sets"`` is not a bound).
     """
 
     pof: object
     threshold: float = DEFAULT_THRESHOLD
     encoding: str = "table"
     lookup: str = "min4"
+    method: str = "conservative"
 
     def __post_init__(self):
         from .pof import PlenopticOpacity
@@ -160,6 +164,9 @@ class Culling:
 
         as_choice("encoding", self.encoding, ("table", "poly"))
         as_choice("lookup", self.lookup, ("min4", "nearest", "bilinear"))
+        as_choice("method", self.method, ("conservative", "sets"))
+        if self.method == "sets" and (self.pof.sets is None or self.encoding != "table"):
+            raise ValueError("method='sets' needs the table encoding and POFs computed with sets=True")
 
     def weights_for(self, tf, options, unit):
         """The family weights ``k`` for which the POFs bound the render's extinction.
@@ -200,9 +207,10 @@ class Culling:
                              "transfer function's extinction only)")
         k = self.weights_for(tf, options, float(np.min(volume.spacing)))
         result = visible_blocks(self.pof, volume, camera, size, k, threshold=self.threshold, encoding=self.encoding,
-                                lookup=self.lookup)
+                                lookup=self.lookup, method=self.method)
         mask = render_mask(result, self.pof, options.block_size, render_shape)
         stats = dict(result.statistics, threshold=self.threshold, encoding=self.encoding, lookup=self.lookup,
+                     method=self.method,
                      block_size=self.pof.block_size, seconds=time.perf_counter() - start)
         return mask, stats
 

@@ -122,13 +122,17 @@ class PlenopticOpacity:
         The shifted cubic polynomials (``fit_polynomial``).
     nonempty : ndarray, bool, shape (bz, by, bx, p)
         Whether the block's value range meets a non-zero extinction of the basis.
+    sets : ndarray, uint8, shape (bz, by, bx, p, p, 36, 36), or None
+        The paper's "POF sets" (``compute(..., sets=True)``): ``sets[..., i, j, :, :]``
+        is ``floor(255 a)`` of basis ``j``'s opacity at the pixel where basis ``i`` has
+        its minimum (the diagonal is ``table``). ``p**2`` tables per block.
     block_size, shape, spacing, pitch, step, chord_min
         How they were computed (block edge in cells, volume points (x, y, z), ...).
     """
 
     def __init__(self, table, poly, nonempty, *, block_size, dims, spacing, pitch, step, chord_min, bases,
-                 footprint="chord"):
-        self.table, self.poly, self.nonempty = table, poly, nonempty
+                 footprint="chord", sets=None):
+        self.table, self.poly, self.nonempty, self.sets = table, poly, nonempty, sets
         self.block_size = int(block_size)
         self.dims = tuple(int(n) for n in dims)
         self.spacing = np.asarray(spacing, dtype=np.float64)
@@ -148,7 +152,7 @@ class PlenopticOpacity:
     # -- precomputation ---------------------------------------------------------------
     @classmethod
     def compute(cls, volume, bases, *, block_size=16, pitch=1.0, step=1.0, chord_min=1.0, footprint="chord",
-                threads=None, progress_bar=False):
+                sets=False, threads=None, progress_bar=False):
         """Precompute the POFs of ``volume`` (a :class:`~pv_hdrvol.GridVolume`, array or
         image dataset) for ``bases`` (TransferFunctions, or a family's bases).
 
@@ -163,6 +167,9 @@ class PlenopticOpacity:
         is not 0, the paper's Fig. 1 caption read literally; NOT conservative (a
         half-empty block gets its full half's opacity over its whole footprint), for
         measuring what the paper's numbers may rest on.
+
+        ``sets=True`` also keeps the paper's POF sets (``p**2`` tables per block, the
+        ``method="sets"`` of :meth:`block_opacity`); they cost no extra rendering.
         """
         from ..raycast.grid import _grid_shape, as_volume
 
@@ -193,6 +200,8 @@ class PlenopticOpacity:
         frames = view_frames(direction(theta[:, None], phi[None, :]).reshape(-1, 3))
         p = len(bases)
         depth = np.full(shape + (p, N_THETA * N_PHI), np.inf)
+        keep_sets = bool(sets)
+        set_depth = np.full(shape + (p, p, N_THETA * N_PHI), np.inf) if keep_sets else None
         todo = [b for b in np.ndindex(*shape) if nonempty[b].any()]
         spacing = np.asarray(volume.spacing, dtype=np.float64)
 
@@ -201,9 +210,12 @@ class PlenopticOpacity:
             lo = np.array([kx, ky, kz], dtype=np.int64) * block_size
             hi = np.minimum(lo + block_size, np.array(dims) - 1)
             out = np.empty((frames.shape[0], p))
+            out_sets = np.empty((frames.shape[0], p, p))
             K.block_min_depth(values, spacing, sigma, scale, float(family.linthresh), float(a0), axis_inv, lo, hi,
-                              frames, pitch, step, chord_min, skip_empty_pixels, out)
+                              frames, pitch, step, chord_min, skip_empty_pixels, out, out_sets)
             depth[b] = out.T
+            if keep_sets:
+                set_depth[b] = out_sets.transpose(1, 2, 0)
 
         bar = None
         if progress_bar:
@@ -222,10 +234,42 @@ class PlenopticOpacity:
         alpha = spike_filter(alpha.reshape(shape + (p, N_THETA, N_PHI)))
         table = np.floor(alpha * 255.0).astype(np.uint8)
         poly = fit_polynomial(alpha)
+        set_table = None
+        if keep_sets:
+            set_alpha = np.where(np.isfinite(set_depth), -np.expm1(-set_depth), 0.0)
+            set_table = np.floor(set_alpha * 255.0).astype(np.uint8).reshape(shape + (p, p, N_THETA, N_PHI))
+            for i in range(p):
+                set_table[..., i, i, :, :] = table[..., i, :, :]
         return cls(table, poly, nonempty, block_size=block_size, dims=dims, spacing=volume.spacing,
-                   pitch=pitch / unit, step=step / unit, chord_min=chord_min / unit, bases=bases, footprint=footprint)
+                   pitch=pitch / unit, step=step / unit, chord_min=chord_min / unit, bases=bases, footprint=footprint,
+                   sets=set_table)
 
     # -- run time ----------------------------------------------------------------------
+    @staticmethod
+    def _sample_views(d):
+        """The four sample views around unit direction ``d``: ``(i0, i1, j0, j1, ft, fp)``,
+        theta indices, phi indices and the fractions between them."""
+        theta, phi = angles_of(d)
+        ti = theta / (2 * np.pi / N_THETA)
+        pj = min(max(phi / (np.pi / N_PHI) - 0.5, 0.0), N_PHI - 1.0)
+        i0 = int(math.floor(ti)) % N_THETA
+        j0 = min(int(math.floor(pj)), N_PHI - 2)
+        return i0, (i0 + 1) % N_THETA, j0, j0 + 1, ti - math.floor(ti), pj - j0
+
+    def _looked_up(self, t, d, lookup, combine):
+        """``combine`` (uint8 views -> float opacities) of table ``t`` (..., 36, 36) at
+        the sample views around ``d``: the smallest of the four (``min4``), the nearest,
+        or ``combine`` of the bilinear blend."""
+        i0, i1, j0, j1, ft, fp = self._sample_views(d)
+        if lookup == "nearest":
+            return combine(np.asarray(t[..., (i0 if ft < 0.5 else i1), (j0 if fp < 0.5 else j1)], dtype=np.float64))
+        corners = [np.asarray(t[..., i, j], dtype=np.float64) for i, j in ((i0, j0), (i1, j0), (i0, j1), (i1, j1))]
+        if lookup == "min4":
+            values = [combine(c) for c in corners]
+            return np.minimum(np.minimum(values[0], values[1]), np.minimum(values[2], values[3]))
+        return combine((1 - ft) * (1 - fp) * corners[0] + ft * (1 - fp) * corners[1] + (1 - ft) * fp * corners[2]
+                       + ft * fp * corners[3])
+
     def view_minimum(self, d, *, encoding="table", lookup="min4"):
         """(bz, by, bx, p) float64 POF values for the unit view direction ``d``.
 
@@ -235,39 +279,33 @@ class PlenopticOpacity:
         """
         as_choice("encoding", encoding, ("table", "poly"))
         as_choice("lookup", lookup, ("min4", "nearest", "bilinear"))
-        theta, phi = angles_of(d)
         if encoding == "poly":
-            x = _poly_design(theta, phi)
+            x = _poly_design(*angles_of(d))
             return np.clip(self.poly.astype(np.float64) @ x, 0.0, 1.0)
-        ti = theta / (2 * np.pi / N_THETA)
-        pj = min(max(phi / (np.pi / N_PHI) - 0.5, 0.0), N_PHI - 1.0)
-        i0 = int(math.floor(ti)) % N_THETA
-        i1 = (i0 + 1) % N_THETA
-        j0 = min(int(math.floor(pj)), N_PHI - 2)
-        j1 = j0 + 1
-        ft, fp = ti - math.floor(ti), pj - j0
-        t = self.table
-        corners = [t[..., i0, j0], t[..., i1, j0], t[..., i0, j1], t[..., i1, j1]]
-        if lookup == "min4":
-            q = np.minimum(np.minimum(corners[0], corners[1]), np.minimum(corners[2], corners[3]))
-        elif lookup == "nearest":
-            q = t[..., (i0 if ft < 0.5 else i1), (j0 if fp < 0.5 else j1)]
-        else:
-            q = ((1 - ft) * (1 - fp) * corners[0] + ft * (1 - fp) * corners[1] + (1 - ft) * fp * corners[2]
-                 + ft * fp * corners[3])
-        return np.asarray(q, dtype=np.float64) / 255.0
+        return self._looked_up(self.table, d, lookup, lambda q: q / 255.0)
 
-    def block_opacity(self, d, k=None, *, encoding="table", lookup="min4"):
-        """(bz, by, bx) lower bound of each block's opacity under the family with weights
-        ``k``: ``1 - prod_i (1 - POF_i)^{k_i}`` (the paper's conservative method)."""
+    def block_opacity(self, d, k=None, *, encoding="table", lookup="min4", method="conservative"):
+        """(bz, by, bx) each block's opacity under the family with weights ``k``.
+
+        ``method="conservative"`` (default): ``1 - prod_i (1 - POF_i)^{k_i}``, a lower
+        bound (the paper's conservative method). ``"sets"``: the paper's POF sets,
+        ``min_i [1 - prod_j (1 - POF_ij)^{k_j}]``, the family's opacity at each basis's
+        minimising pixel. Before rounding it is never below the true minimum over the
+        footprint at a sample view (each candidate is a real pixel), so it is NOT a lower
+        bound: faster culling, no guarantee (needs ``compute(..., sets=True)`` and the
+        table encoding).
+        """
         k = np.ones(self.n_bases) if k is None else np.asarray(k, dtype=np.float64).reshape(-1)
         if k.shape != (self.n_bases,) or not np.all(np.isfinite(k)) or np.any(k < 0):
             raise ValueError(f"k must be {self.n_bases} finite weights >= 0; got {k.tolist()}")
-        m = self.view_minimum(d, encoding=encoding, lookup=lookup)
-        with np.errstate(divide="ignore"):
-            log_keep = np.log1p(-np.minimum(m, 1.0))  # -inf where a block is opaque
-        total = np.where(k > 0, log_keep * k, 0.0).sum(axis=-1)
-        return -np.expm1(total)
+        as_choice("method", method, ("conservative", "sets"))
+        if method == "conservative":
+            return _family_opacity(self.view_minimum(d, encoding=encoding, lookup=lookup), k)
+        if self.sets is None:
+            raise ValueError("method='sets' needs POF sets: PlenopticOpacity.compute(..., sets=True)")
+        as_choice("encoding", encoding, ("table",))
+        as_choice("lookup", lookup, ("min4", "nearest", "bilinear"))
+        return self._looked_up(self.sets, d, lookup, lambda q: _family_opacity(q / 255.0, k).min(axis=-1))
 
     def mask_for(self, volume, tf, camera, size, options, render_shape):
         """What ``render(..., cull=pof)`` calls: :meth:`Culling.mask_for` with the defaults."""
@@ -284,8 +322,9 @@ class PlenopticOpacity:
                 "spacing": self.spacing.tolist(), "pitch": self.pitch, "step": self.step, "chord_min": self.chord_min,
                 "footprint": self.footprint,
                 "bases": [b.to_dict() for b in self.bases]}
+        extra = {} if self.sets is None else {"sets": self.sets}
         np.savez_compressed(path, table=self.table, poly=self.poly, nonempty=self.nonempty,
-                            meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8))
+                            meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8), **extra)
 
     @classmethod
     def load(cls, path):
@@ -298,7 +337,7 @@ class PlenopticOpacity:
             return cls(f["table"], f["poly"], f["nonempty"], block_size=meta["block_size"], dims=meta["dims"],
                        spacing=meta["spacing"], pitch=meta["pitch"], step=meta["step"], chord_min=meta["chord_min"],
                        bases=[TransferFunction.from_dict(b) for b in meta["bases"]],
-                       footprint=meta.get("footprint", "chord"))
+                       footprint=meta.get("footprint", "chord"), sets=f["sets"] if "sets" in f.files else None)
 
     def check_volume(self, volume, block_size=None):
         """Raise ``ValueError`` unless ``volume`` is the shape (and spacing) these POFs describe."""
@@ -308,6 +347,13 @@ class PlenopticOpacity:
             raise ValueError(f"these POFs describe spacing {self.spacing.tolist()}; got {list(volume.spacing)}")
         if block_size is not None and block_size != self.block_size:
             raise ValueError(f"these POFs have block_size {self.block_size}; got {block_size}")
+
+
+def _family_opacity(m, k):
+    """``1 - prod_i (1 - m_i)^{k_i}`` over the last axis of opacities ``m``."""
+    with np.errstate(divide="ignore"):
+        log_keep = np.log1p(-np.minimum(m, 1.0))  # -inf where a basis is opaque
+    return -np.expm1(np.where(k > 0, log_keep * k, 0.0).sum(axis=-1))
 
 
 def _nonempty(values, shape, block_size, sigma, family):

@@ -6,12 +6,15 @@ Public names only; the pipeline is ``data`` -> ``rays`` -> ``render`` -> ``image
 import numpy as np
 
 from . import datasets
+from .culling.cull import Culling
+from .culling.pof import PlenopticOpacity
 from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
 from .data.tets import TetMesh, tetmesh_from_arrays, tetmesh_from_dataset
-from .data.transfer import TransferFunction
+from .data.transfer import TransferFunction, TransferFunctionFamily
 from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
 from .image.upsample import upsample
+from .parallel.render import render_parallel
 from .params import PRECISIONS, Light, RenderOptions
 from .rays.camera import Camera, Rays
 from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
@@ -60,9 +63,10 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
 
 __all__ = [
-    "datasets", "BlockGrid", "Camera", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye", "GridVolume",
-    "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "Rays", "RenderOptions", "RenderSettings",
-    "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped", "TransferFunction", "depth_layers", "load", "render",
+    "datasets", "BlockGrid", "Camera", "Culling", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye",
+    "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
+    "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
+    "TransferFunction", "TransferFunctionFamily", "depth_layers", "load", "render", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
     "volume_from_array", "volume_from_dataset",
 ]

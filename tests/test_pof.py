@@ -333,3 +333,80 @@ def test_pof_sets_are_stored_looked_up_and_saved(tmp_path):
                            parallel_scale=20.0)
         kept = visible_blocks(pof, values, camera, (32, 32), k, method="sets").visible
         assert np.all(kept <= visible_blocks(pof, values, camera, (32, 32), k).visible)
+
+
+def test_the_papers_worked_example_l_58_4_in_the_renderer_the_oracle_and_the_culling():
+    """T-POF-1: samples of opacity 0.05 reach the threshold 0.95 after
+    l = ln 0.05 / ln 0.95 = 58.404 of them, so the 59th is the last one that counts.
+    Along x through blocks of 16 such samples: the ray caster's opacity after n samples is
+    1 - 0.95^n; the oracle needs the first 4 blocks (sample 59 is in the 4th); with each
+    block's opacity floor(255 (1 - 0.95^16)) / 255 (its POF seen along an axis), the
+    culling keeps exactly those 4 and culls the other 4 of each row. (No sample view is
+    along an axis, phi = (j + 1/2) 5 deg, and 2.5 deg off it pixels along the side faces
+    cross a block over 1-2 voxels: the stored minimum there is under two samples' worth.)"""
+    from pv_hdrvol.culling.reference import ert_oracle
+
+    assert math.log(0.05) / math.log(0.95) == pytest.approx(58.404, abs=5e-4)
+    flat = hv.TransferFunction([0.0, 10.0], [[1, 1, 1]] * 2, [0.05, 0.05])
+    for n in (58, 59):  # a slab n cells long, seen along x: n unit samples
+        slab = np.full((3, 3, n + 1), 5.0)
+        camera = hv.Camera((-5.0, 1.0, 1.0), (0.0, 1.0, 1.0), (0, 0, 1), parallel_projection=True, parallel_scale=0.5)
+        alpha = hv.render(slab, flat, camera, (1, 1), precision="float64", termination=0.0,
+                          progress_bar=False).rgba[0, 0, 3]
+        assert alpha == pytest.approx(1 - 0.95**n, rel=1e-12)
+        assert (alpha >= 0.95) == (n == 59)
+    values = np.full((33, 33, 129), 5.0)  # 8 blocks along x, 2 x 2 across
+    camera = hv.Camera((-10.0, 16.0, 16.0), (0.0, 16.0, 16.0), (0, 0, 1), parallel_projection=True,
+                       parallel_scale=8.0)  # the image lies inside the slab's cross-section
+    pof = PlenopticOpacity.compute(values, [flat], threads=1)
+    axis = math.floor(255 * (1 - math.exp(-_min_depth(values, [1, 0, 0, 0, 1, 0, 0, 0, 1], [0, 0, 0], [16, 16, 16],
+                                                       tf=flat))))
+    assert axis == math.floor(255 * (1 - 0.95**16)) == 142
+    assert pof.table[0, 0, 0, 0, 0, N_PHI // 2] < 255 * (1 - 0.95**2)  # 2.5 deg off +x: under two samples' worth
+    pof.table[...] = axis
+    result = visible_blocks(pof, values, camera, (16, 16))
+    expected = np.zeros((2, 2, 8), dtype=bool)
+    expected[..., :4] = True
+    np.testing.assert_array_equal(result.visible, expected)
+    np.testing.assert_array_equal(ert_oracle(values, flat, camera, (16, 16)), expected)
+
+
+def test_single_basis_weights_scale_the_optical_depth():
+    """T-POF-2: at every sample view, the POF of k tau is 1 - (1 - POF(tau))^k: the kernel's
+    minimum optical depth for k sigma is k times the one for sigma (k = 0, 0.1, 0.5, 1, 3)."""
+    from pv_hdrvol.culling.pof import direction, view_frames
+
+    rng = np.random.default_rng(12)
+    values = np.ascontiguousarray(rng.uniform(0, 10, size=(9, 9, 9)))
+    tf = hv.TransferFunction([0.0, 5.0, 10.0], [[1, 1, 1]] * 3, [0.0, 0.3, 0.1])
+    theta, phi = view_angles()
+    frames = view_frames(direction(theta[:, None], phi[None, :]).reshape(-1, 3))
+    sigma = hv.TransferFunction.family([tf]).basis_tables(1.0, 1.0)
+    depth, _ = _block_depths(values, sigma, tf, [0, 0, 0], [8, 8, 8], frames)
+    assert depth.min() > 0
+    for k in (0.0, 0.1, 0.5, 1.0, 3.0):
+        scaled, _ = _block_depths(values, k * sigma, tf, [0, 0, 0], [8, 8, 8], frames)
+        np.testing.assert_allclose(scaled, k * depth, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(-np.expm1(-scaled), 1 - np.exp(-depth) ** k, rtol=1e-12, atol=1e-300)
+
+
+def test_visible_sets_are_ordered_exact_then_table_then_polynomial():
+    """T-POF-12 at a sample view (nearest lookup): lowering block opacities can only keep
+    more blocks, so R2 (per-pixel opacities) <= table <= shifted polynomial."""
+    from pv_hdrvol.culling.reference import exact_sequential
+
+    volume, tf = _opaque_scene()
+    pof = PlenopticOpacity.compute(volume, [tf], block_size=8)
+    theta, phi = view_angles()
+    culled = []
+    for i, j in ((0, 17), (4, 9), (21, 27)):
+        d = np.array([np.sin(phi[j]) * np.cos(theta[i]), np.sin(phi[j]) * np.sin(theta[i]), np.cos(phi[j])])
+        centre = np.array([16.0, 16.0, 16.0])  # the camera looks along the sample view d
+        up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 else (0.0, 1.0, 0.0)
+        camera = hv.Camera(tuple(centre - 60 * d), tuple(centre), up, parallel_projection=True, parallel_scale=30.0)
+        table = visible_blocks(pof, volume, camera, (48, 48), lookup="nearest")
+        poly = visible_blocks(pof, volume, camera, (48, 48), lookup="nearest", encoding="poly").visible
+        r2, _ = exact_sequential(volume, tf, camera, (48, 48), block_size=8, nonempty=table.nonempty)
+        assert np.all(r2 <= table.visible) and np.all(table.visible <= poly)
+        culled.append(int(table.nonempty.sum() - table.visible.sum()))
+    assert min(culled) > 0  # not trivially: every view culls blocks

@@ -49,18 +49,31 @@ def block_boxes(volume, block_size, blocks=None):
     return np.ascontiguousarray(origin + lo_pt * spacing), np.ascontiguousarray(origin + hi_pt * spacing)
 
 
-def visibility_order(shape, d):
+def visibility_order(shape, d, spacing=(1.0, 1.0, 1.0)):
     """Block indices (flat, z-y-x order of ``shape``) front to back for an orthographic
-    view along ``d`` (x, y, z): blocks sorted by the sum of their indices counted from
-    the side the rays enter. If block A lies in front of block B on some ray, each of
-    A's indices is <= B's (counted that way) and one is smaller, so A comes first: any
-    order by that sum is a valid visibility order (the paper's flipped Z curve is another)."""
+    view along ``d`` (x, y, z), nearest first.
+
+    If block A lies in front of block B on some ray, each of A's indices is <= B's,
+    counted from the side the rays enter, and one with ``d_i != 0`` is smaller; so any
+    positive weighting of those indices orders A first. The weights here are
+    ``|d_i| spacing_i`` (the depth of the block's centre along ``d``, up to a constant),
+    so that a block's neighbours across the view are composited before the blocks
+    behind them, and the culling test of a block (whose footprint reaches into its
+    neighbours' pixels) sees them. Components below 1e-9 get weight 0 (no ray crosses
+    blocks along them, and float rounding could otherwise invert a pair); ties go to
+    the plain sum of the counted indices, itself a valid order (the paper's flipped Z
+    curve is another).
+    """
     bz, by, bx = shape
     kz, ky, kx = np.meshgrid(np.arange(bz), np.arange(by), np.arange(bx), indexing="ij")
     key = np.zeros(shape, dtype=np.int64)
-    for idx, n, comp in ((kx, bx, d[0]), (ky, by, d[1]), (kz, bz, d[2])):
-        key += idx if comp >= 0 else (n - 1 - idx)
-    return np.argsort(key.reshape(-1), kind="stable")
+    depth = np.zeros(shape)
+    for idx, n, comp, step in ((kx, bx, d[0], spacing[0]), (ky, by, d[1], spacing[1]), (kz, bz, d[2], spacing[2])):
+        counted = idx if comp >= 0 else (n - 1 - idx)
+        key += counted
+        if abs(comp) >= 1e-9:
+            depth += abs(comp) * float(step) * counted
+    return np.lexsort((key.reshape(-1), depth.reshape(-1)))
 
 
 def visible_blocks(pof, volume, camera, size, k=None, *, threshold=DEFAULT_THRESHOLD, encoding="table",
@@ -91,7 +104,7 @@ def visible_blocks(pof, volume, camera, size, k=None, *, threshold=DEFAULT_THRES
     nonempty = (pof.nonempty & (weights > 0)).any(axis=-1)
     shape = pof.grid_shape
     lo, hi = block_boxes(volume, pof.block_size)
-    order = visibility_order(shape, d)
+    order = visibility_order(shape, d, volume.spacing)
     order = np.ascontiguousarray(order[nonempty.reshape(-1)[order]])
     opacity = np.zeros((height, width))
     visible = np.zeros(int(np.prod(shape)), dtype=np.uint8)

@@ -81,7 +81,7 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
     visible = np.zeros(int(np.prod(shape)), dtype=bool)
     renders = 0
 
-    for b in visibility_order(shape, cam[9:12]):
+    for b in visibility_order(shape, cam[9:12], volume.spacing):
         if not nonempty.reshape(-1)[b]:
             continue
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -185,7 +185,7 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
 
     # -- render this rank's visible blocks, each over its own rectangle
     t = time.perf_counter()
-    order = visibility_order(shape, cam[9:12])
+    order = visibility_order(shape, cam[9:12], volume.spacing)
     position = np.empty(order.size, dtype=np.int64)
     position[order] = np.arange(order.size)
     outgoing = [[] for _ in range(n_ranks)]

@@ -356,27 +356,38 @@ def _family_opacity(m, k):
     return -np.expm1(np.where(k > 0, log_keep * k, 0.0).sum(axis=-1))
 
 
+def block_ranges(values, block_size):
+    """``(lo, hi)`` (bz, by, bx): the smallest and largest value of each block's points
+    (block ``(k, j, i)`` spans points ``i * block_size`` to ``(i + 1) * block_size``
+    along x, clipped, and so on: neighbours share their faces), NaN ignored (NaN where
+    a block is all NaN). Separable: a running min/max along each axis in turn."""
+    lo = np.asarray(values, dtype=np.float64)
+    hi = lo
+    for axis in (2, 1, 0):
+        n = lo.shape[axis]
+        starts = np.arange(0, max(n - 1, 1), block_size)
+        ends = np.minimum(starts + block_size, n - 1)  # the shared face, inclusive
+        lo = np.fmin(np.fmin.reduceat(lo, starts, axis=axis), np.take(lo, ends, axis=axis))
+        hi = np.fmax(np.fmax.reduceat(hi, starts, axis=axis), np.take(hi, ends, axis=axis))
+    return lo, hi
+
+
 def _nonempty(values, shape, block_size, sigma, family):
     """(bz, by, bx, p): the block's value range (its points, NaN ignored) meets an entry
     of non-zero extinction of the basis, or a neighbour of one (interpolation)."""
-    bz, by, bx = shape
-    out = np.zeros(shape + (sigma.shape[0],), dtype=bool)
+    lo, hi = block_ranges(values, block_size)  # shape (bz, by, bx) == shape
     n = sigma.shape[1]
     a0, a1 = family.axis_range
-    for kz in range(bz):
-        for ky in range(by):
-            for kx in range(bx):
-                block = values[kz * block_size:(kz + 1) * block_size + 1, ky * block_size:(ky + 1) * block_size + 1,
-                               kx * block_size:(kx + 1) * block_size + 1]
-                finite = block[np.isfinite(block)] if np.isnan(block).any() else block
-                if finite.size == 0:
-                    continue
-                ends = scale_forward(np.array([finite.min(), finite.max()]), family.scale, family.linthresh)
-                pos = np.clip((np.nan_to_num(ends, nan=a0, neginf=a0, posinf=a1) - a0) / ((a1 - a0) or 1.0), 0, 1)
-                i0 = max(0, int(math.floor(pos[0] * (n - 1))))
-                i1 = min(n - 1, int(math.ceil(pos[1] * (n - 1))) + 1)
-                out[kz, ky, kx] = (sigma[:, i0:i1 + 1] > 0).any(axis=1)
-    return out
+    ends = scale_forward(np.stack([lo, hi], axis=-1), family.scale, family.linthresh)
+    pos = np.clip((np.nan_to_num(ends, nan=a0, neginf=a0, posinf=a1) - a0) / ((a1 - a0) or 1.0), 0, 1)
+    i0 = np.maximum(0, np.floor(pos[..., 0] * (n - 1)).astype(np.int64))
+    i1 = np.minimum(n - 1, np.ceil(pos[..., 1] * (n - 1)).astype(np.int64) + 1)
+    # any(sigma[:, i0:i1 + 1] > 0) per basis from prefix counts of the non-zero entries
+    counts = np.concatenate([np.zeros((sigma.shape[0], 1), dtype=np.int64),
+                             np.cumsum(sigma > 0, axis=1)], axis=1)  # (p, n + 1)
+    out = (counts[:, i1 + 1] - counts[:, i0]) > 0  # (p, bz, by, bx)
+    out &= ~np.isnan(lo)[None]  # a block of NaN only is empty
+    return np.ascontiguousarray(np.moveaxis(out, 0, -1))
 
 
 __all__ = ["PlenopticOpacity", "spike_filter", "fit_polynomial", "view_angles", "direction", "view_frames"]

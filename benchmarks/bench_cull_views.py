@@ -121,7 +121,7 @@ def _timed(*args, **kw):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", default="head-dense,ball,engine,head-family")
+    parser.add_argument("--scenes", default="head-dense,ball,engine,head-family,bonsai")
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--views", type=int, default=100, help="random views (plus 18 of a y turn)")
     parser.add_argument("--block-size", type=int, default=16)
@@ -198,9 +198,12 @@ def main():
                 images[i] = render_parallel(volume, tf, camera, size, pof=p, comm=None, termination=TERMINATION)
                 times[i] = min(times[i], time.perf_counter() - t)
         blocks = [im.metadata["parallel"]["visible"] for im in images]
+        split = ["/".join(f"{im.metadata['parallel']['per_rank'][0][key]:.2f}" for key in
+                          ("cull_seconds", "render_seconds", "composite_seconds")) for im in images]
         diff = float(np.abs(images[0].rgba.astype(np.float64) - images[1].rgba).max())
         print(f"  block-wise (one rank): {blocks[0]} blocks {times[0]:.2f} s unculled, {blocks[1]} blocks "
-              f"{times[1]:.2f} s culled ({times[0] / times[1]:.2f}x); max |diff| {diff:.3g}")
+              f"{times[1]:.2f} s culled ({times[0] / times[1]:.2f}x; cull/render/composite {split[0]} and "
+              f"{split[1]} s, last run); max |diff| {diff:.3g}")
 
 
 if __name__ == "__main__":

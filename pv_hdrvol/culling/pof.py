@@ -201,7 +201,8 @@ class PlenopticOpacity:
         p = len(bases)
         depth = np.full(shape + (p, N_THETA * N_PHI), np.inf)
         keep_sets = bool(sets)
-        set_depth = np.full(shape + (p, p, N_THETA * N_PHI), np.inf) if keep_sets else None
+        # uint8 per block as it is computed: p**2 float tables of a large volume would not fit
+        set_table = np.zeros(shape + (p, p, N_THETA * N_PHI), dtype=np.uint8) if keep_sets else None
         todo = [b for b in np.ndindex(*shape) if nonempty[b].any()]
         spacing = np.asarray(volume.spacing, dtype=np.float64)
 
@@ -214,8 +215,9 @@ class PlenopticOpacity:
             K.block_min_depth(values, spacing, sigma, scale, float(family.linthresh), float(a0), axis_inv, lo, hi,
                               frames, pitch, step, chord_min, skip_empty_pixels, out, out_sets)
             depth[b] = out.T
-            if keep_sets:
-                set_depth[b] = out_sets.transpose(1, 2, 0)
+            if keep_sets:  # inf (no qualifying pixel) counts as 0, as for the table
+                alpha_sets = np.where(np.isfinite(out_sets), -np.expm1(-out_sets), 0.0)
+                set_table[b] = np.floor(alpha_sets * 255.0).astype(np.uint8).transpose(1, 2, 0)
 
         bar = None
         if progress_bar:
@@ -234,10 +236,8 @@ class PlenopticOpacity:
         alpha = spike_filter(alpha.reshape(shape + (p, N_THETA, N_PHI)))
         table = np.floor(alpha * 255.0).astype(np.uint8)
         poly = fit_polynomial(alpha)
-        set_table = None
         if keep_sets:
-            set_alpha = np.where(np.isfinite(set_depth), -np.expm1(-set_depth), 0.0)
-            set_table = np.floor(set_alpha * 255.0).astype(np.uint8).reshape(shape + (p, p, N_THETA, N_PHI))
+            set_table = set_table.reshape(shape + (p, p, N_THETA, N_PHI))
             for i in range(p):
                 set_table[..., i, i, :, :] = table[..., i, :, :]
         return cls(table, poly, nonempty, block_size=block_size, dims=dims, spacing=volume.spacing,
@@ -351,9 +351,9 @@ class PlenopticOpacity:
 
 def _family_opacity(m, k):
     """``1 - prod_i (1 - m_i)^{k_i}`` over the last axis of opacities ``m``."""
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):  # log 0 = -inf; -inf * 0 is discarded
         log_keep = np.log1p(-np.minimum(m, 1.0))  # -inf where a basis is opaque
-    return -np.expm1(np.where(k > 0, log_keep * k, 0.0).sum(axis=-1))
+        return -np.expm1(np.where(k > 0, log_keep * k, 0.0).sum(axis=-1))
 
 
 def block_ranges(values, block_size):

@@ -39,6 +39,8 @@ def main():
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--ranks", default="1,2,4")
     parser.add_argument("--block-size", type=int, default=16)
+    parser.add_argument("--model-only", action="store_true", help="skip the mpiexec runs")
+    parser.add_argument("--plot", help="write the efficiency curves to this PNG (docs/images/parallel_efficiency.png)")
     args = parser.parse_args()
     import pyvista as pv
 
@@ -56,7 +58,13 @@ def main():
     pof.save(work / "v.pof.npz")
     print(f"POF: {time.perf_counter() - t:.1f} s")
 
-    # -- real runs: the same image on every rank count, times per rank
+    if not args.model_only:
+        real_runs(args, path, work)
+    model(args, volume, tf, camera, size, pof, work)
+
+
+def real_runs(args, path, work):
+    """mpiexec -n P for each P of --ranks: the same image on every rank count, times per rank."""
     mpiexec = os.path.join(os.path.dirname(sys.executable), "mpiexec")
     env = dict(os.environ, NUMBA_NUM_THREADS="1", PYTHONPATH=str(ROOT))
     for p in [int(x) for x in args.ranks.split(",")]:
@@ -69,7 +77,10 @@ def main():
     images = [hv.load(work / f"p{p}.exr").rgba for p in [int(x) for x in args.ranks.split(",")]]
     print("images equal across rank counts:", all(np.array_equal(images[0], im) for im in images[1:]))
 
-    # -- the model
+
+
+def model(args, volume, tf, camera, size, pof, work):
+    """The scaling model from one-core block costs, and optionally its plot."""
     t = time.perf_counter()
     costs = measure(volume, hv.TransferFunction.family([tf]), camera, size, pof=pof, block_size=args.block_size,
                     repeat=2)
@@ -87,6 +98,36 @@ def main():
     print("(efficiency / imbalance = largest rank's render time over the mean; paper: 89 % at 16, 81 % at 32)")
     (work / "simulation.json").write_text(json.dumps(results))
     print(f"tables: {work / 'simulation.json'}")
+    if args.plot:
+        plot(results, args, int(costs.visible.sum()))
+
+
+def plot(results, args, n_visible):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for curve, colour in (("hilbert", "C0"), ("z", "C1"), ("contiguous", "C2"), ("random", "C3")):
+        rows = results[f"modern/{curve}"]
+        ax.plot([r["ranks"] for r in rows], [r["efficiency"] for r in rows], "o-", color=colour, ms=3,
+                label=f"{curve}, modern network")
+    rows = results["myrinet/hilbert"]
+    ax.plot([r["ranks"] for r in rows], [r["efficiency"] for r in rows], "--", color="C0",
+            label="hilbert, Myrinet-era network")
+    ax.plot([16, 32], [0.89, 0.81], "k*", ms=10, label="paper (110,592 blocks)")
+    ax.set_xscale("log", base=2)
+    ax.set_ylim(0, 1.05)
+    ax.set_xlabel("ranks")
+    ax.set_ylabel("parallel efficiency (model)")
+    ax.set_title(f"{args.dataset}, {n_visible} visible {args.block_size}³ blocks, {args.size}² (one-core block costs)",
+                 fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(args.plot, dpi=90)
+    print("wrote", args.plot)
 
 
 if __name__ == "__main__":

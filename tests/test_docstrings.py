@@ -18,6 +18,7 @@ MODULES = [
     "pv_hdrvol.image.colorbar",
     "pv_hdrvol.settings",
     "pv_hdrvol.datasets",
+    "pv_hdrvol.editor.axis",
 ]
 
 

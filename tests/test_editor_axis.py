@@ -72,3 +72,23 @@ def test_no_focus_is_the_identity():
 def test_bad_foci_are_refused(make, error, match):
     with pytest.raises(error, match=match):
         make()
+
+
+def test_log_value_axis_shows_six_decades_and_snaps_to_zero():
+    from pv_hdrvol.editor.axis import ValueAxis
+
+    axis = ValueAxis("log", floor=1e-6, top=1.0, snap=0.02)
+    y = np.logspace(-5.8, 0, 200)
+    np.testing.assert_allclose(axis.inverse(axis.forward(y)), y, rtol=1e-12)
+    np.testing.assert_allclose(axis.forward([1e-6, 1e-4, 1e-2, 1.0]), [0, 1 / 3, 2 / 3, 1], atol=1e-15)
+    assert axis.forward(0.0) == 0.0 and axis.forward(1e-9) == 0.0 and axis.forward(5.0) == 1.0
+    assert axis.inverse(0.02) == 0.0 and axis.inverse(0.0) == 0.0 and axis.inverse(0.021) > 1e-6
+    colour = ValueAxis("log", floor=1e-3, top=1e4)  # an HDR colour axis: seven decades
+    assert colour.inverse(1.0) == pytest.approx(1e4, rel=1e-12) and colour.forward(1.0) == pytest.approx(3 / 7)
+    linear = ValueAxis("linear", top=2.0)
+    np.testing.assert_array_equal(linear.forward([0.0, 1.0, 2.0, 3.0]), [0.0, 0.5, 1.0, 1.0])
+    np.testing.assert_array_equal(linear.inverse([0.0, 0.5]), [0.0, 1.0])
+    with pytest.raises(ValueError, match="floor must be < 1.0; got 1.0"):
+        ValueAxis(floor=1.0, top=1.0)
+    with pytest.raises(ValueError, match=r"scale must be one of \['log', 'linear'\]; got 'symlog'"):
+        ValueAxis("symlog")

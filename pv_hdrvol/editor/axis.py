@@ -166,3 +166,53 @@ class FocusContextAxis:
 
     def __repr__(self):
         return f"FocusContextAxis({list(self.foci)!r}, m_min={self.m_min!r})"
+
+
+class ValueAxis:
+    """The editor's vertical axis for opacity or colour (HDR VolVis section 5;
+    methods.md C.1.3): logarithmic by default, so values near zero can be edited, or
+    linear. Only the display changes: the transfer function's values are kept as set.
+
+    Parameters
+    ----------
+    scale : {"log", "linear"}
+    floor : float
+        The smallest value the log axis shows (default 1e-6: six decades below ``top``).
+    top : float
+        The value at the top of the axis (1 for opacity; the HDR maximum for colour).
+    snap : float
+        Screen height of the band at the bottom of a log axis that means exactly 0.
+
+    Examples
+    --------
+    >>> axis = ValueAxis("log", floor=1e-6, top=1.0)
+    >>> [round(float(v), 6) for v in axis.forward([1e-6, 1e-3, 1.0])]
+    [0.0, 0.5, 1.0]
+    >>> float(axis.inverse(0.5)), float(axis.inverse(0.0))
+    (0.001, 0.0)
+    """
+
+    def __init__(self, scale="log", *, floor=1e-6, top=1.0, snap=0.02):
+        from .._validate import as_choice
+
+        self.scale = as_choice("scale", scale, ("log", "linear"))
+        self.top = as_real("top", top, low=0.0, low_open=True)
+        self.floor = as_real("floor", floor, low=0.0, high=self.top, low_open=True, high_open=True)
+        self.snap = as_real("snap", snap, low=0.0, high=1.0, high_open=True)
+
+    def forward(self, y):
+        """Screen heights in [0, 1] of values ``y`` (values above ``top`` at 1; on a log
+        axis, values at or below ``floor`` at 0)."""
+        y = np.asarray(y, dtype=np.float64)
+        if self.scale == "linear":
+            return np.clip(y / self.top, 0.0, 1.0)
+        lo, hi = np.log10(self.floor), np.log10(self.top)
+        return np.clip((np.log10(np.maximum(y, self.floor)) - lo) / (hi - lo), 0.0, 1.0)
+
+    def inverse(self, s):
+        """Values of screen heights ``s`` (a log axis gives 0 in the snap band)."""
+        s = np.clip(np.asarray(s, dtype=np.float64), 0.0, 1.0)
+        if self.scale == "linear":
+            return s * self.top
+        lo, hi = np.log10(self.floor), np.log10(self.top)
+        return np.where(s <= self.snap, 0.0, 10.0 ** (lo + s * (hi - lo)))

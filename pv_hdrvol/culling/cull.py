@@ -128,6 +128,14 @@ def render_mask(result, pof, render_block_size, render_shape):
     return expand_mask(result.visible, pof.block_size, render_block_size, render_shape)
 
 
+def single_block_mask(block, shape, block_size, render_block_size, render_shape):
+    """The ray caster's ``block_mask`` that keeps only the block of flat z-y-x index
+    ``block`` of a grid of ``shape`` blocks of ``block_size`` cells."""
+    one = np.zeros(shape, dtype=bool)
+    one.reshape(-1)[int(block)] = True
+    return expand_mask(one, block_size, render_block_size, render_shape)
+
+
 def expand_mask(blocks, block_size, render_block_size, render_shape):
     """(bz, by, bx) bool over blocks of ``block_size`` cells as the ray caster's
     ``block_mask`` (blocks of ``render_block_size``, shape ``render_shape``)."""

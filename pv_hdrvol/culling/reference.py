@@ -16,7 +16,7 @@ import numpy as np
 
 from ..rays.camera import Camera
 from ..raycast.grid import _grid_shape
-from .cull import DEFAULT_THRESHOLD, block_boxes, expand_mask, visibility_order
+from .cull import DEFAULT_THRESHOLD, block_boxes, single_block_mask, visibility_order
 
 
 def ert_oracle(volume, tf, camera, size, *, block_size=16, threshold=DEFAULT_THRESHOLD, nonempty=None, **options):
@@ -93,9 +93,7 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
         if touched.any() and np.all(opacity[touched] >= threshold):
             continue
         visible[b] = True
-        one = np.zeros(shape, dtype=bool)
-        one.reshape(-1)[b] = True
-        mask = expand_mask(one, block_size, render_block_size, render_shape)
+        mask = single_block_mask(b, shape, block_size, render_block_size, render_shape)
         alpha = render(volume, tf, camera, (width, height), block_mask=mask, termination=0.0, progress_bar=False,
                        **options).rgba[..., 3].reshape(-1).astype(np.float64)
         renders += 1

@@ -29,7 +29,8 @@ import time
 import numpy as np
 
 from .._validate import as_int
-from ..culling.cull import DEFAULT_THRESHOLD, block_boxes, expand_mask, visibility_order, visible_blocks
+from ..culling.cull import (DEFAULT_THRESHOLD, block_boxes, single_block_mask, visibility_order,
+                            visible_blocks)
 from ..culling.pof import PlenopticOpacity, _nonempty
 from ..data.transfer import TransferFunctionFamily
 from ..image.hdr import HDRImage
@@ -104,9 +105,7 @@ def block_partials(plan, volume, camera, size, block_size, blocks):
         rect = block_rect(box_lo, box_hi, camera, size)
         if rect is None:
             continue
-        one = np.zeros(shape, dtype=bool)
-        one.reshape(-1)[int(b)] = True
-        mask = expand_mask(one, block_size, opts.block_size, render_shape)
+        mask = single_block_mask(b, shape, block_size, opts.block_size, render_shape)
         yield int(b), rect, plan.execute(camera, size, block_mask=mask, window=rect, progress_bar=False)
 
 

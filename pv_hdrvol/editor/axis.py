@@ -130,6 +130,13 @@ class FocusContextAxis:
         knots = [0.0, 1.0] + [min(max(k, 0.0), 1.0) for f in foci for k in f.knots]
         self._x = np.unique(np.array(knots))
         self._s = self.forward(self._x)
+        # M is linear on each segment between knots: its value just inside the segment's
+        # start and its slope, from two interior points (the ends may be steps)
+        x0, x1 = self._x[:-1], self._x[1:]
+        q1, q3 = x0 + 0.25 * (x1 - x0), x0 + 0.75 * (x1 - x0)
+        m1, m3 = self.magnification(q1), self.magnification(q3)
+        self._slope = (m3 - m1) / (q3 - q1)
+        self._m0 = m1 - self._slope * (q1 - x0)
 
     def magnification(self, x):
         """``M(x)`` for data positions ``x`` in [0, 1]."""
@@ -152,13 +159,7 @@ class FocusContextAxis:
         ``S`` is linear on foci and context and quadratic on transitions)."""
         s = np.asarray(s, dtype=np.float64)
         k = np.clip(np.searchsorted(self._s, s, side="right") - 1, 0, self._x.size - 2)
-        x0, x1, s0 = self._x[k], self._x[k + 1], self._s[k]
-        # M is linear on each segment: its value just inside x0 and its slope
-        q1, q3 = x0 + 0.25 * (x1 - x0), x0 + 0.75 * (x1 - x0)
-        m1, m3 = self.magnification(q1), self.magnification(q3)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            slope = np.where(x1 > x0, (m3 - m1) / (q3 - q1), 0.0)
-        m0 = m1 - slope * (q1 - x0)
+        x0, x1, s0, m0, slope = self._x[k], self._x[k + 1], self._s[k], self._m0[k], self._slope[k]
         r = s - s0
         # slope / 2 u^2 + m0 u - r = 0, the root in the stable form
         u = 2.0 * r / (m0 + np.sqrt(np.maximum(m0 * m0 + 2.0 * slope * r, 0.0)))

@@ -46,18 +46,11 @@ from pv_hdrvol.culling.reference import ert_oracle
 from pv_hdrvol.parallel.render import render_parallel
 from pv_hdrvol.raycast.grid import as_volume
 
+from bench_pof import _ramp, _tent  # the same transfer functions as bench_pof.py (benchmarks/ is on sys.path)
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DATA = pathlib.Path(os.environ.get("PV_HDRVOL_DATA", ROOT.parent / "shared" / "data"))
 TERMINATION = 0.05  # = 1 - the culling threshold
-
-
-def _ramp(lo, mid, opacity=(0.9, 0.99), color=(1.0, 0.9, 0.8)):
-    return hv.TransferFunction([0, lo, mid, 255], [(0, 0, 0), color, color, (1, 1, 1)],
-                               [0, 0, opacity[0], opacity[1]], table_size=256)
-
-
-def _tent(lo, peak, hi, opacity, color):
-    return hv.TransferFunction([0, lo, peak, hi, 255], [color] * 5, [0, 0, opacity, 0, 0], table_size=256)
 
 
 def scenes(names):

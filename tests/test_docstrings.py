@@ -19,6 +19,7 @@ MODULES = [
     "pv_hdrvol.settings",
     "pv_hdrvol.datasets",
     "pv_hdrvol.editor.axis",
+    "pv_hdrvol.editor.model",
 ]
 
 

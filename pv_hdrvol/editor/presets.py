@@ -1,0 +1,293 @@
+"""ParaView's colour-map and opacity presets (the JSON of its "Choose Preset" dialog),
+read and written, so transfer functions move between ParaView and pv_hdrvol.
+
+A preset is a dict: ``Name``; ``ColorSpace`` (``RGB``, ``HSV``, ``Lab``,
+``Diverging``, ``Lab/CIEDE2000``, ``Step``); ``RGBPoints``, flat ``x, r, g, b, ...``;
+optionally ``Points``, flat ``x, opacity, midpoint, sharpness, ...`` (ParaView's
+piecewise function: ``midpoint`` 0.5 and ``sharpness`` 0 are linear). A file holds a
+list of them. ParaView interpolates between points in data units (linear axis) and
+clamps beyond the ends.
+
+Reading: RGB and HSV colours, and linear opacity segments, are taken exactly; colour
+spaces we do not interpolate in (Lab, Diverging, Step) and curved opacity segments
+(midpoint, sharpness) are sampled with VTK's own ``vtkColorTransferFunction`` /
+``vtkPiecewiseFunction`` (:data:`SAMPLES` points, then thinned where linear
+interpolation stays within :data:`SAMPLED_TOLERANCE`; needs VTK, which ParaView and
+PyVista have).
+
+Writing: a function on a linear axis is written exactly. On a log or symlog axis,
+where ParaView would interpolate linearly in data units between our points, the
+function is sampled densely enough along its own axis that ParaView's interpolation
+stays within :data:`EXPORT_TOLERANCE` of it (at most :data:`EXPORT_MAX_POINTS`
+points). HDR colours above 1 are divided by the brightest (ParaView's colours lie in
+[0, 1]). The editor's exact state rides along under the key ``pv_hdrvol``, which
+ParaView ignores: a preset written here reads back here exactly.
+"""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+from .._validate import as_int
+from ..data.transfer import TransferFunction, _scale_inverse
+from .model import TransferFunctionModel, _simplify
+
+#: Points sampled over the range for colour spaces and opacity curves read through VTK.
+SAMPLES = 4096
+#: Of those, points that linear interpolation of their neighbours reproduces within this
+#: (colour relative to the brightest, opacity absolute) are dropped.
+SAMPLED_TOLERANCE = 1e-4
+#: Largest difference (colour relative to the brightest, opacity absolute) between
+#: ParaView's reading of an exported log/symlog function and the function.
+EXPORT_TOLERANCE = 1e-3
+EXPORT_MAX_POINTS = 4097
+_EXACT_SPACES = {"RGB": "rgb", "HSV": "hsv"}
+_VTK_SPACES = ("Lab", "Diverging", "Lab/CIEDE2000", "Step")
+
+
+def read_paraview_presets(source):
+    """The presets in ``source``: a path to ParaView's JSON, a JSON string, a dict (one
+    preset) or a list of them. Returns a list of dicts."""
+    if isinstance(source, (str, os.PathLike)) and not str(source).lstrip().startswith(("[", "{")):
+        with open(os.fspath(source), encoding="utf-8") as fh:
+            data = json.load(fh)
+    elif isinstance(source, str):
+        data = json.loads(source)
+    else:
+        data = source
+    presets = [data] if hasattr(data, "keys") else data
+    if not isinstance(presets, list) or not all(hasattr(p, "keys") for p in presets):
+        raise ValueError("a ParaView preset file holds a list of presets (JSON objects)")
+    return presets
+
+
+def _pick(presets, name):
+    if name is None:
+        if len(presets) != 1:
+            names = [p.get("Name") for p in presets]
+            raise ValueError(f"the file holds {len(presets)} presets; name one of {names}")
+        return presets[0]
+    for p in presets:
+        if p.get("Name") == name:
+            return p
+    raise ValueError(f"no preset named {name!r}; the file holds {[p.get('Name') for p in presets]}")
+
+
+def _flat(preset, key, width):
+    values = preset.get(key)
+    try:
+        a = np.asarray(values, dtype=np.float64).reshape(-1, width)
+    except (TypeError, ValueError):
+        raise ValueError(f"preset {preset.get('Name')!r}: {key} must be a flat list of numbers, {width} per point; "
+                         f"got {values!r:.200}") from None
+    if a.shape[0] < 1 or not np.all(np.isfinite(a)):
+        raise ValueError(f"preset {preset.get('Name')!r}: {key} needs at least one point of finite numbers")
+    if np.any(np.diff(a[:, 0]) < 0):
+        raise ValueError(f"preset {preset.get('Name')!r}: the x values of {key} must not decrease")
+    return a
+
+
+def _deduplicate(x, rows):
+    """Points with equal ``x`` (a step) become two points 1e-9 of the range apart: our
+    functions need strictly increasing positions."""
+    x = x.copy()
+    span = max(x[-1] - x[0], 1e-300)
+    for i in range(1, x.size):
+        if x[i] <= x[i - 1]:
+            x[i] = x[i - 1] + 1e-9 * span
+    return x, rows
+
+
+def _vtk_colors(points, space, x):
+    try:
+        from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
+    except ImportError:  # pragma: no cover - VTK comes with pyvista and ParaView
+        raise ValueError(f"reading a preset in colour space {space!r} needs VTK (its interpolation is VTK's)") \
+            from None
+    ctf = vtkColorTransferFunction()
+    getattr(ctf, {"Lab": "SetColorSpaceToLab", "Diverging": "SetColorSpaceToDiverging",
+                  "Lab/CIEDE2000": "SetColorSpaceToLabCIEDE2000", "Step": "SetColorSpaceToStep"}[space])()
+    for px, r, g, b in points:
+        ctf.AddRGBPoint(px, r, g, b)
+    return np.array([ctf.GetColor(float(v)) for v in x])
+
+
+def _vtk_opacity(points, x):
+    try:
+        from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
+    except ImportError:  # pragma: no cover
+        raise ValueError("reading a preset's curved opacity (midpoint or sharpness) needs VTK") from None
+    pwf = vtkPiecewiseFunction()
+    for px, a, mid, sharp in points:
+        pwf.AddPoint(px, a, mid, sharp)
+    return np.array([pwf.GetValue(float(v)) for v in x])
+
+
+def transfer_function_from_preset(preset, *, samples=SAMPLES):
+    """The :class:`~pv_hdrvol.TransferFunction` of one ParaView preset (a dict), on a
+    linear axis as ParaView's. Without ``Points`` the opacity ramps linearly from 0 to 1
+    (ParaView's default). Returns ``(tf, editor_state)``: ``editor_state`` is the dict
+    this package stored under ``pv_hdrvol`` when the points are still the ones written
+    from it (``None`` for ParaView's own presets, or after an edit there)."""
+    samples = as_int("samples", samples, low=2, high=1 << 20)
+    if preset.get("IndexedColors") is not None or preset.get("Annotations") is not None:
+        if "RGBPoints" not in preset:
+            raise ValueError(f"preset {preset.get('Name')!r} is categorical (IndexedColors/Annotations): it has no "
+                             "continuous transfer function")
+    if "RGBPoints" not in preset:
+        raise ValueError(f"preset {preset.get('Name')!r} has no RGBPoints")
+    space = preset.get("ColorSpace", "RGB")
+    if space not in _EXACT_SPACES and space not in _VTK_SPACES:
+        raise ValueError(f"preset {preset.get('Name')!r}: unknown ColorSpace {space!r}; ParaView's are "
+                         f"{list(_EXACT_SPACES) + list(_VTK_SPACES)}")
+    colors = _flat(preset, "RGBPoints", 4)
+    opacity = _flat(preset, "Points", 4) if preset.get("Points") is not None else None
+    lo = colors[0, 0] if opacity is None else min(colors[0, 0], opacity[0, 0])
+    hi = colors[-1, 0] if opacity is None else max(colors[-1, 0], opacity[-1, 0])
+    if not hi > lo:
+        raise ValueError(f"preset {preset.get('Name')!r} spans no range: its points all lie at {lo!r}")
+    if opacity is None:
+        opacity = np.array([[lo, 0.0, 0.5, 0.0], [hi, 1.0, 0.5, 0.0]])
+    curved = np.any(opacity[:-1, 2] != 0.5) or np.any(opacity[:-1, 3] != 0.0)
+    x_dense = np.linspace(lo, hi, samples)
+    if space in _EXACT_SPACES and not curved:
+        # exact: the union of both lists' points, each interpolated at the other's (ParaView
+        # clamps beyond the ends)
+        cx, cc = _deduplicate(colors[:, 0], colors[:, 1:])
+        ox, oa = _deduplicate(opacity[:, 0], opacity[:, 1])
+        x = np.unique(np.concatenate([cx, ox, [lo, hi]]))
+        if cx.size == 1:
+            rgb = np.repeat(cc, x.size, axis=0)
+        else:
+            rgb = TransferFunction(cx, np.clip(cc, 0, None), np.zeros(cx.size), color_space=_EXACT_SPACES[space],
+                                   table_size=256).color_at(x)
+        alpha = np.interp(x, ox, oa)
+        color_space = _EXACT_SPACES[space]
+    else:
+        # and each opacity segment's midpoint, where ParaView's curve bends most
+        middles = opacity[:-1, 0] + opacity[:-1, 2] * np.diff(opacity[:, 0])
+        x = np.unique(np.concatenate([x_dense, colors[:, 0], opacity[:, 0], middles]))
+        if space in _EXACT_SPACES:
+            cx, cc = _deduplicate(colors[:, 0], colors[:, 1:])
+            rgb = TransferFunction(cx, np.clip(cc, 0, None), np.zeros(cx.size), color_space=_EXACT_SPACES[space],
+                                   table_size=256).color_at(x) if cx.size > 1 else np.repeat(cc, x.size, axis=0)
+            color_space = _EXACT_SPACES[space]
+        else:
+            rgb = _vtk_colors(colors, space, x)
+            color_space = "rgb"
+        alpha = _vtk_opacity(opacity, x) if curved else np.interp(x, *_deduplicate(opacity[:, 0], opacity[:, 1]))
+        rows = np.column_stack([rgb / max(float(rgb.max()), 1e-300), alpha])
+        keep = _simplify(x, rows, SAMPLED_TOLERANCE) if color_space == "rgb" else np.arange(x.size)
+        x, rgb, alpha = x[keep], rgb[keep], alpha[keep]
+    tf = TransferFunction(x, np.clip(rgb, 0.0, None), np.clip(alpha, 0.0, 1.0), color_space=color_space)
+    return tf, _own_state(preset)
+
+
+def _own_state(preset):
+    """The editor state this package stored in ``preset``, if the preset's points are
+    still the ones written from it (not edited since, in ParaView or by hand)."""
+    state = preset.get("pv_hdrvol")
+    if not hasattr(state, "keys"):
+        return None
+    try:
+        again = paraview_preset(TransferFunctionModel.from_dict(state), preset.get("Name") or "x")
+    except (TypeError, ValueError):
+        return None
+    same = all(np.array_equal(np.asarray(again[k], dtype=np.float64),
+                              np.asarray(preset.get(k, []), dtype=np.float64)) for k in ("RGBPoints", "Points"))
+    return state if same and again["ColorSpace"] == preset.get("ColorSpace", "RGB") else None
+
+
+def _export_points(tf, tolerance=EXPORT_TOLERANCE, most=EXPORT_MAX_POINTS):
+    """Data positions at which ``tf`` is written: its own points on a linear axis; on a
+    log/symlog axis, evenly spaced positions along that axis (plus its points), doubled
+    until linear interpolation in data units reproduces the function within
+    ``tolerance`` halfway between neighbours."""
+    if tf.scale == "linear":
+        return tf.values.copy()
+    a0, a1 = tf.axis_range
+    peak = max(float(tf.colors.max()), 1e-300)
+    n = 65
+    while True:
+        x = np.unique(np.concatenate([_scale_inverse(np.linspace(a0, a1, n), tf.scale, tf.linthresh), tf.values]))
+        x[0], x[-1] = tf.vmin, tf.vmax
+        mid = 0.5 * (x[1:] + x[:-1])
+        rgb, alpha = tf.color_at(x), tf.opacity_at(x)
+        lin_rgb = 0.5 * (rgb[1:] + rgb[:-1])
+        lin_alpha = 0.5 * (alpha[1:] + alpha[:-1])
+        error = max(float(np.max(np.abs(lin_rgb - tf.color_at(mid)))) / peak,
+                    float(np.max(np.abs(lin_alpha - tf.opacity_at(mid)))))
+        if error <= tolerance or x.size >= most:
+            return x
+        n = 2 * n - 1
+
+
+def paraview_preset(source, name="pv_hdrvol"):
+    """``source`` (a :class:`~pv_hdrvol.TransferFunction` or a
+    :class:`~pv_hdrvol.editor.model.TransferFunctionModel`) as one ParaView preset dict
+    (see the module's docstring)."""
+    if isinstance(source, TransferFunctionModel):
+        model = source
+    elif isinstance(source, TransferFunction):
+        model = TransferFunctionModel(source)
+    else:
+        raise TypeError(f"expected a TransferFunction or TransferFunctionModel; got {type(source).__name__}")
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"name must be a non-empty string; got {name!r}")
+    tf = model.transfer_function()
+    if tf.scale == "linear":
+        # the colour and opacity points as edited, each list on its own (as ParaView keeps them)
+        cx, cc = model.color_points
+        ox, oa = model.opacity_points
+    else:
+        x = _export_points(tf)
+        cx, cc, ox, oa = x, tf.color_at(x), x, tf.opacity_at(x)
+    peak = float(cc.max())
+    if peak > 1.0:
+        cc = cc / peak
+    space = "HSV" if tf.color_space == "hsv" and tf.scale == "linear" else "RGB"
+    preset = {
+        "Name": name,
+        "ColorSpace": space,
+        "RGBPoints": np.column_stack([cx, cc]).reshape(-1).tolist(),
+        "Points": np.column_stack([ox, oa, np.full(ox.size, 0.5), np.zeros(ox.size)]).reshape(-1).tolist(),
+        "pv_hdrvol": model.to_dict(),
+    }
+    return preset
+
+
+def write_paraview_presets(path, presets):
+    """Write presets (dicts from :func:`paraview_preset`) as a ParaView preset file
+    (``ImportPresets(path)`` in ParaView, or the preset dialog's Import)."""
+    presets = [presets] if hasattr(presets, "keys") else list(presets)
+    names = [p.get("Name") for p in presets]
+    if len(set(names)) != len(names):
+        raise ValueError(f"preset names must differ; got {names}")
+    with open(os.fspath(path), "w", encoding="utf-8") as fh:
+        json.dump(presets, fh, indent=1)
+
+
+def export_error(tf, preset):
+    """The largest difference between ParaView's reading of ``preset`` (linear
+    interpolation in data units, colours as written) and ``tf``, sampled at 100,001
+    points evenly along ``tf``'s axis: ``(colour relative to the brightest, opacity)``."""
+    a0, a1 = tf.axis_range
+    v = _scale_inverse(np.linspace(a0, a1, 100_001), tf.scale, tf.linthresh)
+    v[0], v[-1] = tf.vmin, tf.vmax
+    c = np.asarray(preset["RGBPoints"], dtype=np.float64).reshape(-1, 4)
+    o = np.asarray(preset["Points"], dtype=np.float64).reshape(-1, 4)
+    peak = max(float(tf.colors.max()), 1e-300)
+    scale_back = peak if peak > 1.0 else 1.0
+    if preset["ColorSpace"] == "HSV":
+        pv = TransferFunction(c[:, 0], c[:, 1:], np.zeros(len(c)), color_space="hsv", table_size=256).color_at(v)
+    else:
+        pv = np.stack([np.interp(v, c[:, 0], c[:, k]) for k in (1, 2, 3)], axis=-1)
+    color = float(np.max(np.abs(pv * scale_back - tf.color_at(v)))) / peak
+    opacity = float(np.max(np.abs(np.interp(v, o[:, 0], o[:, 1]) - tf.opacity_at(v))))
+    return color, opacity
+
+
+__all__ = ["EXPORT_TOLERANCE", "SAMPLES", "export_error", "paraview_preset", "read_paraview_presets",
+           "transfer_function_from_preset", "write_paraview_presets"]

@@ -13,7 +13,11 @@ spaces we do not interpolate in (Lab, Diverging, Step) and curved opacity segmen
 (midpoint, sharpness) are sampled with VTK's own ``vtkColorTransferFunction`` /
 ``vtkPiecewiseFunction`` (:data:`SAMPLES` points, then thinned where linear
 interpolation stays within :data:`SAMPLED_TOLERANCE`; needs VTK, which ParaView and
-PyVista have).
+PyVista have). Noticed: ParaView 5.11's VTK (9.1) interpolates some "Diverging"
+presets of nearly equal neighbouring colours (its matplotlib maps, e.g. "Viridis
+(matplotlib)") through a full turn of hue between two points 1/255 apart; read inside
+ParaView, that loop is sampled at 16 points (a newer VTK, as PyVista's, has no loop).
+ParaView's own display hides it in its 256-colour table.
 
 Writing: a function on a linear axis is written exactly. On a log or symlog axis,
 where ParaView would interpolate linearly in data units between our points, the
@@ -111,7 +115,13 @@ def _vtk_colors(points, space, x):
                   "Lab/CIEDE2000": "SetColorSpaceToLabCIEDE2000", "Step": "SetColorSpaceToStep"}[space])()
     for px, r, g, b in points:
         ctf.AddRGBPoint(px, r, g, b)
-    return np.array([ctf.GetColor(float(v)) for v in x])
+    out = np.array([ctf.GetColor(float(v)) for v in x])
+    # at a point itself, its own colour: VTK's Diverging space misses it there by up to
+    # 0.02 (evaluated at the end of the segment before), and only there
+    at = np.searchsorted(x, points[:, 0])
+    hit = (at < x.size) & (x[np.minimum(at, x.size - 1)] == points[:, 0])
+    out[at[hit]] = points[hit, 1:]
+    return out
 
 
 def _vtk_opacity(points, x):
@@ -204,21 +214,25 @@ def _export_points(tf, tolerance=EXPORT_TOLERANCE, most=EXPORT_MAX_POINTS):
     """Data positions at which ``tf`` is written: its own points on a linear axis; on a
     log/symlog axis, evenly spaced positions along that axis (plus its points), doubled
     until linear interpolation in data units reproduces the function within
-    ``tolerance`` halfway between neighbours."""
+    ``tolerance`` at 15 points evenly along the axis inside every interval (the largest
+    difference lies near an interval's logarithmic mean, not its middle)."""
     if tf.scale == "linear":
         return tf.values.copy()
     a0, a1 = tf.axis_range
     peak = max(float(tf.colors.max()), 1e-300)
     n = 65
+    f = np.linspace(0.0, 1.0, 17)[1:-1]
     while True:
-        x = np.unique(np.concatenate([_scale_inverse(np.linspace(a0, a1, n), tf.scale, tf.linthresh), tf.values]))
+        axis = np.unique(np.concatenate([np.linspace(a0, a1, n), tf._axis]))
+        x = _scale_inverse(axis, tf.scale, tf.linthresh)
         x[0], x[-1] = tf.vmin, tf.vmax
-        mid = 0.5 * (x[1:] + x[:-1])
+        inner = _scale_inverse((axis[:-1, None] * (1 - f) + axis[1:, None] * f), tf.scale, tf.linthresh)
+        w = (inner - x[:-1, None]) / (x[1:, None] - x[:-1, None])  # ParaView's weights, in data units
         rgb, alpha = tf.color_at(x), tf.opacity_at(x)
-        lin_rgb = 0.5 * (rgb[1:] + rgb[:-1])
-        lin_alpha = 0.5 * (alpha[1:] + alpha[:-1])
-        error = max(float(np.max(np.abs(lin_rgb - tf.color_at(mid)))) / peak,
-                    float(np.max(np.abs(lin_alpha - tf.opacity_at(mid)))))
+        lin_rgb = rgb[:-1, None] * (1 - w)[..., None] + rgb[1:, None] * w[..., None]
+        lin_alpha = alpha[:-1, None] * (1 - w) + alpha[1:, None] * w
+        error = max(float(np.max(np.abs(lin_rgb - tf.color_at(inner.reshape(-1)).reshape(lin_rgb.shape)))) / peak,
+                    float(np.max(np.abs(lin_alpha - tf.opacity_at(inner.reshape(-1)).reshape(lin_alpha.shape)))))
         if error <= tolerance or x.size >= most:
             return x
         n = 2 * n - 1

@@ -20,6 +20,7 @@ MODULES = [
     "pv_hdrvol.datasets",
     "pv_hdrvol.editor.axis",
     "pv_hdrvol.editor.model",
+    "pv_hdrvol.viewer.progressive",
 ]
 
 

@@ -13,7 +13,7 @@ from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, 
 from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction, auto_transfer_function,
                              scale_forward)
 from ..image.hdr import HDRImage
-from .._validate import as_size
+from .._validate import as_real, as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays, as_camera, check_window
 from ..settings import settings_metadata
@@ -578,9 +578,13 @@ class GridPlan:
         return self._prepared
 
     def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, cull=None, window=None,
-                progress=None, progress_bar=None):
+                progress=None, progress_bar=None, chunk_seconds=None):
         """Render the plan: ``camera``, ``size``, ``lens``, ``block_mask``, ``progress`` and
         ``progress_bar`` as :func:`render_volume`. Returns an :class:`~pv_hdrvol.HDRImage`.
+
+        ``chunk_seconds``: how long a chunk of rows of tiles may take between
+        ``progress`` reports (default 0.25 s; see :func:`run_in_chunks`): an interactive
+        render that must stop soon when ``progress`` returns ``False`` asks for less.
 
         ``window=(col, row, width, height)``: render only that rectangle of the image of
         ``size`` (a tile: sort-first parallel rendering, a region refined first); the
@@ -699,7 +703,7 @@ class GridPlan:
 
         _check_progress_bar(progress_bar)
         t_start = time.perf_counter()
-        run_in_chunks(cast, height, progress, progress_bar)
+        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
         elapsed = time.perf_counter() - t_start
 
         meta = {
@@ -1100,7 +1104,7 @@ def _lanes():
     return numba.get_num_threads()
 
 
-def run_in_chunks(cast, height, progress=None, progress_bar=None):
+def run_in_chunks(cast, height, progress=None, progress_bar=None, chunk_seconds=None):
     """Call ``cast(tile_rows)`` (which renders those rows of ``_TILE``-pixel tiles and
     returns how many pixel rows it did) over all rows of tiles, with progress.
 
@@ -1117,8 +1121,11 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
     ``progress_bar=None`` shows a tqdm bar for a slow render only on a terminal or in a
     Jupyter kernel (:func:`_auto_bar_wanted`). ``progress(fraction)`` returning
     ``False`` raises ``RuntimeError("render aborted")``; any exception (KeyboardInterrupt
-    too) closes the bar and propagates.
+    too) closes the bar and propagates. ``chunk_seconds`` replaces ``_CHUNK_SECONDS``
+    (a chunk is never less than one row of tiles).
     """
+    chunk_seconds = _CHUNK_SECONDS if chunk_seconds is None else as_real("chunk_seconds", chunk_seconds, low=0.0,
+                                                                         low_open=True)
     tile_count_y = -(-height // _TILE)
     bar = _progress_bar(progress_bar, height) if progress_bar else None
     done = 0
@@ -1150,9 +1157,9 @@ def run_in_chunks(cast, height, progress=None, progress_bar=None):
                 bar = _progress_bar(True, height, quiet_without_tqdm=True)
                 if bar is not None:
                     bar.update(done)
-            fits = max(1, int(_CHUNK_SECONDS / rate)) if rate > 0 else rest.size
+            fits = max(1, int(chunk_seconds / rate)) if rate > 0 else rest.size
             # double the chunks until an eighth of the rows is timed (the middle row
-            # alone may be cheap), and keep each to about _CHUNK_SECONDS
+            # alone may be cheap), and keep each to about chunk_seconds
             size = min(fits if 8 * rows_done >= tile_count_y else 2 * size, fits, most)
             # in image order inside a chunk: neighbouring rows share bricks (cells) in cache
             part = np.sort(rest[start:start + size])

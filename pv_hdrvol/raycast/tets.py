@@ -149,12 +149,15 @@ class TetPlan:
         self._empty_reason = empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf,
                                                  visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
 
-    def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None):
+    def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, chunk_seconds=None):
         """Render the plan for ``camera`` and ``size`` (as :func:`render_tets`); an
-        :class:`~pv_hdrvol.HDRImage`."""
-        return self.execute_with_view(camera, size, progress=progress, progress_bar=progress_bar)[0]
+        :class:`~pv_hdrvol.HDRImage`. ``chunk_seconds``: as
+        :meth:`~pv_hdrvol.raycast.grid.GridPlan.execute`."""
+        return self.execute_with_view(camera, size, progress=progress, progress_bar=progress_bar,
+                                      chunk_seconds=chunk_seconds)[0]
 
-    def execute_with_view(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, view=None):
+    def execute_with_view(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, view=None,
+                          chunk_seconds=None):
         """:meth:`execute`, and the boundary's ``_view`` for this camera (reused when
         ``view`` was made for it): ``(image, view)``."""
         mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
@@ -203,7 +206,7 @@ class TetPlan:
             return pixel_rows(tile_rows, height)
 
         t1 = time.perf_counter()
-        run_in_chunks(cast, height, progress, progress_bar)
+        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
         elapsed = time.perf_counter() - t1
         meta = {
             "renderer": "pv_hdrvol tetrahedral ray caster",

@@ -1,0 +1,310 @@
+"""Progressive refinement: a coarse frame at once, the full frame when input stops.
+
+While the camera or the transfer function changes, each request renders a coarse
+frame (the image at a fraction of its size, upsampled bilinearly) and then starts the
+full render. A newer request cancels the render in flight at the end of the chunk of
+rows of 8-pixel tiles running (``raycast.grid.run_in_chunks``; chunks of about
+:data:`CHUNK_SECONDS`, at least one row of tiles), so a window never waits for a frame
+nobody will see. The full frame is
+the plan's own render: equal, bit for bit, to :func:`pv_hdrvol.render` of the same
+scene.
+
+The coarse factor follows a time budget (methods.md C.4 pitfall 10: a fixed level is a
+GPU-era choice): after each coarse frame, the next uses the smallest factor whose
+predicted time (pixels scale as ``1 / factor**2``) fits ``coarse_seconds``.
+
+:class:`ProgressiveRenderer` runs renders on a worker thread (numba's kernels release
+the GIL, so a GUI stays responsive) and hands each :class:`Frame` to ``on_frame`` on
+that thread; :meth:`ProgressiveRenderer.frames` is the same sequence, synchronous, for
+scripts and tests.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from .._validate import as_real, as_size
+from ..data.tets import is_unstructured
+from ..image.hdr import HDRImage
+from ..params import RenderOptions
+from ..raycast.grid import GridPlan, as_volume
+from ..data.tets import as_tetmesh
+from ..raycast.tets import TetPlan
+from ..rays.camera import as_camera
+
+#: Coarse factors tried, smallest first (full-size pixels per coarse pixel, per axis).
+FACTORS = (2, 3, 4, 6, 8, 12, 16)
+#: The coarse frame's time budget: 10 frames per second.
+COARSE_SECONDS = 0.1
+#: A render checks for a newer request after chunks of rows of tiles of about this
+#: long (at least one row of 8-pixel tiles): the latency of cancellation.
+CHUNK_SECONDS = 0.03
+
+
+class Cancelled(Exception):
+    """A render stopped because a newer request came (or the renderer closed)."""
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame of a progressive sequence.
+
+    Attributes
+    ----------
+    image : HDRImage
+        At the requested size: a coarse frame upsampled, or the full render.
+    level : {"coarse", "full"}
+    factor : int
+        Full-size pixels per rendered pixel, per axis (1 for the full frame).
+    generation : int
+        The request this frame answers (:meth:`ProgressiveRenderer.request`'s return).
+    seconds : float
+        Wall time of the frame's render (and upsampling).
+    """
+
+    image: HDRImage
+    level: str
+    factor: int
+    generation: int
+    seconds: float
+
+
+class ProgressiveRenderer:
+    """Renders one scene (data, transfer function, options) progressively, for any
+    camera and image size.
+
+    Parameters
+    ----------
+    data : pyvista.ImageData, vtkImageData, ndarray, GridVolume, or a tetrahedral mesh
+        As :func:`pv_hdrvol.render`; converted once.
+    tf : TransferFunction, optional
+        The default is the renderer's default for the data.
+    options : RenderOptions, optional
+        And ``**option_kwargs``: as :func:`pv_hdrvol.render`.
+    coarse_seconds : float
+        The coarse frame's time budget (default :data:`COARSE_SECONDS`).
+    factor : int
+        The first coarse frame's factor (default 4); later ones follow the budget.
+    on_frame : callable, optional
+        ``on_frame(frame)``, called on the worker thread for every frame of the latest
+        request (frames of superseded requests are dropped). Needed for
+        :meth:`request`; not for :meth:`frames`.
+    on_error : callable, optional
+        ``on_error(exception)`` on the worker thread when a render fails (default:
+        re-raised there, which prints it).
+
+    Examples
+    --------
+    >>> import numpy as np, pv_hdrvol as hv
+    >>> from pv_hdrvol.viewer.progressive import ProgressiveRenderer
+    >>> renderer = ProgressiveRenderer(np.random.default_rng(0).random((16, 16, 16)), precision="float64")
+    >>> [(f.level, f.factor, f.image.shape) for f in renderer.frames("iso", (32, 32))]
+    [('coarse', 4, (32, 32)), ('full', 1, (32, 32))]
+    """
+
+    def __init__(self, data, tf=None, options=None, *, coarse_seconds=COARSE_SECONDS, factor=4, on_frame=None,
+                 on_error=None, scalars=None, preference="point", **option_kwargs):
+        self.tets = is_unstructured(data)
+        self.data = as_tetmesh(data, scalars=scalars, preference=preference) if self.tets else \
+            as_volume(data, scalars=scalars, preference=preference)
+        self.options = RenderOptions.from_kwargs(options, **option_kwargs)
+        self.coarse_seconds = as_real("coarse_seconds", coarse_seconds, low=0.0, low_open=True)
+        if factor not in FACTORS:
+            raise ValueError(f"factor must be one of {FACTORS}; got {factor!r}")
+        self.factor = factor
+        for name, f in (("on_frame", on_frame), ("on_error", on_error)):
+            if f is not None and not callable(f):
+                raise TypeError(f"{name} must be callable; got {type(f).__name__}")
+        self.on_frame, self.on_error = on_frame, on_error
+        self._lock = threading.Condition()
+        self._plan = self._make_plan(tf, self.options)
+        self._generation = 0
+        self._pending = None  # (generation, camera, size, lens, plan) of the latest request
+        self._thread = None
+        self._closed = False
+        #: the last frame delivered by the worker (None before the first)
+        self.last_frame: Optional[Frame] = None
+
+    def _make_plan(self, tf, options):
+        return TetPlan(self.data, tf, options) if self.tets else GridPlan(self.data, tf, options)
+
+    @property
+    def tf(self):
+        """The transfer function of the scene (the plan's)."""
+        return self._plan.tf
+
+    def set_scene(self, tf=None, **option_changes):
+        """Change the transfer function and/or options (``global_alpha=``, ``step=``,
+        ...; validated now) for the next requests. Renders in flight keep theirs."""
+        options = self.options.replace(**option_changes) if option_changes else self.options
+        plan = self._make_plan(self._plan.tf if tf is None else tf, options)
+        with self._lock:
+            self.options, self._plan = options, plan
+
+    # -- synchronous ------------------------------------------------------------------
+    def frames(self, camera, size, *, lens=None, coarse=True):
+        """The frames of one request, rendered here: the coarse frame (unless
+        ``coarse=False``), then the full one. A list of :class:`Frame`."""
+        size = as_size(size)
+        with self._lock:
+            plan = self._plan
+        out = []
+        if coarse:
+            out.append(self._coarse(plan, camera, size, lens, 0, lambda: False))
+        out.append(self._full(plan, camera, size, lens, 0, lambda: False))
+        return out
+
+    def _coarse(self, plan, camera, size, lens, generation, stale):
+        width, height = size
+        f = self.factor
+        small = (max(1, -(-width // f)), max(1, -(-height // f)))
+        t0 = time.perf_counter()
+        image = self._execute(plan, camera, small, lens, stale)
+        rendered = time.perf_counter() - t0
+        image = _resize(image, size)
+        seconds = time.perf_counter() - t0
+        self.factor = _next_factor(f, rendered, self.coarse_seconds)
+        return Frame(image, "coarse", f, generation, seconds)
+
+    def _full(self, plan, camera, size, lens, generation, stale):
+        t0 = time.perf_counter()
+        image = self._execute(plan, camera, size, lens, stale)
+        return Frame(image, "full", 1, generation, time.perf_counter() - t0)
+
+    def _execute(self, plan, camera, size, lens, stale):
+        seen = []
+
+        def progress(_fraction):
+            if stale():
+                seen.append(True)
+                return False
+            return True
+
+        try:
+            if self.tets:
+                if lens is not None:
+                    raise ValueError("lenses are not supported for tetrahedral meshes")
+                return plan.execute(camera, size, progress=progress, progress_bar=False,
+                                    chunk_seconds=CHUNK_SECONDS)
+            return plan.execute(camera, size, lens=lens, progress=progress, progress_bar=False,
+                                chunk_seconds=CHUNK_SECONDS)
+        except RuntimeError as error:
+            if seen and str(error) == "render aborted":
+                raise Cancelled() from None
+            raise
+
+    # -- asynchronous -----------------------------------------------------------------
+    def request(self, camera, size, *, lens=None):
+        """Render ``camera`` at ``size`` on the worker thread: a coarse frame, then the
+        full one, each handed to ``on_frame``. Cancels the render in flight. Returns the
+        request's generation number (frames carry it)."""
+        if self.on_frame is None:
+            raise ValueError("request() needs on_frame= (the frames go there); frames() renders synchronously")
+        size = as_size(size)
+        camera = as_camera(camera, self.data.bounds)
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("the renderer is closed")
+            self._generation += 1
+            self._pending = (self._generation, camera, size, lens, self._plan)
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._work, name="pv_hdrvol progressive", daemon=True)
+                self._thread.start()
+            self._lock.notify_all()
+            return self._generation
+
+    def _work(self):
+        while True:
+            with self._lock:
+                while self._pending is None and not self._closed:
+                    self._lock.wait()
+                if self._closed:
+                    return
+                generation, camera, size, lens, plan = self._pending
+                self._pending = None
+
+            def stale(generation=generation):
+                return self._closed or self._generation != generation
+
+            try:
+                for render in (self._coarse, self._full):
+                    frame = render(plan, camera, size, lens, generation, stale)
+                    if stale():
+                        break
+                    self.last_frame = frame
+                    self.on_frame(frame)
+            except Cancelled:
+                continue
+            except Exception as error:  # noqa: BLE001 - handed to the owner, the thread goes on
+                if self.on_error is None:
+                    raise
+                self.on_error(error)
+
+    def wait(self, timeout=None):
+        """Block until no request is pending or rendering (or ``timeout`` seconds).
+        Returns whether the renderer is idle."""
+        end = None if timeout is None else time.monotonic() + timeout
+        while True:
+            with self._lock:
+                busy = self._pending is not None or (self.last_frame is None and self._generation > 0) or (
+                    self.last_frame is not None and (self.last_frame.generation != self._generation
+                                                     or self.last_frame.level != "full"))
+            if not busy or self._closed:
+                return True
+            if end is not None and time.monotonic() > end:
+                return False
+            time.sleep(0.005)
+
+    def close(self):
+        """Stop the worker (a render in flight is cancelled at its next row of tiles)."""
+        with self._lock:
+            self._closed = True
+            self._lock.notify_all()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _next_factor(factor, seconds, budget):
+    """The smallest factor whose predicted time fits ``budget``, from a frame at
+    ``factor`` that took ``seconds`` (time scales as 1 / factor**2)."""
+    for f in FACTORS:
+        if seconds * (factor / f) ** 2 <= budget:
+            return f
+    return FACTORS[-1]
+
+
+def _resize(image, size):
+    """A coarse image at ``size`` (bilinear, premultiplied RGBA; depth nearest)."""
+    width, height = size
+    h, w = image.shape
+    if (w, h) == (width, height):
+        return image
+    rgba = _bilinear(image.rgba, height, width)
+    rows = np.minimum((np.arange(height) * h) // height, h - 1)
+    cols = np.minimum((np.arange(width) * w) // width, w - 1)
+    depth = image.depth[rows[:, None], cols[None, :]]
+    meta = dict(image.metadata, coarse_size=[w, h])
+    return HDRImage(rgba.astype(image.rgba.dtype, copy=False), depth, metadata=meta)
+
+
+def _bilinear(a, height, width):
+    """``a`` (h, w, c) resampled to (height, width), pixel centres aligned."""
+    h, w = a.shape[:2]
+    y = np.clip((np.arange(height) + 0.5) * h / height - 0.5, 0, h - 1)
+    x = np.clip((np.arange(width) + 0.5) * w / width - 0.5, 0, w - 1)
+    y0, x0 = np.floor(y).astype(int), np.floor(x).astype(int)
+    y1, x1 = np.minimum(y0 + 1, h - 1), np.minimum(x0 + 1, w - 1)
+    fy, fx = (y - y0)[:, None, None], (x - x0)[None, :, None]
+    top = a[y0][:, x0] * (1 - fx) + a[y0][:, x1] * fx
+    bottom = a[y1][:, x0] * (1 - fx) + a[y1][:, x1] * fx
+    return top * (1 - fy) + bottom * fy

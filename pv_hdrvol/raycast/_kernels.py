@@ -130,12 +130,13 @@ def _slab(o, d, lo, hi, t0, t1):
 
 
 @inline_kernel
-def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi):
-    """Entry and exit distances of the ray ``o + t d`` (t >= 0) through the box.
+def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far):
+    """Entry and exit distances of the ray ``o + t d`` (``0 <= t <= t_far``) through the box.
 
-    Returns ``(t0, t1)`` with ``t1 <= t0`` when it misses.
+    Returns ``(t0, t1)`` with ``t1 <= t0`` when it misses. ``t_far`` is ``inf`` but
+    where opaque geometry stops the ray (``GridPlan.execute(far=...)``).
     """
-    t0, t1 = _slab(ox, dx, lo[0], hi[0], 0.0, math.inf)
+    t0, t1 = _slab(ox, dx, lo[0], hi[0], 0.0, t_far)
     t0, t1 = _slab(oy, dy, lo[1], hi[1], t0, t1)
     return _slab(oz, dz, lo[2], hi[2], t0, t1)
 
@@ -705,7 +706,8 @@ def _march_loop_impl(marker, sampler, prec, bricks, offs, table, sigma, leap, g,
 
 
 @kernel
-def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step, scratch):
+def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step, scratch,
+           t_far):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
@@ -739,7 +741,7 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
     Each precision has its own compiled loop (``_march_plain``, or ``_march_in`` for the
     mip-map, per marker type).
     """
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     nx = dims[0]
@@ -774,10 +776,10 @@ def _marker_precision_impl(marker, p):
 
 @kernel
 def _march_typed(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p,
-                 step, scratch):
+                 step, scratch, t_far):
     """``_march`` for the one precision of ``marker`` (a float64, float32 or int64
     zero): only that compositing loop is compiled."""
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     nx = dims[0]
@@ -789,13 +791,15 @@ def _march_typed(marker, sampler, bricks, offs, table, sigma, leap, grids, dims,
 
 
 @fused_parallel_kernel
-def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, width, height, tile,
-                 tile_rows, lanes, lo, hi, p, out_rgba, out_depth, out_samples):
+def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, far, width, height,
+                 tile, tile_rows, lanes, lo, hi, p, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
     Rays come from ``cam`` (``Camera.kernel_array``, then the volume's origin and the
     reciprocal of its spacing: ``camera_ray`` in voxel coordinates) or, when ``cam`` is
     empty, from ``origins`` and ``directions`` (one row per pixel, voxel coordinates).
+    ``far`` (one per pixel, world distance along the ray; or empty: no limit) stops
+    each ray there: opaque geometry in front of or inside the volume.
 
     Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
     (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
@@ -807,6 +811,7 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     from_camera = cam.shape[0] > 0
+    has_far = far.shape[0] > 0
     for lane in numba.prange(lanes):
         scratch = np.empty(2 * SCRATCH)
         for t in range(lane, n_tiles, lanes):
@@ -824,8 +829,9 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
                         dx = directions[pix, 0]
                         dy = directions[pix, 1]
                         dz = directions[pix, 2]
+                    t_far = far[pix] if has_far else math.inf
                     r, g, b, a, dep, ns = _march_typed(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
-                                                       ox, oy, oz, dx, dy, dz, lo, hi, p, p.step, scratch)
+                                                       ox, oy, oz, dx, dy, dz, lo, hi, p, p.step, scratch, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

@@ -207,7 +207,7 @@ def _eye(shading, dx, dy, dz):
 
 # -- projections ------------------------------------------------------------------------------
 @fused_kernel
-def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e):
+def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_far):
     """One ray of a projection. Returns ``(value, r, g, b, alpha, depth, samples)``.
 
     Maximum and minimum take the extreme of the samples at the lattice points
@@ -221,7 +221,7 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
     (non-NaN) samples, coloured as maximum.
     """
     nan_out = (math.nan, 0.0, 0.0, 0.0, 0.0, math.inf, 0)
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return nan_out
     step = p.step
@@ -309,11 +309,13 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
 
 @parallel_kernel
 def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tables, sigmas, axes, origins, directions,
-                      width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth, out_samples):
+                      far, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth,
+                      out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows`` with ``_project`` (as ``_kernels.render_tiles``)."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
     has_lod = lods.shape[0] == width * height
+    has_far = far.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
@@ -328,7 +330,8 @@ def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tabl
                     v, r, gg, b, a, dep, ns = _project(
                         bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, tables, sigmas, axes,
                         origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                        directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e)
+                        directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e,
+                        far[pix] if has_far else math.inf)
                     out_value[pix] = v
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
@@ -501,9 +504,9 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
 
 @kernel
 def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas, axes,
-               ox, oy, oz, dx, dy, dz, lo, hi, p, e):
+               ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_far):
     """Clip the ray and run ``_composite_ext`` in the render's precision."""
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     if p.precision == F64:
@@ -518,7 +521,7 @@ def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, 
 
 @parallel_kernel
 def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, gvec, shading, lights, slots, modes,
-               tables, sigmas, axes, sigma0, level_tables, level_steps, origins, directions, width, height, tile,
+               tables, sigmas, axes, sigma0, level_tables, level_steps, origins, directions, far, width, height, tile,
                tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
     level of detail 0) goes through ``_kernels._march`` with slot 0's table, so it is
@@ -532,6 +535,7 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
     n_table = tables.shape[0] // (4 * modes.shape[0])
     table0 = tables[: 4 * n_table]
     has_lod = lods.shape[0] == width * height
+    has_far = far.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
@@ -544,11 +548,12 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
                     pix = row * width + col
                     lod = lods[pix] if has_lod else 0.0
                     level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
+                    t_far = far[pix] if has_far else math.inf
                     if plain_ok and lod == 0.0:
                         r, gg, b, a, dep, ns = _march(0, bricks, offs, table0, sigma0, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p, p.step, scratch)
+                                                      lo, hi, p, p.step, scratch, t_far)
                     elif plain_ok:
                         # the plain loop, sampling two mip levels
                         r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, offs,
@@ -556,12 +561,12 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
                                                       sigma0, leap_lod[level],
                                                       grids, dims, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p, level_steps[level], scratch)
+                                                      lo, hi, p, level_steps[level], scratch, t_far)
                     else:
                         r, gg, b, a, dep, ns = _march_ext(
                             bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, gvec, shading,
                             lights, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                            directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e)
+                            directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
                     out_rgba[pix, 2] = b

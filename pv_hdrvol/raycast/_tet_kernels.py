@@ -395,8 +395,11 @@ def _consistency(x, y, z):
 
 @kernel
 def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-              hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
+              hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, t_far):
     """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``.
+
+    The ray stops at ``t_far`` (the mesh's normalised frame; ``inf``: no limit), inside
+    a cell with the scalar interpolated there (it is linear along the ray in a cell).
 
     With ``p.shade``, each cell is lit by its gradient ``grads[cell]`` (world units)
     from the eye along the ray (``_shading_kernels``); else ``grads``, ``shading``,
@@ -427,6 +430,8 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
         # interface, or of a crack, meets the ray where it left)
         if not hit_enter[h] or hit_t[h] < t_cur - REENTRY_SLACK * (1.0 + abs(t_cur)):
             continue
+        if hit_t[h] >= t_far:
+            break
         f = hit_face[h]
         cell = bcell[f]
         face = bface[f]
@@ -486,9 +491,13 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
             t_out, ua, ub, uc = _face_point(points, a, b, c, wab, wbc, wca, ox, oy, oz, dx, dy, dz)
             if not t_out > t_in:  # NaN (ray in the face's plane) or rounding: no length
                 t_out = t_in
-            if active[cell] and t_out > t_in:
+            clipped = t_out > t_far
+            if active[cell] and min(t_out, t_far) > t_in:
                 s_out = (ua * cells_f[cell, value_col + ia] + ub * cells_f[cell, value_col + ib]
                          + uc * cells_f[cell, value_col + ic])
+                if clipped:
+                    s_out = s_in + (s_out - s_in) * ((t_far - t_in) / (t_out - t_in))
+                    t_out = t_far
                 same = s_in == s_prev
                 x_in = x_prev if same else _tpos(s_in, n_table, p)
                 x_out = _tpos(s_out, n_table, p)
@@ -511,6 +520,9 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
                 if alpha >= p.alpha_stop:
                     done = True
                     break
+            if clipped:
+                done = True
+                break
             t_in = t_out
             code = cells_i[cell, NEIGHBOR_COL + out]
             if code < 0:
@@ -524,19 +536,22 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
 
 @kernel
 def _march(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights, hit_t,
-           hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p):
+           hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, t_far):
     """One ray in the precision of ``marker`` (a float64, float32 or int64 zero: see
     ``_kernels._marker_precision``): only that compositing loop is compiled."""
     return _march_in(marker, _marker_precision(marker, p), points, cells_i, cells_f, active, btri, bcell, bface,
-                     table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                     table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
+                     t_far)
 
 
 @parallel_kernel
 def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-                 hit_offsets, hit_t, hit_face, hit_enter, cam, width, height, tile, tile_rows, lanes,
+                 hit_offsets, hit_t, hit_face, hit_enter, cam, far, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
-    ``_kernels.render_tiles``: one lane of interleaved tiles per thread)."""
+    ``_kernels.render_tiles``: one lane of interleaved tiles per thread). ``far``: as
+    there (world distances; empty: no limit)."""
+    has_far = far.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
@@ -553,7 +568,8 @@ def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, t
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
                         marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-                        hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p)
+                        hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
+                        far[pix] / p.length_scale if has_far else math.inf)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

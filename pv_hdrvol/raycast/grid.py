@@ -578,13 +578,18 @@ class GridPlan:
         return self._prepared
 
     def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, cull=None, window=None,
-                progress=None, progress_bar=None, chunk_seconds=None):
+                progress=None, progress_bar=None, chunk_seconds=None, far=None):
         """Render the plan: ``camera``, ``size``, ``lens``, ``block_mask``, ``progress`` and
         ``progress_bar`` as :func:`render_volume`. Returns an :class:`~pv_hdrvol.HDRImage`.
 
         ``chunk_seconds``: how long a chunk of rows of tiles may take between
         ``progress`` reports (default 0.25 s; see :func:`run_in_chunks`): an interactive
         render that must stop soon when ``progress`` returns ``False`` asks for less.
+
+        ``far``: array (rows, cols) of the image of ``size``, the world distance along
+        each pixel's ray at which it stops (``inf``: no limit) -- opaque geometry drawn
+        in the same scene, in front of or inside the volume, as VTK's volume mappers
+        stop at its depth buffer.
 
         ``window=(col, row, width, height)``: render only that rectangle of the image of
         ``size`` (a tile: sort-first parallel rendering, a region refined first); the
@@ -606,7 +611,11 @@ class GridPlan:
         else:
             rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
         width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+        far = _check_far(far, width, height)
         if window is not None:
+            if far.size:
+                col, row, w, h = check_window(window, width, height)
+                far = np.ascontiguousarray(far.reshape(height, width)[row:row + h, col:col + w]).reshape(-1)
             rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
             width, height = rays.width, rays.height
         lod = _check_lod(rays) if rays is not None else None
@@ -685,19 +694,19 @@ class GridPlan:
                 pass
             elif not extended:
                 K.render_tiles(_MARKERS[prec], bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
-                               dims, cam, origins, directions, width, height, _TILE, rows, lanes, lo, hi, params,
+                               dims, cam, origins, directions, far, width, height, _TILE, rows, lanes, lo, hi, params,
                                rgba, depth, samples)
             elif value is not None:
                 a = kernel_args
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
-                                     a.sigmas, a.axes, origins, directions, width, height, _TILE, rows, lanes, lo, hi,
-                                     params, a.e, value, rgba, depth, samples)
+                                     a.sigmas, a.axes, origins, directions, far, width, height, _TILE, rows, lanes, lo,
+                                     hi, params, a.e, value, rgba, depth, samples)
             else:
                 a = kernel_args
                 KX.render_ext(bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods,
                               a.gbricks, a.gvec, a.shading, a.lights, a.slots,
                               a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
-                              directions, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth,
+                              directions, far, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth,
                               samples)
             return pixel_rows(tile_rows, height)
 
@@ -741,6 +750,21 @@ class GridPlan:
         if value is not None:
             value = value.reshape(height, width)
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+
+
+def _check_far(far, width, height):
+    """``far`` as a flat float64 array (empty for ``None``), checked."""
+    if far is None:
+        return np.empty(0)
+    a = np.asarray(far)
+    if a.dtype.kind not in "fiu":
+        raise TypeError(f"far must be a numeric array; got dtype {a.dtype}")
+    if a.shape != (height, width):
+        raise ValueError(f"far must have the image's shape (rows, cols) = {(height, width)}; got {a.shape}")
+    a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+    if np.isnan(a).any() or (a < 0).any():
+        raise ValueError("far must hold distances >= 0 (inf: no limit); got NaN or negative values")
+    return a
 
 
 def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=None):

@@ -20,7 +20,7 @@ from ..rays.camera import Camera, as_camera
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import (_MARKERS, _TILE, _check_progress_bar, _lanes, _visible, cached, resolve_transfer_function,
+from .grid import (_MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, cached, resolve_transfer_function,
                    empty_render_reason, pixel_rows, run_in_chunks, warn_empty)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
@@ -149,15 +149,16 @@ class TetPlan:
         self._empty_reason = empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf,
                                                  visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
 
-    def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, chunk_seconds=None):
+    def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, chunk_seconds=None,
+                far=None):
         """Render the plan for ``camera`` and ``size`` (as :func:`render_tets`); an
-        :class:`~pv_hdrvol.HDRImage`. ``chunk_seconds``: as
+        :class:`~pv_hdrvol.HDRImage`. ``chunk_seconds`` and ``far``: as
         :meth:`~pv_hdrvol.raycast.grid.GridPlan.execute`."""
         return self.execute_with_view(camera, size, progress=progress, progress_bar=progress_bar,
-                                      chunk_seconds=chunk_seconds)[0]
+                                      chunk_seconds=chunk_seconds, far=far)[0]
 
     def execute_with_view(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, view=None,
-                          chunk_seconds=None):
+                          chunk_seconds=None, far=None):
         """:meth:`execute`, and the boundary's ``_view`` for this camera (reused when
         ``view`` was made for it): ``(image, view)``."""
         mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
@@ -167,6 +168,7 @@ class TetPlan:
                             f"render makes its own rays); got {type(camera).__name__}")
         _check_progress_bar(progress_bar)
         width, height = as_size(size)
+        far = _check_far(far, width, height)
         prec = opts.precision
         check_memory(render_bytes(mesh, prec, width, height), _MEMORY_ADVICE.format(width=width, height=height))
         warn_empty(self._empty_reason)
@@ -201,7 +203,7 @@ class TetPlan:
             TK.render_tiles(_MARKERS[opts.precision], mesh.points, cells_i, cells_f, active,
                             mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
                             hits.offsets,
-                            hits.t, hits.face, hits.entering, cam, width, height, _TILE, rows, lanes,
+                            hits.t, hits.face, hits.entering, cam, far, width, height, _TILE, rows, lanes,
                             params, rgba, depth, cells, pieces, guard)
             return pixel_rows(tile_rows, height)
 

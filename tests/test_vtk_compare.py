@@ -34,42 +34,17 @@ screenshot of the CT head holds 7 distinct luminance levels (brightest channel v
 factor of at least 50. Our own image rounded to 8 bits also has 7 levels: the loss is
 the 8-bit buffer's, not a difference between the renderers.
 
-Offscreen rendering without X: ``VTK_DEFAULT_OPENGL_WINDOW`` is set (unless already
-set) to ``vtkEGLRenderWindow`` when ``libEGL.so.1`` loads (Debian: libegl1
-libegl-mesa0 libgl1-mesa-dri), else to ``vtkOSOpenGLRenderWindow`` when
-``libOSMesa.so.8`` loads (Debian: libosmesa6). Neither: skip, or fail when ``CI`` is set.
+Offscreen rendering without X: see ``tests/offscreen.py``.
 """
-import ctypes
-import os
-
 import numpy as np
 import pytest
+
+from offscreen import require_offscreen_vtk
 
 pytestmark = [pytest.mark.data, pytest.mark.vtk_render]
 
 
-def _pick_offscreen_window():
-    """The VTK render-window class that can render here without an X server, or None."""
-    for lib, window in (("libEGL.so.1", "vtkEGLRenderWindow"),
-                        ("libOSMesa.so.8", "vtkOSOpenGLRenderWindow"),
-                        ("libOSMesa.so.6", "vtkOSOpenGLRenderWindow")):
-        try:
-            ctypes.CDLL(lib)
-        except OSError:
-            continue
-        return window
-    return None
-
-
-if "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ:
-    _window = _pick_offscreen_window()
-    if _window is None:
-        _msg = ("no offscreen OpenGL for VTK: install libegl1 libegl-mesa0 libgl1-mesa-dri "
-                "(EGL) or libosmesa6 (OSMesa)")
-        if os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no"):  # as conftest.in_ci
-            pytest.fail(_msg, pytrace=False)
-        pytest.skip(_msg, allow_module_level=True)
-    os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = _window
+require_offscreen_vtk()
 
 import pyvista as pv  # noqa: E402
 import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: E402,F401 - registers vtkRayCastImageDisplayHelper

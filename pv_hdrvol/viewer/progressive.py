@@ -146,36 +146,44 @@ class ProgressiveRenderer:
             self.options, self._plan = options, plan
 
     # -- synchronous ------------------------------------------------------------------
-    def frames(self, camera, size, *, lens=None, coarse=True):
+    def frames(self, camera, size, *, lens=None, coarse=True, far=None):
         """The frames of one request, rendered here: the coarse frame (unless
-        ``coarse=False``), then the full one. A list of :class:`Frame`."""
+        ``coarse=False``), then the full one. A list of :class:`Frame`. ``far``: where
+        opaque geometry stops each ray (as :meth:`GridPlan.execute
+        <pv_hdrvol.raycast.grid.GridPlan.execute>`; the coarse frame takes the value
+        of the full-size pixel at each coarse pixel's centre)."""
         size = as_size(size)
         with self._lock:
             plan = self._plan
         out = []
         if coarse:
-            out.append(self._coarse(plan, camera, size, lens, 0, lambda: False))
-        out.append(self._full(plan, camera, size, lens, 0, lambda: False))
+            out.append(self._coarse(plan, camera, size, lens, 0, lambda: False, far))
+        out.append(self._full(plan, camera, size, lens, 0, lambda: False, far))
         return out
 
-    def _coarse(self, plan, camera, size, lens, generation, stale):
+    def _coarse(self, plan, camera, size, lens, generation, stale, far=None):
         width, height = size
         f = self.factor
         small = (max(1, -(-width // f)), max(1, -(-height // f)))
+        if far is not None:
+            far = np.asarray(far)
+            rows = np.minimum(((np.arange(small[1]) + 0.5) * height / small[1]).astype(int), height - 1)
+            cols = np.minimum(((np.arange(small[0]) + 0.5) * width / small[0]).astype(int), width - 1)
+            far = far[rows[:, None], cols[None, :]]
         t0 = time.perf_counter()
-        image = self._execute(plan, camera, small, lens, stale)
+        image = self._execute(plan, camera, small, lens, stale, far)
         rendered = time.perf_counter() - t0
         image = _resize(image, size)
         seconds = time.perf_counter() - t0
         self.factor = _next_factor(f, rendered, self.coarse_seconds)
         return Frame(image, "coarse", f, generation, seconds)
 
-    def _full(self, plan, camera, size, lens, generation, stale):
+    def _full(self, plan, camera, size, lens, generation, stale, far=None):
         t0 = time.perf_counter()
-        image = self._execute(plan, camera, size, lens, stale)
+        image = self._execute(plan, camera, size, lens, stale, far)
         return Frame(image, "full", 1, generation, time.perf_counter() - t0)
 
-    def _execute(self, plan, camera, size, lens, stale):
+    def _execute(self, plan, camera, size, lens, stale, far=None):
         seen = []
 
         def progress(_fraction):
@@ -189,19 +197,19 @@ class ProgressiveRenderer:
                 if lens is not None:
                     raise ValueError("lenses are not supported for tetrahedral meshes")
                 return plan.execute(camera, size, progress=progress, progress_bar=False,
-                                    chunk_seconds=CHUNK_SECONDS)
+                                    chunk_seconds=CHUNK_SECONDS, far=far)
             return plan.execute(camera, size, lens=lens, progress=progress, progress_bar=False,
-                                chunk_seconds=CHUNK_SECONDS)
+                                chunk_seconds=CHUNK_SECONDS, far=far)
         except RuntimeError as error:
             if seen and str(error) == "render aborted":
                 raise Cancelled() from None
             raise
 
     # -- asynchronous -----------------------------------------------------------------
-    def request(self, camera, size, *, lens=None):
+    def request(self, camera, size, *, lens=None, far=None):
         """Render ``camera`` at ``size`` on the worker thread: a coarse frame, then the
         full one, each handed to ``on_frame``. Cancels the render in flight. Returns the
-        request's generation number (frames carry it)."""
+        request's generation number (frames carry it). ``far``: as :meth:`frames`."""
         if self.on_frame is None:
             raise ValueError("request() needs on_frame= (the frames go there); frames() renders synchronously")
         size = as_size(size)
@@ -210,7 +218,7 @@ class ProgressiveRenderer:
             if self._closed:
                 raise RuntimeError("the renderer is closed")
             self._generation += 1
-            self._pending = (self._generation, camera, size, lens, self._plan)
+            self._pending = (self._generation, camera, size, lens, self._plan, far)
             if self._thread is None:
                 self._thread = threading.Thread(target=self._work, name="pv_hdrvol progressive", daemon=True)
                 self._thread.start()
@@ -224,7 +232,7 @@ class ProgressiveRenderer:
                     self._lock.wait()
                 if self._closed:
                     return
-                generation, camera, size, lens, plan = self._pending
+                generation, camera, size, lens, plan, far = self._pending
                 self._pending = None
 
             def stale(generation=generation):
@@ -232,7 +240,7 @@ class ProgressiveRenderer:
 
             try:
                 for render in (self._coarse, self._full):
-                    frame = render(plan, camera, size, lens, generation, stale)
+                    frame = render(plan, camera, size, lens, generation, stale, far)
                     if stale():
                         break
                     self.last_frame = frame

@@ -1,0 +1,354 @@
+"""HDR volumes inside PyVista scenes: ``plotter.hdrvol.add_volume(data, ...)``.
+
+PyVista lets plugins extend its plotters with namespaced components (0.48+,
+``pyvista.plotter_components``); this module registers ``hdrvol`` on every plotter,
+``pyvistaqt.BackgroundPlotter`` included. :func:`add_hdr_volume` is the same as a
+function of the plotter.
+
+How it draws, each time VTK renders the scene (the renderer's ``EndEvent``):
+
+1. read the opaque scene's colour and depth buffers (VTK's own drawing of the meshes);
+2. turn the depth into the distance along each pixel's ray (:func:`ray_distances`):
+   rays stop there, as VTK's volume mappers stop at the depth buffer, so meshes in
+   front of or inside the volume hide what lies behind them;
+3. when the camera, the window size or the depth changed, render the volume: at once
+   (full quality) on an off-screen plotter (scripts, screenshots, notebooks' static
+   backend); on a window, progressively on a worker thread (a coarse frame within
+   about 0.1 s, the full frame when the camera rests; a newer view cancels the old);
+4. composite the tone-mapped volume over the scene, ``T(C) + (1 - alpha) scene``
+   (premultiplied colour over the 8-bit display colour), into an opaque image drawn by
+   an overlay renderer on the next layer of the window.
+
+The HDR render is kept (:attr:`HDRVolumeActor.hdr`): changing the tone mapping only
+re-maps it. Noticed and left as is: 2-D annotations of the scene renderer (scalar
+bars, text) lie under the volume; the volume follows the camera a frame late while it
+renders.
+"""
+from __future__ import annotations
+
+import threading
+import zlib
+
+import numpy as np
+
+from .._validate import as_real
+from ..image.tonemap import tonemap as _tonemap
+from ..rays.camera import Camera
+from .progressive import COARSE_SECONDS, ProgressiveRenderer
+
+#: Interval of the timer that shows frames finished on the worker thread (ms).
+POLL_MS = 30
+
+
+def ray_distances(camera, depth, vtk_camera=None):
+    """The world distance along each pixel's ray to the opaque surface of ``depth``.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera of the render (its rays: :meth:`Camera.rays`).
+    depth : ndarray (rows, cols)
+        VTK's depth buffer in [0, 1] (OpenGL window depth; row 0 at the top, as
+        :class:`~pv_hdrvol.HDRImage`); 1 is the background.
+    vtk_camera : vtkCamera, optional
+        The camera whose projection made ``depth`` (default ``camera.to_vtk()``).
+
+    Returns
+    -------
+    ndarray (rows, cols), float64
+        ``inf`` where nothing opaque was drawn.
+    """
+    depth = np.asarray(depth, dtype=np.float64)
+    rows, cols = depth.shape
+    vtk_camera = camera.to_vtk() if vtk_camera is None else vtk_camera
+    m = vtk_camera.GetCompositeProjectionTransformMatrix(cols / rows, -1.0, 1.0)
+    matrix = np.array([[m.GetElement(i, j) for j in range(4)] for i in range(4)])
+    inverse = np.linalg.inv(matrix)
+    x = (np.arange(cols) + 0.5) / cols * 2.0 - 1.0
+    y = 1.0 - (np.arange(rows) + 0.5) / rows * 2.0  # row 0 at the top
+    ndc = np.empty((rows, cols, 4))
+    ndc[..., 0] = x[None, :]
+    ndc[..., 1] = y[:, None]
+    ndc[..., 2] = 2.0 * depth - 1.0
+    ndc[..., 3] = 1.0
+    world = ndc @ inverse.T
+    world = world[..., :3] / world[..., 3:]
+    rays = camera.rays((cols, rows))
+    t = np.einsum("ij,ij->i", world.reshape(-1, 3) - rays.origins, rays.directions).reshape(rows, cols)
+    return np.where(depth < 1.0, np.maximum(t, 0.0), np.inf)
+
+
+class HDRVolumeActor:
+    """One HDR volume in a PyVista plotter (made by :func:`add_hdr_volume`).
+
+    Attributes
+    ----------
+    hdr : HDRImage or None
+        The last volume render shown (coarse or full), at the renderer's size.
+    level : {"coarse", "full", None}
+        Which it was.
+    renderer : ProgressiveRenderer
+        The scene's renderer (transfer function, options).
+    """
+
+    def __init__(self, plotter, data, tf=None, *, tonemap="reinhard", tonemap_params=None, progressive=None,
+                 coarse_seconds=COARSE_SECONDS, scalars=None, preference="point", **render_kwargs):
+        from vtkmodules.vtkCommonDataModel import vtkImageData
+        from vtkmodules.vtkRenderingCore import vtkImageActor, vtkRenderer
+
+        self.plotter = plotter
+        self.scene = plotter.renderer
+        self.tonemap_operator = tonemap
+        self.tonemap_params = dict(tonemap_params or {})
+        self._lock = threading.Lock()
+        self._arrived = None  # a frame finished on the worker, waiting for the GUI thread
+        self.progressive = (not getattr(plotter, "off_screen", False) and getattr(plotter, "iren", None) is not None) \
+            if progressive is None else bool(progressive)
+        self.renderer = ProgressiveRenderer(data, tf, coarse_seconds=coarse_seconds, scalars=scalars,
+                                            preference=preference, on_frame=self._on_frame,
+                                            on_error=self._on_error, **render_kwargs)
+        self.hdr, self.level, self.error, self.far = None, None, None, None
+        self._display = None  # (key, rgb float32 (rows, cols, 3), alpha (rows, cols))
+        self._key = None
+        self._busy = False
+        # the overlay: an opaque image of the composite, on the window's next layer
+        window = plotter.render_window
+        layer = max(window.GetNumberOfLayers(), self.scene.GetLayer() + 2)
+        window.SetNumberOfLayers(layer)
+        self._overlay = vtkRenderer()
+        self._overlay.SetLayer(layer - 1)
+        self._overlay.InteractiveOff()
+        self._overlay.SetViewport(self.scene.GetViewport())
+        self._image = vtkImageData()
+        self._actor = vtkImageActor()
+        self._actor.InterpolateOff()
+        self._actor.GetMapper().SetInputData(self._image)
+        self._actor.GetMapper().BorderOn()  # pixels to the image's edge, not from centre to centre
+        self._actor.VisibilityOff()
+        self._overlay.AddActor(self._actor)
+        self._overlay.GetActiveCamera().ParallelProjectionOn()
+        window.AddRenderer(self._overlay)
+        # the volume's box, invisible, so that reset_camera() and the clipping range see it
+        self._box = _bounds_actor(self.renderer.data.bounds)
+        self.scene.AddActor(self._box)
+        self._observer = self.scene.AddObserver("EndEvent", self._scene_rendered)
+        self._timer = None
+        if self.progressive:
+            interactor = plotter.iren.interactor
+            self._timer_observer = interactor.AddObserver("TimerEvent", self._poll)
+            self._timer = interactor.CreateRepeatingTimer(POLL_MS)
+
+    # -- what users change ------------------------------------------------------------
+    def set_transfer_function(self, tf=None, **options):
+        """A new transfer function and/or render options (``global_alpha=``...): the
+        volume renders again at the next scene render (which this requests)."""
+        self.renderer.set_scene(tf, **options)
+        self._key = None
+        self._render_window()
+
+    def set_tonemap(self, operator=None, **params):
+        """Re-map the kept HDR render with another operator or parameters (no new render)."""
+        if operator is not None:
+            self.tonemap_operator = operator
+        self.tonemap_params.update(params)
+        if self.hdr is not None:
+            self._display = self._mapped(self.hdr)
+        self._render_window()
+
+    def remove(self):
+        """Take the volume out of the plotter."""
+        self.close()
+        self.scene.RemoveObserver(self._observer)
+        self.scene.RemoveActor(self._box)
+        self.plotter.render_window.RemoveRenderer(self._overlay)
+
+    def close(self):
+        """Stop the worker thread and the timer (the plotter's close does this)."""
+        if self._timer is not None and getattr(self.plotter, "iren", None) is not None:
+            interactor = self.plotter.iren.interactor
+            interactor.DestroyTimer(self._timer)
+            interactor.RemoveObserver(self._timer_observer)
+            self._timer = None
+        self.renderer.close()
+
+    # -- the drawing ----------------------------------------------------------------------
+    def _mapped(self, image):
+        out = _tonemap(image, self.tonemap_operator, **self.tonemap_params)
+        alpha = np.clip(np.asarray(image.rgba[..., 3], dtype=np.float32), 0.0, 1.0)
+        return out.rgb, alpha
+
+    def _on_frame(self, frame):  # worker thread
+        display = self._mapped(frame.image)
+        with self._lock:
+            self._arrived = (frame, display)
+
+    def _on_error(self, error):  # worker thread
+        with self._lock:
+            self.error = error
+
+    def _poll(self, *_):  # GUI thread, timer
+        with self._lock:
+            arrived, self._arrived = self._arrived, None
+        if arrived is not None:
+            frame, display = arrived
+            self.hdr, self.level, self._display = frame.image, frame.level, display
+            self._render_window()
+
+    def _render_window(self):
+        # the plotter's render(): nothing before the plotter is first shown, as PyVista's add_* do
+        if not self._busy and getattr(self.plotter, "render_window", None) is not None:
+            self.plotter.render()
+
+    def wait(self, timeout=30.0):
+        """Block until the full frame of the present view is shown (progressive mode;
+        pumps the poll that the window's timer runs). Returns whether it is."""
+        import time
+
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            self._poll()
+            if self.level == "full" and self._key is not None and self._shown_key == self._key:
+                return True
+            if self.error is not None:
+                raise self.error
+            time.sleep(0.01)
+        return False
+
+    _shown_key = None
+
+    def _scene_rendered(self, *_):
+        if self._busy:
+            return
+        self._busy = True
+        try:
+            self._draw()
+        finally:
+            self._busy = False
+
+    def _draw(self):
+        from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+        from vtkmodules.vtkCommonCore import vtkFloatArray, vtkUnsignedCharArray
+
+        window = self.plotter.render_window
+        cols, rows = self.scene.GetSize()
+        x0, y0 = self.scene.GetOrigin()
+        if cols < 1 or rows < 1:
+            return
+        z = vtkFloatArray()
+        window.GetZbufferData(x0, y0, x0 + cols - 1, y0 + rows - 1, z)
+        depth = vtk_to_numpy(z).reshape(rows, cols)[::-1]
+        c = vtkUnsignedCharArray()
+        window.GetRGBACharPixelData(x0, y0, x0 + cols - 1, y0 + rows - 1, 0, c)
+        scene_rgb = vtk_to_numpy(c).reshape(rows, cols, 4)[::-1, :, :3]
+        vtk_camera = self.scene.GetActiveCamera()
+        camera = Camera.from_pyvista(vtk_camera)
+        key = (camera, cols, rows, zlib.crc32(np.ascontiguousarray(depth).tobytes()))
+        if key != self._key:
+            self._key = key
+            far = ray_distances(camera, depth, vtk_camera)
+            #: world distance along each pixel's ray to the scene's opaque surfaces (inf: none), row 0 at the top
+            self.far = far
+            if self.progressive:
+                self.renderer.request(camera, (cols, rows), far=far)
+            else:
+                (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, far=far)
+                self.hdr, self.level, self._display = frame.image, frame.level, self._mapped(frame.image)
+                self._shown_key = key
+        if self.progressive and self.hdr is not None and self._key == key and self.level == "full":
+            self._shown_key = key
+        composite = scene_rgb.astype(np.float32) / 255.0
+        if self._display is not None and self._display[0].shape[:2] == (rows, cols):
+            rgb, alpha = self._display
+            composite = rgb + (1.0 - alpha[..., None]) * composite
+        pixels = np.round(np.clip(composite, 0.0, 1.0) * 255.0).astype(np.uint8)[::-1]
+        self._image.SetDimensions(cols, rows, 1)
+        self._image.GetPointData().SetScalars(numpy_to_vtk(pixels.reshape(-1, 3), deep=True))
+        self._image.Modified()
+        self._actor.VisibilityOn()
+        cam = self._overlay.GetActiveCamera()
+        cam.SetFocalPoint((cols - 1) / 2.0, (rows - 1) / 2.0, 0.0)
+        cam.SetPosition((cols - 1) / 2.0, (rows - 1) / 2.0, 1.0)
+        cam.SetViewUp(0.0, 1.0, 0.0)
+        cam.SetParallelScale(rows / 2.0)
+        self._overlay.ResetCameraClippingRange()
+        #: the composite shown, (rows, cols, 3) uint8, row 0 at the top
+        self.composite = pixels[::-1]
+
+
+def _bounds_actor(bounds):
+    """An actor over ``bounds`` that draws nothing (opacity 0, no depth) but counts in
+    the renderer's bounds: ``reset_camera`` frames the volume, the clipping range keeps it."""
+    from vtkmodules.vtkFiltersSources import vtkOutlineSource
+    from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
+
+    source = vtkOutlineSource()
+    source.SetBounds(*bounds)
+    mapper = vtkPolyDataMapper()
+    mapper.SetInputConnection(source.GetOutputPort())
+    actor = vtkActor()
+    actor.SetMapper(mapper)
+    actor.GetProperty().SetOpacity(0.0)
+    actor.PickableOff()
+    return actor
+
+
+def add_hdr_volume(plotter, data, tf=None, *, tonemap="reinhard", tonemap_params=None, progressive=None,
+                   coarse_seconds=COARSE_SECONDS, scalars=None, preference="point", **render_kwargs):
+    """Draw ``data`` (an image volume or tetrahedral mesh) as an HDR volume in
+    ``plotter``'s scene, from its camera, occluded by its opaque meshes.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter or pyvistaqt.BackgroundPlotter
+    data, tf, scalars, preference, **render_kwargs
+        As :func:`pv_hdrvol.render` (``precision=``, ``global_alpha=``, ``step=``...).
+    tonemap : str or callable
+        The operator that maps the HDR render to the screen (:func:`pv_hdrvol.tonemap`),
+        with ``tonemap_params``.
+    progressive : bool, optional
+        Coarse frames while the camera moves and a worker thread (default: on for a
+        plotter with a window; off-screen plotters render at full quality at once).
+    coarse_seconds : float
+        The coarse frame's time budget.
+
+    Returns
+    -------
+    HDRVolumeActor
+    """
+    as_real("coarse_seconds", coarse_seconds, low=0.0, low_open=True)
+    actor = HDRVolumeActor(plotter, data, tf, tonemap=tonemap, tonemap_params=tonemap_params,
+                           progressive=progressive, coarse_seconds=coarse_seconds, scalars=scalars,
+                           preference=preference, **render_kwargs)
+    plotter.hdrvol._actors.append(actor)
+    actor._render_window()
+    return actor
+
+
+def _register():
+    import pyvista as pv
+
+    if "hdrvol" in {r.name for r in pv.registered_plotter_components()}:
+        return
+
+    @pv.register_plotter_component("hdrvol")
+    class HDRVolumeComponent:
+        """``plotter.hdrvol``: HDR volumes in this plotter's scene."""
+
+        def __init__(self, plotter):
+            self._plotter = plotter
+            self._actors = []
+
+        def add_volume(self, data, tf=None, **kwargs):
+            """:func:`pv_hdrvol.viewer.scene.add_hdr_volume` on this plotter."""
+            return add_hdr_volume(self._plotter, data, tf, **kwargs)
+
+        @property
+        def actors(self):
+            return tuple(self._actors)
+
+        def __plotter_close__(self):
+            for actor in self._actors:
+                actor.close()
+
+
+_register()

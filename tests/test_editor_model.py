@@ -41,7 +41,11 @@ def test_the_model_keeps_the_function_it_was_given(color_space):
     tf = hv.TransferFunction(base.values, base.colors * 5.0, base.opacities, scale="log", color_space=color_space)
     model = TransferFunctionModel(tf)
     _same_function(tf, model.transfer_function())
-    assert model.transfer_function().table_size == tf.table_size
+    assert model.transfer_function().table_size == 65536  # full resolution, fixed for every edit
+    explicit = TransferFunctionModel(hv.TransferFunction(base.values, base.colors, base.opacities, scale="log",
+                                                         table_size=4096))
+    explicit.add_opacity_point(1.0, 0.5)
+    assert explicit.transfer_function().table_size == 4096
     assert model.opacity_points[0].size == 3  # 0 -> 1e-7 -> 0.5 in two straight pieces
     assert model.color_points[0].size == (2 if color_space == "rgb" else tf.values.size)
 

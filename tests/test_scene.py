@@ -15,7 +15,7 @@ import pyvista as pv  # noqa: E402
 
 import pv_hdrvol as hv  # noqa: E402
 from pv_hdrvol.raycast.grid import GridPlan  # noqa: E402
-from pv_hdrvol.viewer.scene import HDRVolumeActor, add_hdr_volume, ray_distances  # noqa: E402
+from pv_hdrvol.viewer.scene import HDRVolumeActor, add_hdr_volume  # noqa: E402
 
 SIZE = (96, 72)
 

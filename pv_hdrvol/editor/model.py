@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._validate import as_choice, as_int, as_real
-from ..data.transfer import (COLOR_SPACES, SCALES, TransferFunction, TransferFunctionFamily, _scale_inverse,
+from ..data.transfer import (COLOR_SPACES, DEFAULT_TABLE_SIZE, SCALES, TransferFunction, TransferFunctionFamily, _scale_inverse,
                              colormap_rgb, scale_forward)
 from .axis import Focus, FocusContextAxis, ValueAxis
 
@@ -89,7 +89,8 @@ class TransferFunctionModel:
         The function to start from (not a :class:`~pv_hdrvol.TransferFunctionFamily`).
         Its control points become both the colour and the opacity points; interior
         points that are linear interpolations of their neighbours are dropped (the
-        function does not change, to 1e-12).
+        function does not change, to 1e-12). Its table keeps its size if one was set,
+        else has the full 65,536 entries, whatever the edits.
     values : array_like, optional
         The data, for the histogram behind the curve (non-finite values are ignored).
     global_alpha : float
@@ -133,7 +134,10 @@ class TransferFunctionModel:
                              tuple(tf.values[oi].tolist()), tuple(tf.opacities[oi].tolist()), tf.scale,
                              float(tf.linthresh), tf.color_space,
                              as_real("global_alpha", global_alpha, low=0.0, high=1.0, low_open=True))
-        self.table_size = None if tf.table_size_auto else tf.table_size
+        #: the table's entries, the same for every edit (so an edit changes the table only
+        #: where it changes the function): the given function's own size if it was set,
+        #: else the full resolution, :data:`~pv_hdrvol.data.transfer.DEFAULT_TABLE_SIZE`
+        self.table_size = DEFAULT_TABLE_SIZE if tf.table_size_auto else tf.table_size
         self._undo, self._redo = [], []
         self._gesture = None  # the state before a gesture's first edit, while one runs
         self._tf = None

@@ -156,7 +156,7 @@ class ProgressiveRenderer:
         with self._lock:
             plan = self._plan
         out = []
-        if coarse:
+        if coarse and _coarse_lens(lens, 0.5) is not _NO_COARSE:
             out.append(self._coarse(plan, camera, size, lens, 0, lambda: False, far))
         out.append(self._full(plan, camera, size, lens, 0, lambda: False, far))
         return out
@@ -171,7 +171,7 @@ class ProgressiveRenderer:
             cols = np.minimum(((np.arange(small[0]) + 0.5) * width / small[0]).astype(int), width - 1)
             far = far[rows[:, None], cols[None, :]]
         t0 = time.perf_counter()
-        image = self._execute(plan, camera, small, lens, stale, far)
+        image = self._execute(plan, camera, small, _coarse_lens(lens, small[0] / width), stale, far)
         rendered = time.perf_counter() - t0
         image = _resize(image, size)
         seconds = time.perf_counter() - t0
@@ -239,7 +239,8 @@ class ProgressiveRenderer:
                 return self._closed or self._generation != generation
 
             try:
-                for render in (self._coarse, self._full):
+                renders = (self._coarse, self._full) if _coarse_lens(lens, 0.5) is not _NO_COARSE else (self._full,)
+                for render in renders:
                     frame = render(plan, camera, size, lens, generation, stale, far)
                     if stale():
                         break
@@ -280,6 +281,28 @@ class ProgressiveRenderer:
 
     def __exit__(self, *exc):
         self.close()
+
+
+_NO_COARSE = object()
+
+
+def _coarse_lens(lens, scale):
+    """``lens`` for an image ``scale`` times the size: a magnifier's (or sampling-rate
+    lens's) circle or square shrinks with it; a fisheye has no pixel sizes. Other lenses
+    (masks, polygons, feature lenses) give ``_NO_COARSE``: their requests render the
+    full frame only."""
+    import dataclasses
+
+    if lens is None or type(lens).__name__ == "Fisheye":
+        return lens
+    names = {f.name for f in dataclasses.fields(lens)} if dataclasses.is_dataclass(lens) else set()
+    if {"center", "radius"} <= names and isinstance(getattr(lens, "shape", "circle"), str) \
+            and lens.center is not None and lens.radius is not None:
+        changes = {"center": (lens.center[0] * scale, lens.center[1] * scale), "radius": lens.radius * scale}
+        if getattr(lens, "transition", None) is not None:
+            changes["transition"] = lens.transition * scale
+        return dataclasses.replace(lens, **changes)
+    return _NO_COARSE
 
 
 def _next_factor(factor, seconds, budget):

@@ -110,7 +110,11 @@ class HDRVolumeActor:
         self.hdr, self.level, self.error, self.far = None, None, None, None
         self._display = None  # (key, rgb float32 (rows, cols, 3), alpha (rows, cols))
         self._key = None
+        self._requested = self._shown = 0  # generations: of the last request, of the full frame shown
         self._busy = False
+        self.lens = None
+        #: the Camera of the last render requested
+        self.renderer_camera = None
         # the overlay: an opaque image of the composite, on the window's next layer
         window = plotter.render_window
         layer = max(window.GetNumberOfLayers(), self.scene.GetLayer() + 2)
@@ -145,6 +149,36 @@ class HDRVolumeActor:
         self.renderer.set_scene(tf, **options)
         self._key = None
         self._render_window()
+
+    def set_lens(self, lens):
+        """Render through ``lens`` (a :class:`~pv_hdrvol.Magnifier` or other lens of
+        image volumes; ``None``: none). A lens's rays are not the camera's, so they are
+        not stopped by the scene's depth: use lenses on volumes without meshes in front."""
+        if lens is not None and self.renderer.tets:
+            raise ValueError("lenses are not supported for tetrahedral meshes")
+        self.lens = lens
+        self._key = None
+        self._render_window()
+
+    def probe(self, col, row):
+        """What the shown render holds at pixel ``(col, row)`` (row 0 at the top): a dict
+        of ``rgba`` (linear, premultiplied), ``depth`` (world distance along the ray
+        where the opacity first reached the render's depth threshold; inf if never),
+        ``point`` (that world point, or None) and ``value`` (the data there, trilinear on
+        a grid, linear in the cell on a mesh; None without a point), ``level``."""
+        if self.hdr is None:
+            return None
+        rows, cols = self.hdr.shape
+        if not (0 <= col < cols and 0 <= row < rows):
+            return None
+        depth = float(self.hdr.depth[row, col])
+        point = value = None
+        if np.isfinite(depth) and self.lens is None:
+            rays = self.renderer_camera.rays((cols, rows), (col, row, 1, 1))
+            point = rays.origins[0] + depth * rays.directions[0]
+            value = _value_at(self.renderer.data, point)
+        return {"rgba": np.array(self.hdr.rgba[row, col], dtype=np.float64), "depth": depth, "point": point,
+                "value": value, "level": self.level}
 
     def set_tonemap(self, operator=None, **params):
         """Re-map the kept HDR render with another operator or parameters (no new render)."""
@@ -191,7 +225,11 @@ class HDRVolumeActor:
             arrived, self._arrived = self._arrived, None
         if arrived is not None:
             frame, display = arrived
+            if frame.generation != self._requested:
+                return  # a frame of a view already left (the worker drops most of them)
             self.hdr, self.level, self._display = frame.image, frame.level, display
+            if frame.level == "full":
+                self._shown = frame.generation
             self._render_window()
 
     def _render_window(self):
@@ -207,14 +245,17 @@ class HDRVolumeActor:
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             self._poll()
-            if self.level == "full" and self._key is not None and self._shown_key == self._key:
+            if self.up_to_date:
                 return True
             if self.error is not None:
                 raise self.error
             time.sleep(0.01)
         return False
 
-    _shown_key = None
+    @property
+    def up_to_date(self):
+        """Whether the full render of the present view and function is shown."""
+        return self._key is not None and self.level == "full" and self._shown == self._requested
 
     def _scene_rendered(self, *_):
         if self._busy:
@@ -248,14 +289,16 @@ class HDRVolumeActor:
             far = ray_distances(camera, depth, vtk_camera)
             #: world distance along each pixel's ray to the scene's opaque surfaces (inf: none), row 0 at the top
             self.far = far
+            self.renderer_camera = camera
+            if self.lens is not None:
+                far = None  # a lens's rays are not the camera's (see set_lens)
             if self.progressive:
-                self.renderer.request(camera, (cols, rows), far=far)
+                self._requested = self.renderer.request(camera, (cols, rows), far=far, lens=self.lens)
             else:
-                (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, far=far)
+                (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, far=far, lens=self.lens)
                 self.hdr, self.level, self._display = frame.image, frame.level, self._mapped(frame.image)
-                self._shown_key = key
-        if self.progressive and self.hdr is not None and self._key == key and self.level == "full":
-            self._shown_key = key
+                self._requested += 1
+                self._shown = self._requested
         composite = scene_rgb.astype(np.float32) / 255.0
         if self._display is not None and self._display[0].shape[:2] == (rows, cols):
             rgb, alpha = self._display
@@ -273,6 +316,29 @@ class HDRVolumeActor:
         self._overlay.ResetCameraClippingRange()
         #: the composite shown, (rows, cols, 3) uint8, row 0 at the top
         self.composite = pixels[::-1]
+
+
+def _value_at(data, point):
+    """The data at world ``point``: trilinear on a grid (None outside), None on a mesh
+    (a cell search is not done for a probe)."""
+    from ..data.grid import GridVolume
+
+    if not isinstance(data, GridVolume):
+        return None
+    f = (np.asarray(point) - data.origin) / data.spacing  # (x, y, z) in voxels
+    dims = np.array(data.dims)  # (nx, ny, nz)
+    if np.any(f < 0) or np.any(f > dims - 1):
+        return None
+    i0 = np.minimum(np.floor(f).astype(int), dims - 2)
+    w = f - i0
+    values = data.values  # (z, y, x)
+    total = 0.0
+    for dz in (0, 1):
+        for dy in (0, 1):
+            for dx in (0, 1):
+                weight = (w[0] if dx else 1 - w[0]) * (w[1] if dy else 1 - w[1]) * (w[2] if dz else 1 - w[2])
+                total += weight * float(values[i0[2] + dz, i0[1] + dy, i0[0] + dx])
+    return total
 
 
 def _bounds_actor(bounds):

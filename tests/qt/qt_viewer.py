@@ -1,0 +1,172 @@
+"""The Qt viewer for real: a window under Xvfb driven by synthetic mouse and key
+events (pytest-qt), asserting on the rendered pixels.
+
+Run by tests/test_viewer_qt.py under xvfb-run (see there); not collected otherwise
+(file names qt_*.py).
+"""
+import numpy as np
+import pytest
+from qtpy import QtCore, QtGui, QtWidgets
+
+import pv_hdrvol as hv
+from pv_hdrvol.viewer.qt import HDRViewer
+
+FULL_WAIT_MS = 120_000
+
+
+def _volume():
+    """Two blobs: A (left, values up to 0.3) and B (right, values up to 0.9)."""
+    z, y, x = np.mgrid[0:24, 0:24, 0:40].astype(np.float64)
+    a = 0.3 * np.exp(-((x - 10) ** 2 + (y - 12) ** 2 + (z - 12) ** 2) / 12.0)
+    b = 0.9 * np.exp(-((x - 30) ** 2 + (y - 12) ** 2 + (z - 12) ** 2) / 12.0)
+    return hv.volume_from_array(a + b)
+
+
+def _tf():
+    return hv.TransferFunction([0.0, 0.2, 0.5, 0.7, 1.0], [[0.2, 0.4, 1.0], [0.5, 0.8, 1.0], [1.0, 1.0, 1.0],
+                                                         [1.0, 0.6, 0.2], [1.0, 0.2, 0.1]],
+                               [0.0, 0.05, 0.1, 0.2, 0.3])
+
+
+def _wait_full(qtbot, viewer):
+    actor = viewer.actor
+
+    def shown():
+        assert actor.error is None, actor.error
+        assert actor.up_to_date
+    qtbot.waitUntil(shown, timeout=FULL_WAIT_MS)
+
+
+def _direct(viewer, **kwargs):
+    camera = hv.Camera.from_pyvista(viewer.plotter.camera)
+    size = viewer.actor.scene.GetSize()
+    return hv.render(_volume(), viewer.model.transfer_function(), camera, size, precision="float64",
+                     global_alpha=viewer.model.global_alpha, **kwargs)
+
+
+def _mouse(widget, kind, pos, button=QtCore.Qt.LeftButton, buttons=None, modifiers=QtCore.Qt.NoModifier):
+    types = {"press": QtCore.QEvent.MouseButtonPress, "move": QtCore.QEvent.MouseMove,
+             "release": QtCore.QEvent.MouseButtonRelease}
+    buttons = button if buttons is None else buttons
+    point = QtCore.QPointF(*pos)
+    try:
+        event = QtGui.QMouseEvent(types[kind], point, widget.mapToGlobal(point.toPoint()).toPointF()
+                                  if hasattr(QtCore.QPoint, "toPointF") else point,
+                                  button if kind != "move" else QtCore.Qt.NoButton, buttons, modifiers)
+    except TypeError:  # Qt 5 signature
+        event = QtGui.QMouseEvent(types[kind], point, button if kind != "move" else QtCore.Qt.NoButton, buttons,
+                                  modifiers)
+    QtWidgets.QApplication.sendEvent(widget, event)
+    QtWidgets.QApplication.processEvents()
+
+
+def _drag(widget, start, end, steps=6, modifiers=QtCore.Qt.NoModifier):
+    _mouse(widget, "press", start, modifiers=modifiers)
+    for f in np.linspace(0, 1, steps)[1:]:
+        _mouse(widget, "move", (start[0] + f * (end[0] - start[0]), start[1] + f * (end[1] - start[1])),
+               modifiers=modifiers)
+    _mouse(widget, "release", end, buttons=QtCore.Qt.NoButton, modifiers=modifiers)
+
+
+@pytest.fixture
+def viewer(qtbot):
+    window = HDRViewer(_volume(), _tf(), precision="float64")
+    qtbot.addWidget(window)
+    window.resize(900, 700)
+    window.show()
+    qtbot.waitExposed(window)
+    _wait_full(qtbot, window)
+    yield window
+    window.close()
+
+
+def test_the_refined_frame_equals_a_direct_render(viewer):
+    np.testing.assert_array_equal(viewer.actor.hdr.rgba, _direct(viewer).rgba)
+    assert viewer.actor.hdr.rgba[..., 3].max() > 0.3
+
+
+def test_orbiting_with_the_mouse_renders_the_new_view(qtbot, viewer):
+    before = np.array(viewer.plotter.camera.position)
+    first = viewer.actor.hdr
+    w, h = viewer.plotter.width(), viewer.plotter.height()
+    _drag(viewer.plotter, (w / 2, h / 2), (w / 2 + 120, h / 2 + 40))
+    assert np.linalg.norm(np.array(viewer.plotter.camera.position) - before) > 1e-3
+    _wait_full(qtbot, viewer)
+    assert viewer.actor.hdr is not first
+    np.testing.assert_array_equal(viewer.actor.hdr.rgba, _direct(viewer).rgba)
+
+
+def test_dragging_an_opacity_point_changes_the_image_where_and_only_where_it_should(qtbot, viewer):
+    """The point at 0.7 rules opacity over (0.5, 1): only rays that meet values above 0.5
+    (blob B) change; rays through blob A alone (values up to 0.3) keep every bit."""
+    before = viewer.actor.hdr.rgba.copy()
+    values, _ = viewer.model.opacity_points
+    index = int(np.argmin(np.abs(values - 0.7)))
+    x, y = viewer.editor.opacity_point_position(index)
+    _drag(viewer.editor, (x, y), (x, y - 30))
+    assert viewer.model.opacity_points[1][index] > 0.2
+    assert viewer.model.can_undo and len(viewer.model._undo) == 1  # the drag is one edit
+    _wait_full(qtbot, viewer)
+    after = viewer.actor.hdr.rgba
+    np.testing.assert_array_equal(after, _direct(viewer).rgba)
+    # which rays meet values above 0.5: a maximum-intensity projection tells (its samples
+    # lie elsewhere along the ray than compositing's midpoints: a margin of 0.05)
+    peak = np.nan_to_num(_direct(viewer, blending="maximum").value)
+    high, low = peak > 0.55, peak <= 0.45
+    assert high.sum() > 50 and low.sum() > 50
+    np.testing.assert_array_equal(after[low], before[low])
+    assert np.any(after[high] != before[high])
+    viewer.actions_by_name["Undo"].trigger()
+    _wait_full(qtbot, viewer)
+    np.testing.assert_array_equal(viewer.actor.hdr.rgba, before)
+
+
+def test_the_lens_follows_the_mouse_and_changes_only_its_disc(qtbot, viewer):
+    plain = viewer.actor.hdr.rgba.copy()
+    viewer.actions_by_name["Magnifier lens"].trigger()
+    cols, rows = viewer.actor.scene.GetSize()
+    target = (cols // 2 + 60, rows // 2 - 20)
+    _drag(viewer.plotter, (cols // 2, rows // 2), target)
+    lens = viewer.actor.lens
+    assert lens is not None and tuple(lens.center) == (float(target[0]), float(target[1]))
+    _wait_full(qtbot, viewer)
+    rgba = viewer.actor.hdr.rgba
+    r, c = np.mgrid[0:rows, 0:cols]
+    outside = np.hypot(c + 0.5 - lens.center[0], r + 0.5 - lens.center[1]) > lens.radius + 1
+    np.testing.assert_array_equal(rgba[outside], plain[outside])
+    assert np.any(rgba[~outside] != plain[~outside])
+    viewer.actions_by_name["Magnifier lens"].trigger()  # off again: the plain render
+    _wait_full(qtbot, viewer)
+    np.testing.assert_array_equal(viewer.actor.hdr.rgba, plain)
+
+
+def test_the_probe_shows_the_hdr_values_under_the_cursor(qtbot, viewer):
+    rgba = viewer.actor.hdr.rgba
+    row, col = np.unravel_index(np.argmax(rgba[..., 3]), rgba.shape[:2])
+    _mouse(viewer.plotter, "move", (col, row), buttons=QtCore.Qt.NoButton)
+    text = viewer.probe_label.text()
+    r, g, b, a = rgba[row, col]
+    assert f"({col}, {row})  HDR RGBA {r:.4g} {g:.4g} {b:.4g} {a:.4g}" in text
+    assert "depth" in text and "value" in text
+    found = viewer.actor.probe(col, row)
+    assert 0.0 < found["value"] <= 0.9
+
+
+def test_tone_mapping_is_instant_and_saving_keeps_the_hdr_image(qtbot, viewer, tmp_path):
+    hdr = viewer.actor.hdr
+    shown = viewer.actor.composite.copy()
+    viewer.panel.operator.setCurrentText("linear")
+    viewer.panel.exposure.setValue(8)  # +2 stops
+    qtbot.waitUntil(lambda: not np.array_equal(viewer.actor.composite, shown), timeout=10_000)
+    assert viewer.actor.hdr is hdr  # re-mapped, not rendered
+    viewer.save_exr(tmp_path / "v.exr")
+    np.testing.assert_array_equal(hv.load(tmp_path / "v.exr").rgba, hdr.rgba.astype(np.float32))
+    viewer.save_png(tmp_path / "v.png")
+    import imageio.v3 as iio
+    np.testing.assert_array_equal(iio.imread(tmp_path / "v.png")[..., :3], viewer.actor.composite)
+
+
+def test_every_shortcut_is_listed_in_the_help(viewer):
+    for name, action in viewer.actions_by_name.items():
+        keys = action.shortcut().toString()
+        assert keys and name in viewer._shortcut_text

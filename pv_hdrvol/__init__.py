@@ -62,11 +62,28 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
                          **option_kwargs)
 
 
+def view(data, tf=None, **kwargs):
+    """Explore ``data`` in the Qt viewer (:func:`pv_hdrvol.viewer.qt.view`: orbit, the
+    transfer-function editor, tone mapping, probe, lens, saving). Needs Qt and pyvistaqt
+    (``pip install 'pv_hdrvol[gui]'``)."""
+    from .viewer.qt import view as _view
+
+    return _view(data, tf, **kwargs)
+
+
+def add_hdr_volume(plotter, data, tf=None, **kwargs):
+    """Draw ``data`` as an HDR volume in a PyVista plotter's scene, occluded by its meshes
+    (:func:`pv_hdrvol.viewer.scene.add_hdr_volume`; also ``plotter.hdrvol.add_volume``)."""
+    from .viewer.scene import add_hdr_volume as _add
+
+    return _add(plotter, data, tf, **kwargs)
+
+
 __all__ = [
     "datasets", "BlockGrid", "Camera", "Culling", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye",
     "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
     "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
     "TransferFunction", "TransferFunctionFamily", "depth_layers", "load", "render", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
-    "volume_from_array", "volume_from_dataset",
+    "volume_from_array", "volume_from_dataset", "view", "add_hdr_volume",
 ]

@@ -122,6 +122,19 @@ def build_parser():
     g.add_argument("--k", type=float, nargs="+", default=None, metavar="K",
                    help="the family's weights, one per basis of --pof (default all 1)")
 
+    p = sub.add_parser("view", help="explore a volume or mesh file in a window (Qt)",
+                       description="Open the interactive viewer (pv_hdrvol.viewer.qt.HDRViewer): orbit, edit the "
+                                   "transfer function, tone-map, probe HDR values, a magnifier lens, save EXR/PNG. "
+                                   "Needs Qt (pip install 'pv_hdrvol[gui]') and a display.")
+    p.add_argument("file", metavar="FILE", help=f"image volume or tetrahedral mesh, one of {', '.join(READABLE)}")
+    p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
+    p.add_argument("--tf", default=None, metavar="FILE.json",
+                   help="transfer function to start from: the editor's JSON, a TransferFunction's JSON or a "
+                        "ParaView preset file (its first preset)")
+    p.add_argument("--precision", choices=("float32", "float64"), default="float32",
+                   help="compositing precision (default float32)")
+    p.set_defaults(handler=_cmd_view, subparser=p)
+
     p = sub.add_parser("demo", help="render the hydrogen 3d_z2 orbital (no input needed)",
                        description="Render pv_hdrvol.datasets.hydrogen_orbital() with its demo transfer function "
                                    "and write demo.exr and demo.png.")
@@ -183,40 +196,13 @@ def main(argv=None):
 
 # -- commands -------------------------------------------------------------------------
 def _cmd_render(args):
-    import pyvista as pv
-
-    from .. import volume_from_dataset
-    from ..data.grid import ScalarsError
-
-    path = _existing_file(args.file)
-    if path.suffix.lower() not in READABLE:
-        raise UserError(f"cannot read {str(path)!r}: unknown extension {path.suffix!r}; "
-                        f"use one of {', '.join(READABLE)}")
+    path = _readable_file(args.file)
     output = pathlib.Path(args.output) if args.output else pathlib.Path(path.stem + ".exr")
     png = _check_outputs(output, args.png)
     if png is None and (args.colorbar or args.tonemap):
         option = "--colorbar" if args.colorbar else "--tonemap"
         raise UserError(f"{option} styles the PNG preview; add --png OUT.png")
-    try:
-        dataset = pv.read(path)
-    except Exception as exc:  # readers raise anything from OSError to ValueError
-        raise UserError(f"cannot read {str(path)!r}: {exc}") from None
-    if not isinstance(dataset, (pv.ImageData, pv.UnstructuredGrid)):
-        kind = type(dataset).__name__
-        raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) and "
-                        f"tetrahedral meshes (UnstructuredGrid)")
-    if path.suffix.lower() == ".cube" and tuple(dataset.spacing) == (1.0, 1.0, 1.0) \
-            and tuple(dataset.origin) == (0.0, 0.0, 0.0):  # index units: what pyvista 0.4x's reader gives
-        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
-    try:
-        if isinstance(dataset, pv.UnstructuredGrid):
-            from ..data.tets import tetmesh_from_dataset
-
-            volume = tetmesh_from_dataset(dataset, scalars=args.scalars)
-        else:
-            volume = volume_from_dataset(dataset, scalars=args.scalars)
-    except (ScalarsError, ValueError, TypeError) as exc:
-        raise UserError(str(exc)) from None
+    volume = _read_volume(path, args)
     tf = _transfer_function(args, volume)
     cull = None
     if args.pof is not None:
@@ -233,6 +219,68 @@ def _cmd_render(args):
     shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
     # .strip(): pyvista names a cube's array after its comment line (" SCF Total Density\n")
     _print_stats(image, f"{path.name} ({volume.name.strip()}, {shape})")
+
+
+def _readable_file(name):
+    """``name`` as an existing path with an extension ``pyvista.read`` reads here."""
+    path = _existing_file(name)
+    if path.suffix.lower() not in READABLE:
+        raise UserError(f"cannot read {str(path)!r}: unknown extension {path.suffix!r}; "
+                        f"use one of {', '.join(READABLE)}")
+    return path
+
+
+def _read_volume(path, args):
+    """The image volume or tetrahedral mesh of array ``args.scalars`` in file ``path``."""
+    import pyvista as pv
+
+    from .. import volume_from_dataset
+    from ..data.grid import ScalarsError
+
+    try:
+        dataset = pv.read(path)
+    except Exception as exc:  # readers raise anything from OSError to ValueError
+        raise UserError(f"cannot read {str(path)!r}: {exc}") from None
+    if not isinstance(dataset, (pv.ImageData, pv.UnstructuredGrid)):
+        kind = type(dataset).__name__
+        raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) and "
+                        f"tetrahedral meshes (UnstructuredGrid)")
+    if path.suffix.lower() == ".cube" and tuple(dataset.spacing) == (1.0, 1.0, 1.0) \
+            and tuple(dataset.origin) == (0.0, 0.0, 0.0):  # index units: what pyvista 0.4x's reader gives
+        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
+    try:
+        if isinstance(dataset, pv.UnstructuredGrid):
+            from ..data.tets import tetmesh_from_dataset
+
+            return tetmesh_from_dataset(dataset, scalars=args.scalars)
+        return volume_from_dataset(dataset, scalars=args.scalars)
+    except (ScalarsError, ValueError, TypeError) as exc:
+        raise UserError(str(exc)) from None
+
+
+def _cmd_view(args):
+    path = _readable_file(args.file)
+    tf = None
+    if args.tf is not None:
+        import json
+
+        from ..editor.model import TransferFunctionModel
+
+        tf_path = _existing_file(args.tf)
+        try:
+            data = json.loads(tf_path.read_text(encoding="utf-8"))
+            model = TransferFunctionModel.from_paraview_preset(data, data[0].get("Name")) \
+                if isinstance(data, list) else TransferFunctionModel.from_dict(data)
+        except (ValueError, TypeError, KeyError, IndexError, AttributeError) as exc:
+            raise UserError(f"cannot read the transfer function {str(tf_path)!r}: {exc}") from None
+        tf = model.transfer_function()
+    volume = _read_volume(path, args)
+    try:
+        # the viewer is a later stage than this front end: imported only for this command
+        from ..viewer.qt import view
+    except ImportError as exc:
+        raise UserError(f"the viewer needs Qt and pyvistaqt (pip install 'pv_hdrvol[gui]'): {exc}") from None
+    view(volume, tf, title=f"pv_hdrvol: {path.name}", precision=args.precision)
 
 
 def _cmd_demo(args):

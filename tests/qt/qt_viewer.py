@@ -170,3 +170,31 @@ def test_every_shortcut_is_listed_in_the_help(viewer):
     for name, action in viewer.actions_by_name.items():
         keys = action.shortcut().toString()
         assert keys and name in viewer._shortcut_text
+
+
+def test_the_view_command_opens_the_file_with_its_transfer_function(qtbot, tmp_path, monkeypatch):
+    """``pv-hdrvol view FILE --tf preset.json``: the window's function is the file's."""
+    import pv_hdrvol.viewer.qt as qt
+    from pv_hdrvol.editor.model import TransferFunctionModel
+    from pv_hdrvol.integrations.cli import main
+
+    opened = []
+
+    def view(data, tf=None, **kwargs):  # the real window, without blocking in exec()
+        window = qt.HDRViewer(data, tf, **kwargs)
+        qtbot.addWidget(window)
+        opened.append(window)
+        return window
+
+    monkeypatch.setattr(qt, "view", view)
+    grid = _volume()
+    import pyvista as pv
+    image = pv.ImageData(dimensions=grid.dims, spacing=grid.spacing, origin=grid.origin)
+    image.point_data["density"] = grid.values.reshape(-1)
+    image.save(tmp_path / "blobs.vti")
+    TransferFunctionModel(_tf()).save_paraview_preset(tmp_path / "preset.json", "mine")
+    assert main(["view", str(tmp_path / "blobs.vti"), "--tf", str(tmp_path / "preset.json")]) == 0
+    (window,) = opened
+    assert window.windowTitle() == "pv_hdrvol: blobs.vti"
+    np.testing.assert_array_equal(window.model.transfer_function().opacities, _tf().opacities)
+    window.close()

@@ -79,11 +79,20 @@ def add_hdr_volume(plotter, data, tf=None, **kwargs):
     return _add(plotter, data, tf, **kwargs)
 
 
+def __getattr__(name):
+    # the notebook editor needs ipywidgets: imported on first use, not with the package
+    if name == "TransferFunctionEditor":
+        from .viewer.notebook import TransferFunctionEditor
+
+        return TransferFunctionEditor
+    raise AttributeError(f"module 'pv_hdrvol' has no attribute {name!r}")
+
+
 __all__ = [
     "datasets", "BlockGrid", "Camera", "Culling", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye",
     "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
     "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
     "TransferFunction", "TransferFunctionFamily", "depth_layers", "load", "render", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
-    "volume_from_array", "volume_from_dataset", "view", "add_hdr_volume",
+    "volume_from_array", "volume_from_dataset", "view", "add_hdr_volume", "TransferFunctionEditor",
 ]

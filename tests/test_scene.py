@@ -129,3 +129,22 @@ def test_plotters_find_the_component_through_the_entry_point():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                           env={**os.environ, "VTK_DEFAULT_OPENGL_WINDOW": os.environ["VTK_DEFAULT_OPENGL_WINDOW"]})
     assert done.stdout.split() == ["HDRVolumeComponent", "True"], done.stderr[-2000:]
+
+
+def test_a_progressive_volume_shows_the_coarse_then_the_full_frame():
+    """progressive=True on an off-screen plotter: the worker's frames arrive through
+    wait() (a window's timer runs the same poll); the full one is the direct render."""
+    pl = _plotter()
+    _view(pl)
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", progressive=True)
+    pl.screenshot(return_img=True)  # the scene's first render requests the volume
+    assert actor.wait(120) and actor.up_to_date and actor.level == "full"
+    camera = hv.Camera.from_pyvista(pl.camera)
+    np.testing.assert_array_equal(actor.hdr.rgba, hv.render(_volume(), _tf(), camera, SIZE,
+                                                            precision="float64").rgba)
+    actor.set_transfer_function(global_alpha=0.3)
+    assert not actor.up_to_date
+    assert actor.wait(120)
+    np.testing.assert_array_equal(actor.hdr.rgba, hv.render(_volume(), _tf(), camera, SIZE, precision="float64",
+                                                            global_alpha=0.3).rgba)
+    pl.close()

@@ -1,3 +1,4 @@
-"""The focus+context transfer-function editor (HDR VolVis section 5; issue 21, in
-progress): the magnified data axis (:mod:`.axis`), the editor's model without a display
-(:mod:`.model`) and ParaView's presets (:mod:`.presets`)."""
+"""The focus+context transfer-function editor (HDR VolVis section 5), without a
+display: the magnified data axis and the value axes (:mod:`.axis`), the edited model
+(:mod:`.model`) and ParaView's presets (:mod:`.presets`). The Qt and notebook widgets
+over the model live in :mod:`pv_hdrvol.viewer`."""

@@ -255,21 +255,6 @@ class ProgressiveRenderer:
                     raise
                 self.on_error(error)
 
-    def wait(self, timeout=None):
-        """Block until no request is pending or rendering (or ``timeout`` seconds).
-        Returns whether the renderer is idle."""
-        end = None if timeout is None else time.monotonic() + timeout
-        while True:
-            with self._lock:
-                busy = self._pending is not None or (self.last_frame is None and self._generation > 0) or (
-                    self.last_frame is not None and (self.last_frame.generation != self._generation
-                                                     or self.last_frame.level != "full"))
-            if not busy or self._closed:
-                return True
-            if end is not None and time.monotonic() > end:
-                return False
-            time.sleep(0.005)
-
     def close(self):
         """Stop the worker (a render in flight is cancelled at its next row of tiles)."""
         with self._lock:

@@ -133,10 +133,11 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
         image = QtGui.QImage(rgb.data, n, 2, 3 * n, QtGui.QImage.Format_RGB888)
         p.drawImage(s, image)
         values, colors = m.color_points
+        half = 4 if values.size <= 24 else 1.5  # a colormap's many points: slim marks
         for i, v in enumerate(values):
             x = s.left() + float(m.screen_x(v)) * s.width()
-            tri = QtGui.QPolygonF([QtCore.QPointF(x, s.top()), QtCore.QPointF(x - 4, s.bottom()),
-                                   QtCore.QPointF(x + 4, s.bottom())])
+            tri = QtGui.QPolygonF([QtCore.QPointF(x, s.top() + (0 if half > 2 else s.height() / 2)),
+                                   QtCore.QPointF(x - half, s.bottom()), QtCore.QPointF(x + half, s.bottom())])
             p.setBrush(QtGui.QColor(255, 200, 0) if self.selected == ("color", i) else QtGui.QColor(255, 255, 255))
             p.drawPolygon(tri)
         p.end()

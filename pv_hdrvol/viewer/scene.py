@@ -137,7 +137,8 @@ class HDRVolumeActor:
         self.scene.AddActor(self._box)
         self._observer = self.scene.AddObserver("EndEvent", self._scene_rendered)
         self._timer = None
-        if self.progressive:
+        if self.progressive and getattr(plotter, "iren", None) is not None:
+            # a window's timer shows the frames the worker finished (off screen: wait() does)
             interactor = plotter.iren.interactor
             self._timer_observer = interactor.AddObserver("TimerEvent", self._poll)
             self._timer = interactor.CreateRepeatingTimer(POLL_MS)
@@ -238,8 +239,9 @@ class HDRVolumeActor:
             self.plotter.render()
 
     def wait(self, timeout=30.0):
-        """Block until the full frame of the present view is shown (progressive mode;
-        pumps the poll that the window's timer runs). Returns whether it is."""
+        """Block until the full frame of the present view is shown (progressive mode:
+        runs the poll that a window's timer runs, so a script can wait for it). Returns
+        whether it is; a render's error is raised here."""
         import time
 
         end = time.monotonic() + timeout

@@ -148,3 +148,16 @@ def test_a_progressive_volume_shows_the_coarse_then_the_full_frame():
     np.testing.assert_array_equal(actor.hdr.rgba, hv.render(_volume(), _tf(), camera, SIZE, precision="float64",
                                                             global_alpha=0.3).rgba)
     pl.close()
+
+
+def test_a_notebook_plot_with_the_static_backend_shows_the_volume():
+    """``pl.show()`` in a notebook with PyVista's static backend renders off screen: the
+    picture it returns is the composite with the volume at full quality."""
+    pytest.importorskip("IPython")
+    pl = pv.Plotter(notebook=True, off_screen=True, window_size=SIZE)
+    pl.background_color = (0.2, 0.2, 0.2)
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64")
+    _view(pl)
+    picture = np.asarray(pl.show(jupyter_backend="static", return_viewer=True))[..., :3]
+    assert actor.level == "full" and actor.hdr.rgba[..., 3].max() > 0.3
+    assert np.abs(picture.astype(int) - actor.composite.astype(int)).max() <= 1

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
+from ..data.transfer import SCALES
 from ..editor.model import (PRESETS, TransferFunctionModel, global_alpha_from_slider,
                             slider_from_global_alpha)
 from ..rays.lenses import Magnifier
@@ -308,6 +309,10 @@ class ToneMapPanel(QtWidgets.QWidget):
         self.alpha.setToolTip("Global opacity, log scale from 1e-4 to 1")
         self.preset = QtWidgets.QComboBox()
         self.preset.addItems(["(colour preset)"] + list(PRESETS))
+        self.scale = QtWidgets.QComboBox()
+        self.scale.addItems(list(SCALES))
+        self.scale.setCurrentText(viewer.model.scale)
+        self.scale.setToolTip("The data axis the function interpolates on (changes the function between its points)")
         self.log_axis = QtWidgets.QCheckBox("log opacity axis (L)")
         self.log_axis.setChecked(viewer.model.opacity_axis.scale == "log")
         self.magnify = QtWidgets.QCheckBox("magnify foci (M)")
@@ -318,6 +323,7 @@ class ToneMapPanel(QtWidgets.QWidget):
         layout.addRow("exposure", self.exposure)
         layout.addRow("global opacity", self.alpha)
         layout.addRow("colours", self.preset)
+        layout.addRow("data axis", self.scale)
         layout.addRow(self.log_axis)
         layout.addRow(self.magnify)
         layout.addRow(self.hsv)
@@ -325,6 +331,7 @@ class ToneMapPanel(QtWidgets.QWidget):
         self.exposure.valueChanged.connect(self._tonemap)
         self.alpha.valueChanged.connect(lambda v: viewer.model.set_global_alpha(global_alpha_from_slider(v / 1000)))
         self.preset.activated.connect(self._preset)
+        self.scale.currentTextChanged.connect(self._scale)
         self.log_axis.toggled.connect(lambda on: viewer.model.set_display(opacity_scale="log" if on else "linear"))
         self.magnify.toggled.connect(lambda on: viewer.model.set_display(magnified=on))
         self.hsv.toggled.connect(lambda on: viewer.model.set_color_space("hsv" if on else "rgb"))
@@ -341,8 +348,24 @@ class ToneMapPanel(QtWidgets.QWidget):
             self.viewer.model.apply_colormap(self.preset.itemText(index))
             self.preset.setCurrentIndex(0)
 
+    def _scale(self, name):
+        m = self.viewer.model
+        if name == m.scale:
+            return
+        try:
+            m.set_scale(name)
+        except ValueError as error:
+            self.viewer.statusBar().showMessage(str(error), 8000)
+            self.scale.blockSignals(True)
+            self.scale.setCurrentText(m.scale)
+            self.scale.blockSignals(False)
+
     def _sync(self, what):
         m = self.viewer.model
+        if self.scale.currentText() != m.scale:
+            self.scale.blockSignals(True)
+            self.scale.setCurrentText(m.scale)
+            self.scale.blockSignals(False)
         for box, on in ((self.log_axis, m.opacity_axis.scale == "log"), (self.magnify, m.magnified),
                         (self.hsv, m.color_space == "hsv")):
             if box.isChecked() != on:

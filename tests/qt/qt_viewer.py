@@ -198,3 +198,42 @@ def test_the_view_command_opens_the_file_with_its_transfer_function(qtbot, tmp_p
     assert window.windowTitle() == "pv_hdrvol: blobs.vti"
     np.testing.assert_array_equal(window.model.transfer_function().opacities, _tf().opacities)
     window.close()
+
+
+def test_a_background_plotter_draws_the_volume_behind_its_mesh(qtbot):
+    """pyvistaqt's BackgroundPlotter: the volume arrives progressively on its window and
+    a mesh in front of it hides it exactly; the full frame is the direct render with the
+    rays stopped there."""
+    import pyvista as pv
+    from pyvistaqt import BackgroundPlotter
+
+    pl = BackgroundPlotter(window_size=(320, 240), title="pv_hdrvol test")
+    try:
+        pl.set_background("black")
+        pl.add_mesh(pv.Plane(center=(10, 12, 30), direction=(0, 0, 1), i_size=10, j_size=10), color="red",
+                    lighting=False)
+        pl.camera_position = [(20, 12, 90), (20, 12, 12), (0, 1, 0)]
+        actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64")
+        assert actor.progressive
+        pl.render()
+        qtbot.waitUntil(lambda: actor.up_to_date, timeout=FULL_WAIT_MS)
+        red = np.all(actor.composite == [255, 0, 0], axis=-1)
+        assert red.sum() > 200
+        assert np.all(actor.hdr.rgba[red] == 0) and np.all(np.isfinite(actor.far[red]))
+        free = hv.render(_volume(), _tf(), hv.Camera.from_pyvista(pl.camera), actor.hdr.shape[::-1],
+                         precision="float64")
+        assert free.rgba[red][:, 3].max() > 0.05  # the plane does hide some of the volume
+        np.testing.assert_array_equal(actor.hdr.rgba[~red & ~np.isfinite(actor.far)],
+                                      free.rgba[~red & ~np.isfinite(actor.far)])
+    finally:
+        pl.close()
+
+
+def test_the_data_axis_switch_changes_the_function_or_says_why_not(qtbot, viewer):
+    viewer.panel.scale.setCurrentText("symlog")
+    assert viewer.model.scale == "symlog"
+    _wait_full(qtbot, viewer)
+    np.testing.assert_array_equal(viewer.actor.hdr.rgba, _direct(viewer).rgba)
+    viewer.panel.scale.setCurrentText("log")  # the range starts at 0: no log axis
+    assert viewer.model.scale == "symlog" and viewer.panel.scale.currentText() == "symlog"
+    assert "scale='log' needs a positive range" in viewer.statusBar().currentMessage()

@@ -44,7 +44,8 @@ def test_a_tetrahedral_mesh_refines_to_its_direct_render():
     tf = hv.TransferFunction.ramp(1.0, 10.0, cmap="gray", opacity=(0.1, 0.6))
     camera = hv.Camera.fit(mesh.bounds, "iso")
     frames = ProgressiveRenderer(mesh, tf, precision="float64").frames(camera, (24, 24))
-    np.testing.assert_array_equal(frames[-1].image.rgba, hv.render(mesh, tf, camera, (24, 24), precision="float64").rgba)
+    direct = hv.render(mesh, tf, camera, (24, 24), precision="float64")
+    np.testing.assert_array_equal(frames[-1].image.rgba, direct.rgba)
 
 
 def test_the_coarse_frame_is_the_small_render_upsampled():

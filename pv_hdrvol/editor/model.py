@@ -20,8 +20,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .._validate import as_choice, as_int, as_real
-from ..data.transfer import (COLOR_SPACES, DEFAULT_TABLE_SIZE, SCALES, TransferFunction, TransferFunctionFamily, _scale_inverse,
-                             colormap_rgb, scale_forward)
+from ..data.transfer import (COLOR_SPACES, DEFAULT_TABLE_SIZE, SCALES, TransferFunction, TransferFunctionFamily,
+                             _scale_inverse, colormap_rgb, scale_forward)
 from .axis import Focus, FocusContextAxis, ValueAxis
 
 #: Colormaps offered as presets (any matplotlib name works in :meth:`~TransferFunctionModel.apply_colormap`).
@@ -35,6 +35,8 @@ UNDO_DEPTH = 100
 #: largest colour, or in opacity) are dropped when a function is loaded.
 SIMPLIFY_TOLERANCE = 1e-12
 _FORMAT = "pv_hdrvol.transfer_function_editor"
+#: the state's fields of each list of points
+_LISTS = {"opacity": ("opacity_values", "opacities"), "colour": ("color_values", "colors")}
 
 
 class _State(NamedTuple):
@@ -327,15 +329,8 @@ class TransferFunctionModel:
 
     def add_opacity_point(self, value, opacity):
         """Add an opacity point at data ``value`` (inside the range); returns its index."""
-        s = self._state
-        value = self._check_value(value, s.opacity_values)
-        opacity = as_real("opacity", opacity, low=0.0, high=1.0)
-        if value in s.opacity_values:
-            raise ValueError(f"an opacity point already lies at {value!r}")
-        i = int(np.searchsorted(s.opacity_values, value))
-        self._commit(s._replace(opacity_values=s.opacity_values[:i] + (value,) + s.opacity_values[i:],
-                                opacities=s.opacities[:i] + (opacity,) + s.opacities[i:]))
-        return i
+        value = self._check_value(value, self._state.opacity_values)
+        return self._insert("opacity", value, as_real("opacity", opacity, low=0.0, high=1.0))
 
     def move_opacity_point(self, index, value=None, opacity=None):
         """Move opacity point ``index`` to data ``value`` (between its neighbours; the end
@@ -354,27 +349,39 @@ class TransferFunctionModel:
 
     def remove_opacity_point(self, index):
         """Remove an interior opacity point (the ends stay)."""
+        self._remove("opacity", index)
+
+    def _insert(self, kind, value, item):
+        """Commit the state with point ``(value, item)`` added to the ``kind`` list
+        (``value`` checked already); returns its index."""
+        names = _LISTS[kind]
         s = self._state
-        n = len(s.opacity_values)
+        values, items = getattr(s, names[0]), getattr(s, names[1])
+        if value in values:
+            raise ValueError(f"a{'n' if kind == 'opacity' else ''} {kind} point already lies at {value!r}")
+        i = int(np.searchsorted(values, value))
+        self._commit(s._replace(**{names[0]: values[:i] + (value,) + values[i:],
+                                   names[1]: items[:i] + (item,) + items[i:]}))
+        return i
+
+    def _remove(self, kind, index):
+        names = _LISTS[kind]
+        s = self._state
+        values, items = getattr(s, names[0]), getattr(s, names[1])
+        n = len(values)
         index = as_int("index", index, low=0, high=n - 1)
         if index in (0, n - 1):
-            raise ValueError(f"the end points of the opacity function cannot be removed; got index {index}")
-        self._commit(s._replace(opacity_values=s.opacity_values[:index] + s.opacity_values[index + 1:],
-                                opacities=s.opacities[:index] + s.opacities[index + 1:]))
+            raise ValueError(f"the end points of the {kind} function cannot be removed; got index {index}")
+        self._commit(s._replace(**{names[0]: values[:index] + values[index + 1:],
+                                   names[1]: items[:index] + items[index + 1:]}))
 
     def add_color_point(self, value, color=None):
         """Add a colour point at data ``value``: ``color`` (linear RGB >= 0, may exceed 1),
         or the function's present colour there. Returns its index."""
-        s = self._state
-        value = self._check_value(value, s.color_values)
-        if value in s.color_values:
-            raise ValueError(f"a colour point already lies at {value!r}")
+        value = self._check_value(value, self._state.color_values)
         rgb = self._check_color(color) if color is not None else \
             tuple(self.transfer_function().color_at(np.array([value]))[0].tolist())
-        i = int(np.searchsorted(s.color_values, value))
-        self._commit(s._replace(color_values=s.color_values[:i] + (value,) + s.color_values[i:],
-                                colors=s.colors[:i] + (rgb,) + s.colors[i:]))
-        return i
+        return self._insert("colour", value, rgb)
 
     @staticmethod
     def _check_color(color):
@@ -406,13 +413,7 @@ class TransferFunctionModel:
 
     def remove_color_point(self, index):
         """Remove an interior colour point (the ends stay)."""
-        s = self._state
-        n = len(s.color_values)
-        index = as_int("index", index, low=0, high=n - 1)
-        if index in (0, n - 1):
-            raise ValueError(f"the end points of the colour function cannot be removed; got index {index}")
-        self._commit(s._replace(color_values=s.color_values[:index] + s.color_values[index + 1:],
-                                colors=s.colors[:index] + s.colors[index + 1:]))
+        self._remove("colour", index)
 
     def set_range(self, vmin, vmax):
         """Stretch every point onto ``[vmin, vmax]``, keeping its place along the scaled

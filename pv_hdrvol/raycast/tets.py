@@ -20,8 +20,8 @@ from ..rays.camera import Camera, as_camera
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import (_MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, cached, resolve_transfer_function,
-                   empty_render_reason, pixel_rows, run_in_chunks, warn_empty)
+from .grid import (_MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, cached,
+                   empty_render_reason, pixel_rows, resolve_transfer_function, run_in_chunks, warn_empty)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
 

@@ -74,10 +74,11 @@ def editor_picture(model, width=480, height=160):
         lo, hi = sorted((rows[col], rows[col - 1] if col else rows[col]))
         out[lo:hi + 1, col] = (240, 240, 240)
     values, opacities = model.opacity_points
+    half = 2 if values.size <= 24 else 1  # many points (a sampled curve): small marks
     for v, a in zip(values, opacities):
         c = int(round(float(model.screen_x(v)) * (width - 1)))
         r = int(round((1.0 - float(model.opacity_axis.forward(a))) * (h - 1)))
-        out[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3] = (255, 200, 0)
+        out[max(r - half, 0):r + half + 1, max(c - half, 0):c + half + 1] = (255, 200, 0)
     rgb = model.color_strip(width) ** (1 / 2.2)
     out[h:] = (np.clip(rgb, 0, 1) * 255).astype(np.uint8)[None]
     for v in model.color_points[0]:
@@ -126,8 +127,11 @@ class TransferFunctionEditor:
         self.hdr = self.level = None
         self.operator, self.exposure = "reinhard", 0.0
         # widgets
-        self.image = w.Image(format="png", layout=w.Layout(width=f"{self.size[0]}px"))
-        self.curve = w.Image(format="png", layout=w.Layout(width="480px"))
+        # pixel for pixel: a fixed size, not stretched to the row beside it
+        self.image = w.Image(format="png", layout=w.Layout(width=f"{self.size[0]}px", height=f"{self.size[1]}px",
+                                                           min_width=f"{self.size[0]}px", object_fit="none"))
+        self.curve = w.Image(format="png", layout=w.Layout(width="480px", height="160px", min_width="480px",
+                                                           object_fit="none"))
         self.azimuth = w.FloatSlider(0.0, min=-180, max=180, step=1, description="azimuth")
         self.elevation = w.FloatSlider(0.0, min=-89, max=89, step=1, description="elevation")
         self.zoom = w.FloatLogSlider(1.0, base=10, min=-1, max=1, step=0.01, description="zoom")

@@ -160,10 +160,10 @@ class TransferFunctionModel:
         """A model for an image volume or tetrahedral mesh (anything
         :func:`pv_hdrvol.render` takes): ``tf`` or the renderer's default transfer function
         for it, and the histogram of its values."""
-        from ..data.tets import is_unstructured, tetmesh_from_dataset
+        from ..data.tets import as_tetmesh, is_unstructured
         from ..raycast.grid import as_volume, resolve_transfer_function
 
-        volume = tetmesh_from_dataset(data) if is_unstructured(data) else as_volume(data)
+        volume = as_tetmesh(data) if is_unstructured(data) else as_volume(data)
         return cls(resolve_transfer_function(volume, tf), np.asarray(volume.values), **kwargs)
 
     # -- observers --------------------------------------------------------------------

@@ -499,7 +499,7 @@ class HDRViewer(QtWidgets.QMainWindow):
 
         on = not self.lens_mode if on is None else bool(on)
         if on and self.actor.renderer.tets:
-            QtWidgets.QMessageBox.information(self, "Lens", "The lens works on image volumes only.")
+            self.statusBar().showMessage("the magnifier lens works on image volumes only", 8000)
             on = False
         self.lens_mode = on
         self.actions_by_name["Magnifier lens"].setChecked(on)
@@ -581,11 +581,11 @@ class HDRViewer(QtWidgets.QMainWindow):
 
 def _select(data, scalars, preference):
     """The dataset as the volume or mesh of array ``scalars``."""
-    from ..data.tets import is_unstructured, tetmesh_from_dataset
+    from ..data.tets import as_tetmesh, is_unstructured
     from ..raycast.grid import as_volume
 
     if is_unstructured(data):
-        return tetmesh_from_dataset(data, scalars=scalars, preference=preference)
+        return as_tetmesh(data, scalars=scalars, preference=preference)
     return as_volume(data, scalars=scalars, preference=preference)
 
 

@@ -237,3 +237,30 @@ def test_the_data_axis_switch_changes_the_function_or_says_why_not(qtbot, viewer
     viewer.panel.scale.setCurrentText("log")  # the range starts at 0: no log axis
     assert viewer.model.scale == "symlog" and viewer.panel.scale.currentText() == "symlog"
     assert "scale='log' needs a positive range" in viewer.statusBar().currentMessage()
+
+
+def test_a_tetrahedral_mesh_opens_and_refines_to_its_direct_render(qtbot):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from meshes import box_mesh
+
+    points, tets, values = box_mesh((3, 3, 3), field=lambda p: 1.0 + p[:, 0] * p[:, 1])
+    mesh = hv.tetmesh_from_arrays(points, tets, values)
+    tf = hv.TransferFunction.ramp(1.0, 10.0, cmap="viridis", opacity=(0.05, 0.5))
+    window = HDRViewer(mesh, tf, precision="float64")
+    qtbot.addWidget(window)
+    window.resize(700, 560)
+    window.show()
+    qtbot.waitExposed(window)
+    _wait_full(qtbot, window)
+    camera = hv.Camera.from_pyvista(window.plotter.camera)
+    direct = hv.render(mesh, window.model.transfer_function(), camera, window.actor.scene.GetSize(),
+                       precision="float64")
+    np.testing.assert_array_equal(window.actor.hdr.rgba, direct.rgba)
+    assert window.actor.hdr.rgba[..., 3].max() > 0.2
+    window.toggle_lens(True)  # image volumes only: refused, saying why
+    assert not window.lens_mode and window.actor.lens is None
+    assert window.statusBar().currentMessage() == "the magnifier lens works on image volumes only"
+    window.close()

@@ -314,3 +314,18 @@ def test_bad_presets_get_clear_errors():
         TransferFunctionModel.from_paraview_preset({"Name": "x", "RGBPoints": [0, 1, 2]})
     with pytest.raises(ValueError, match="preset 'x' spans no range"):
         TransferFunctionModel.from_paraview_preset({"Name": "x", "RGBPoints": [1, 0, 0, 0]})
+
+
+def test_colour_intensity_is_drawn_and_picked_on_the_colour_axis():
+    """HDR emission: the colour axis reaches 4x the brightest point; a point's intensity
+    (largest channel) is picked where it is drawn, and the curve is the function's."""
+    tf = hv.TransferFunction([0.0, 1.0, 2.0], [[0.5, 0.25, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0, 0.5, 1.0])
+    model = TransferFunctionModel(tf)
+    assert model.color_axis.top == 8.0
+    sx, sy = float(model.screen_x(1.0)), float(model.color_axis.forward(2.0))
+    assert sy == 0.25 and model.pick_color_intensity(sx, sy) == 1
+    xs, ys = model.color_intensity_curve(5)
+    np.testing.assert_allclose(ys, tf.color_at(model.value_at(xs)).max(axis=1) / 8.0, rtol=0, atol=1e-15)
+    model.set_display(color_scale="log")
+    assert model.transfer_function() is model.transfer_function() and model.pick_color_intensity(
+        sx, float(model.color_axis.forward(2.0))) == 1

@@ -151,7 +151,8 @@ class TransferFunctionModel:
         self.axis = FocusContextAxis()
         self.magnified = True
         self.opacity_axis = ValueAxis("log")
-        self.color_axis = ValueAxis("linear", top=max(1.0, peak))
+        # emission may be raised 4x above the brightest point (HDR colours above 1)
+        self.color_axis = ValueAxis("linear", top=4.0 * max(1.0, peak))
         if values is not None:
             self.set_data(values)
 
@@ -586,6 +587,21 @@ class TransferFunctionModel:
         d = np.abs(self.screen_x(self.color_points[0]) - sx)
         i = int(np.argmin(d))
         return i if d[i] <= radius else None
+
+    def pick_color_intensity(self, sx, sy, radius=0.03):
+        """The index of the colour point whose intensity (largest channel, on the colour
+        axis) is drawn nearest screen ``(sx, sy)`` within ``radius``, or ``None``."""
+        v, c = self.color_points
+        d = np.hypot(self.screen_x(v) - sx, self.color_axis.forward(c.max(axis=1)) - sy)
+        i = int(np.argmin(d))
+        return i if d[i] <= radius else None
+
+    def color_intensity_curve(self, n=512):
+        """The colour's intensity (largest channel) across the screen on the colour
+        axis: ``(sx (n,), sy (n,))``."""
+        n = as_int("n", n, low=2, high=1 << 20)
+        sx = np.linspace(0.0, 1.0, n)
+        return sx, self.color_axis.forward(self.transfer_function().color_at(self.value_at(sx)).max(axis=1))
 
     def opacity_curve(self, n=512):
         """The opacity drawn across the screen: ``(sx (n,), sy (n,))``, the function

@@ -42,10 +42,13 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
       right-click a point to remove it;
     - the colour bar below, with its points: drag one along the axis, double-click to
       pick its colour, click empty bar to add one, right-click to remove;
+    - each colour point's intensity (its largest channel) as an orange diamond on the
+      colour axis, over a dashed curve: drag it up or down to brighten or dim the
+      colour (HDR emission up to 4 times the brightest point);
     - Shift+click the curve to magnify a focus range there (Shift+drag moves it, the
       wheel over it changes its magnification, Shift+right-click removes it);
-    - keys: L log/linear opacity axis, M magnification on/off, Delete removes the
-      selected point.
+    - keys: L log/linear opacity axis, C log/linear colour axis, M magnification on/off,
+      Delete removes the selected point.
     """
 
     STRIP = 18  # colour bar height, pixels
@@ -61,8 +64,8 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
         self._gesture = None
         self.selected = None
         model.observe(lambda what: self.update())
-        self.setToolTip("Drag points; click to add; right-click to remove; Shift+click to magnify a range; "
-                        "L: log opacity axis, M: magnification")
+        self.setToolTip("Drag points; click to add; right-click to remove; orange diamonds: colour intensity; "
+                        "Shift+click to magnify a range; L: log opacity axis, C: log colour axis, M: magnification")
 
     # -- geometry ----------------------------------------------------------------------
     def _plot_rect(self):
@@ -81,6 +84,11 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
     def from_widget(self, x, y):
         r = self._plot_rect()
         return (min(max((x - r.left()) / r.width(), 0.0), 1.0), min(max((r.bottom() - y) / r.height(), 0.0), 1.0))
+
+    def color_intensity_position(self, index):
+        """Widget pixel of colour point ``index``'s intensity (largest channel) on the colour axis."""
+        v, c = self.model.color_points
+        return self.to_widget(float(self.model.screen_x(v[index])), float(self.model.color_axis.forward(c[index].max())))
 
     def opacity_point_position(self, index):
         """Widget pixel of opacity point ``index`` (for tests and tools)."""
@@ -122,6 +130,22 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
         p.setPen(QtGui.QPen(QtGui.QColor(240, 240, 240), 1.5))
         p.setBrush(QtCore.Qt.NoBrush)
         p.drawPath(path)
+        # the colour's intensity (largest channel) on the colour axis, dashed, with its points
+        cx, cy = m.color_intensity_curve(max(int(r.width()), 2))
+        path = QtGui.QPainterPath()
+        for i, (x, y) in enumerate(zip(cx, cy)):
+            px, py = self.to_widget(x, y)
+            path.moveTo(px, py) if i == 0 else path.lineTo(px, py)
+        p.setPen(QtGui.QPen(QtGui.QColor(255, 150, 60), 1.0, QtCore.Qt.DashLine))
+        p.drawPath(path)
+        p.setPen(QtGui.QPen(QtGui.QColor(255, 150, 60), 1.0))
+        for i in range(m.color_points[0].size):
+            x, y = self.color_intensity_position(i)
+            size = 4.0 if m.color_points[0].size <= 24 else 2.0
+            p.setBrush(QtGui.QColor(255, 200, 0) if self.selected == ("intensity", i) else QtGui.QColor(255, 150, 60))
+            p.drawPolygon(QtGui.QPolygonF([QtCore.QPointF(x, y - size), QtCore.QPointF(x + size, y),
+                                           QtCore.QPointF(x, y + size), QtCore.QPointF(x - size, y)]))
+        p.setPen(QtGui.QPen(QtGui.QColor(240, 240, 240), 1.5))
         for i in range(m.opacity_points[0].size):
             x, y = self.opacity_point_position(i)
             selected = self.selected == ("opacity", i)
@@ -148,15 +172,20 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
         return self._strip_rect().adjusted(0, -4, 0, 4).contains(pos)
 
     def _pick(self, pos):
-        """``("opacity" | "color", index)`` under widget position ``pos``, or None."""
+        """``("opacity" | "intensity" | "color", index)`` under widget position ``pos``
+        (opacity points first, then colour intensities), or None."""
         if self._in_strip(pos):
             s = self._strip_rect()
             i = self.model.pick_color_point((pos.x() - s.left()) / s.width(), radius=_PICK_RADIUS / s.width())
             return None if i is None else ("color", i)
         r = self._plot_rect()
         sx, sy = self.from_widget(pos.x(), pos.y())
-        i = self.model.pick_opacity_point(sx, sy, radius=_PICK_RADIUS / max(min(r.width(), r.height()), 1.0))
-        return None if i is None else ("opacity", i)
+        radius = _PICK_RADIUS / max(min(r.width(), r.height()), 1.0)
+        i = self.model.pick_opacity_point(sx, sy, radius=radius)
+        if i is not None:
+            return ("opacity", i)
+        i = self.model.pick_color_intensity(sx, sy, radius=radius)
+        return None if i is None else ("intensity", i)
 
     def mousePressEvent(self, event):
         pos = _pos(event)
@@ -211,6 +240,8 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
                 n = m.opacity_points[0].size
                 value = None if index in (0, n - 1) else _between(m, m.opacity_points[0], index, sx)
                 m.move_opacity_point(index, value=value, opacity=float(m.opacity_axis.inverse(sy)))
+            elif kind == "intensity":  # up and down only: the colour's brightness, HDR above 1
+                m.move_color_point(index, intensity=float(m.color_axis.inverse(sy)))
             else:
                 n = m.color_points[0].size
                 if index not in (0, n - 1):
@@ -250,6 +281,8 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
             m.set_display(opacity_scale="linear" if m.opacity_axis.scale == "log" else "log")
         elif key == QtCore.Qt.Key_M:
             m.set_display(magnified=not m.magnified)
+        elif key == QtCore.Qt.Key_C:
+            m.set_display(color_scale="linear" if m.color_axis.scale == "log" else "log")
         elif key in (QtCore.Qt.Key_Delete, QtCore.Qt.Key_Backspace) and self.selected is not None:
             self._remove(self.selected)
         else:
@@ -315,6 +348,8 @@ class ToneMapPanel(QtWidgets.QWidget):
         self.scale.setToolTip("The data axis the function interpolates on (changes the function between its points)")
         self.log_axis = QtWidgets.QCheckBox("log opacity axis (L)")
         self.log_axis.setChecked(viewer.model.opacity_axis.scale == "log")
+        self.log_color = QtWidgets.QCheckBox("log colour axis (C)")
+        self.log_color.setChecked(viewer.model.color_axis.scale == "log")
         self.magnify = QtWidgets.QCheckBox("magnify foci (M)")
         self.magnify.setChecked(viewer.model.magnified)
         self.hsv = QtWidgets.QCheckBox("HSV colour interpolation")
@@ -325,6 +360,7 @@ class ToneMapPanel(QtWidgets.QWidget):
         layout.addRow("colours", self.preset)
         layout.addRow("data axis", self.scale)
         layout.addRow(self.log_axis)
+        layout.addRow(self.log_color)
         layout.addRow(self.magnify)
         layout.addRow(self.hsv)
         self.operator.currentTextChanged.connect(self._tonemap)
@@ -333,6 +369,7 @@ class ToneMapPanel(QtWidgets.QWidget):
         self.preset.activated.connect(self._preset)
         self.scale.currentTextChanged.connect(self._scale)
         self.log_axis.toggled.connect(lambda on: viewer.model.set_display(opacity_scale="log" if on else "linear"))
+        self.log_color.toggled.connect(lambda on: viewer.model.set_display(color_scale="log" if on else "linear"))
         self.magnify.toggled.connect(lambda on: viewer.model.set_display(magnified=on))
         self.hsv.toggled.connect(lambda on: viewer.model.set_color_space("hsv" if on else "rgb"))
         viewer.model.observe(self._sync)
@@ -366,7 +403,8 @@ class ToneMapPanel(QtWidgets.QWidget):
             self.scale.blockSignals(True)
             self.scale.setCurrentText(m.scale)
             self.scale.blockSignals(False)
-        for box, on in ((self.log_axis, m.opacity_axis.scale == "log"), (self.magnify, m.magnified),
+        for box, on in ((self.log_axis, m.opacity_axis.scale == "log"), (self.log_color, m.color_axis.scale == "log"),
+                        (self.magnify, m.magnified),
                         (self.hsv, m.color_space == "hsv")):
             if box.isChecked() != on:
                 box.blockSignals(True)
@@ -454,7 +492,9 @@ class HDRViewer(QtWidgets.QMainWindow):
         self.actions_by_name["Magnifier lens"].setCheckable(True)
         self._shortcut_text = "\n".join(f"{keys:14s} {text}" for _, text, keys, _ in spec) + (
             "\n\nEditor: drag points; click to add; right-click removes; double-click a colour point to pick its"
-            " colour;\nShift+click magnifies a range (wheel: magnification); L log axis; M magnification; Delete"
+            " colour;\ndrag a colour's orange diamond up or down for its intensity (HDR above 1);\nShift+click"
+            " magnifies a range (wheel: magnification); L log opacity axis; C log colour axis; M magnification;"
+            " Delete"
             "\nView: drag to orbit, wheel to zoom; with the lens on, drag to move the lens")
 
     def show_shortcuts(self):

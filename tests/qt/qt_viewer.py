@@ -264,3 +264,23 @@ def test_a_tetrahedral_mesh_opens_and_refines_to_its_direct_render(qtbot):
     assert not window.lens_mode and window.actor.lens is None
     assert window.statusBar().currentMessage() == "the magnifier lens works on image volumes only"
     window.close()
+
+
+def test_dragging_a_colour_intensity_brightens_that_colour(qtbot, viewer):
+    """The orange diamond of a colour point sits at its largest channel on the colour
+    axis; dragging it up scales the colour (hue kept) and the render follows."""
+    before = viewer.actor.hdr.rgba.copy()
+    index = 2  # the white point at 0.5
+    rgb = viewer.model.color_points[1][index].copy()
+    x, y = viewer.editor.color_intensity_position(index)
+    target = y - 25
+    _drag(viewer.editor, (x, y), (x, target))
+    after_rgb = viewer.model.color_points[1][index]
+    expected = float(viewer.model.color_axis.inverse(viewer.editor.from_widget(x, target)[1]))
+    np.testing.assert_allclose(after_rgb, rgb * expected / rgb.max(), rtol=1e-12)
+    assert after_rgb.max() > rgb.max()
+    assert viewer.model.opacity_points[1].tolist() == _tf().opacities.tolist()  # opacity untouched
+    _wait_full(qtbot, viewer)
+    np.testing.assert_array_equal(viewer.actor.hdr.rgba, _direct(viewer).rgba)
+    np.testing.assert_array_equal(viewer.actor.hdr.rgba[..., 3], before[..., 3])  # colour only
+    assert viewer.actor.hdr.rgba[..., :3].sum() > before[..., :3].sum()

@@ -161,3 +161,18 @@ def test_a_notebook_plot_with_the_static_backend_shows_the_volume():
     picture = np.asarray(pl.show(jupyter_backend="static", return_viewer=True))[..., :3]
     assert actor.level == "full" and actor.hdr.rgba[..., 3].max() > 0.3
     assert np.abs(picture.astype(int) - actor.composite.astype(int)).max() <= 1
+
+
+def test_removing_the_volume_leaves_the_scene_and_bad_operators_are_named():
+    pl = _plotter()
+    pl.add_mesh(pv.Sphere(radius=0.2, center=(0.5, 0.5, 0.5)), color="red", lighting=False)
+    _view(pl)
+    plain = pl.screenshot(return_img=True)
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64")
+    assert not np.array_equal(pl.screenshot(return_img=True), plain)
+    actor.remove()
+    assert pl.hdrvol.actors == ()
+    np.testing.assert_array_equal(pl.screenshot(return_img=True), plain)
+    with pytest.raises(ValueError, match="tonemap must be one of .* or a callable; got 'nope'"):
+        pl.hdrvol.add_volume(_volume(), _tf(), tonemap="nope")
+    pl.close()

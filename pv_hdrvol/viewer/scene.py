@@ -32,6 +32,7 @@ import zlib
 import numpy as np
 
 from .._validate import as_real
+from ..image.tonemap import OPERATORS
 from ..image.tonemap import tonemap as _tonemap
 from ..rays.camera import Camera
 from .progressive import COARSE_SECONDS, ProgressiveRenderer
@@ -96,6 +97,8 @@ class HDRVolumeActor:
         from vtkmodules.vtkCommonDataModel import vtkImageData
         from vtkmodules.vtkRenderingCore import vtkImageActor, vtkRenderer
 
+        if isinstance(tonemap, str) and tonemap not in OPERATORS:
+            raise ValueError(f"tonemap must be one of {sorted(OPERATORS)} or a callable; got {tonemap!r}")
         self.plotter = plotter
         self.scene = plotter.renderer
         self.tonemap_operator = tonemap
@@ -108,7 +111,7 @@ class HDRVolumeActor:
                                             preference=preference, on_frame=self._on_frame,
                                             on_error=self._on_error, **render_kwargs)
         self.hdr, self.level, self.error, self.far = None, None, None, None
-        self._display = None  # (key, rgb float32 (rows, cols, 3), alpha (rows, cols))
+        self._display = None  # (tone-mapped rgb float32 (rows, cols, 3), alpha (rows, cols)) of self.hdr
         self._key = None
         self._requested = self._shown = 0  # generations: of the last request, of the full frame shown
         self._busy = False
@@ -166,7 +169,7 @@ class HDRVolumeActor:
         of ``rgba`` (linear, premultiplied), ``depth`` (world distance along the ray
         where the opacity first reached the render's depth threshold; inf if never),
         ``point`` (that world point, or None) and ``value`` (the data there, trilinear on
-        a grid, linear in the cell on a mesh; None without a point), ``level``."""
+        a grid; None on a mesh, where no cell is searched, or without a point), ``level``."""
         if self.hdr is None:
             return None
         rows, cols = self.hdr.shape
@@ -196,6 +199,10 @@ class HDRVolumeActor:
         self.scene.RemoveObserver(self._observer)
         self.scene.RemoveActor(self._box)
         self.plotter.render_window.RemoveRenderer(self._overlay)
+        actors = self.plotter.hdrvol._actors
+        if self in actors:
+            actors.remove(self)
+        self._render_window()
 
     def close(self):
         """Stop the worker thread and the timer (the plotter's close does this)."""

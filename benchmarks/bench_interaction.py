@@ -131,7 +131,7 @@ def bench_edit(name, renderer, camera, tf, size, edits=6):
         renderer._coarse(renderer._plan, camera, size, None, 0, never)
         times.append(time.perf_counter() - t0)
     print(f"{name:9s} edit  {size[0]}^2  first frame after an edit: median {1000 * statistics.median(times[1:]):6.1f}"
-          f" ms (first edit {1000 * times[0]:6.1f} ms, builds the 65,536-entry table's plan)   [{load_note()}]",
+          f" ms (first edit {1000 * times[0]:6.1f} ms)   [{load_note()}]",
           flush=True)
 
 

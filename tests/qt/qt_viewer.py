@@ -2,7 +2,10 @@
 events (pytest-qt), asserting on the rendered pixels.
 
 Run by tests/test_viewer_qt.py under xvfb-run (see there); not collected otherwise
-(file names qt_*.py).
+(file names qt_*.py). By hand: ``xvfb-run -a python -m pytest -c /dev/null --rootdir .
+tests/qt/qt_viewer.py`` (pyproject.toml's options switch pytest-qt off for the main
+suite). Renders in float32, the viewer's default, whose kernels the main suite compiles
+anyway.
 """
 import numpy as np
 import pytest
@@ -40,7 +43,7 @@ def _wait_full(qtbot, viewer):
 def _direct(viewer, **kwargs):
     camera = hv.Camera.from_pyvista(viewer.plotter.camera)
     size = viewer.actor.scene.GetSize()
-    return hv.render(_volume(), viewer.model.transfer_function(), camera, size, precision="float64",
+    return hv.render(_volume(), viewer.model.transfer_function(), camera, size, precision="float32",
                      global_alpha=viewer.model.global_alpha, **kwargs)
 
 
@@ -70,7 +73,7 @@ def _drag(widget, start, end, steps=6, modifiers=QtCore.Qt.NoModifier):
 
 @pytest.fixture
 def viewer(qtbot):
-    window = HDRViewer(_volume(), _tf(), precision="float64")
+    window = HDRViewer(_volume(), _tf(), precision="float32")
     qtbot.addWidget(window)
     window.resize(900, 700)
     window.show()
@@ -213,7 +216,7 @@ def test_a_background_plotter_draws_the_volume_behind_its_mesh(qtbot):
         pl.add_mesh(pv.Plane(center=(10, 12, 30), direction=(0, 0, 1), i_size=10, j_size=10), color="red",
                     lighting=False)
         pl.camera_position = [(20, 12, 90), (20, 12, 12), (0, 1, 0)]
-        actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64")
+        actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float32")
         assert actor.progressive
         pl.render()
         qtbot.waitUntil(lambda: actor.up_to_date, timeout=FULL_WAIT_MS)
@@ -221,7 +224,7 @@ def test_a_background_plotter_draws_the_volume_behind_its_mesh(qtbot):
         assert red.sum() > 200
         assert np.all(actor.hdr.rgba[red] == 0) and np.all(np.isfinite(actor.far[red]))
         free = hv.render(_volume(), _tf(), hv.Camera.from_pyvista(pl.camera), actor.hdr.shape[::-1],
-                         precision="float64")
+                         precision="float32")
         assert free.rgba[red][:, 3].max() > 0.05  # the plane does hide some of the volume
         np.testing.assert_array_equal(actor.hdr.rgba[~red & ~np.isfinite(actor.far)],
                                       free.rgba[~red & ~np.isfinite(actor.far)])
@@ -249,7 +252,7 @@ def test_a_tetrahedral_mesh_opens_and_refines_to_its_direct_render(qtbot):
     points, tets, values = box_mesh((3, 3, 3), field=lambda p: 1.0 + p[:, 0] * p[:, 1])
     mesh = hv.tetmesh_from_arrays(points, tets, values)
     tf = hv.TransferFunction.ramp(1.0, 10.0, cmap="viridis", opacity=(0.05, 0.5))
-    window = HDRViewer(mesh, tf, precision="float64")
+    window = HDRViewer(mesh, tf, precision="float32")
     qtbot.addWidget(window)
     window.resize(700, 560)
     window.show()
@@ -257,7 +260,7 @@ def test_a_tetrahedral_mesh_opens_and_refines_to_its_direct_render(qtbot):
     _wait_full(qtbot, window)
     camera = hv.Camera.from_pyvista(window.plotter.camera)
     direct = hv.render(mesh, window.model.transfer_function(), camera, window.actor.scene.GetSize(),
-                       precision="float64")
+                       precision="float32")
     np.testing.assert_array_equal(window.actor.hdr.rgba, direct.rgba)
     assert window.actor.hdr.rgba[..., 3].max() > 0.2
     window.toggle_lens(True)  # image volumes only: refused, saying why

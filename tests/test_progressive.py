@@ -2,6 +2,7 @@
 direct render bit for bit, a newer request cancels the render in flight at its next row
 of tiles and its frames are never shown, the coarse factor follows the time budget."""
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -136,3 +137,24 @@ def test_errors_reach_on_error_and_bad_arguments_are_named():
         assert done.wait(30)
     assert isinstance(errors[0], TypeError) and "lens must have a rays(camera, size) method" in str(errors[0])
     assert isinstance(Frame.__dataclass_fields__, dict)
+
+
+def test_a_failed_render_does_not_stop_the_worker(capsys):
+    """Without on_error the traceback is printed and the next request still renders."""
+    volume, tf = _volume(), _tf()
+    done = threading.Event()
+    seen = []
+
+    def on_frame(frame):
+        seen.append(frame)
+        if frame.level == "full":
+            done.set()
+
+    with ProgressiveRenderer(volume, tf, precision="float64", on_frame=on_frame) as renderer:
+        renderer.request("iso", (8, 8), lens="not a lens")
+        end = time.monotonic() + 30
+        while "lens must have a rays" not in capsys.readouterr().err and time.monotonic() < end:
+            time.sleep(0.02)
+        renderer.request("iso", (8, 8))
+        assert done.wait(60)
+    assert seen[-1].level == "full" and seen[-1].image.shape == (8, 8)

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import threading
 import time
+import traceback
 from dataclasses import dataclass
 from typing import Optional
 
@@ -96,8 +97,8 @@ class ProgressiveRenderer:
         request (frames of superseded requests are dropped). Needed for
         :meth:`request`; not for :meth:`frames`.
     on_error : callable, optional
-        ``on_error(exception)`` on the worker thread when a render fails (default:
-        re-raised there, which prints it).
+        ``on_error(exception)`` on the worker thread when a render fails (default: the
+        traceback is printed); the worker goes on with the next request.
 
     Examples
     --------
@@ -125,7 +126,7 @@ class ProgressiveRenderer:
         self._lock = threading.Condition()
         self._plan = self._make_plan(tf, self.options)
         self._generation = 0
-        self._pending = None  # (generation, camera, size, lens, plan) of the latest request
+        self._pending = None  # (generation, camera, size, lens, plan, far) of the latest request
         self._thread = None
         self._closed = False
         #: the last frame delivered by the worker (None before the first)
@@ -252,8 +253,9 @@ class ProgressiveRenderer:
                 continue
             except Exception as error:  # noqa: BLE001 - handed to the owner, the thread goes on
                 if self.on_error is None:
-                    raise
-                self.on_error(error)
+                    traceback.print_exc()  # and the worker stays for the next request
+                else:
+                    self.on_error(error)
 
     def close(self):
         """Stop the worker (a render in flight is cancelled at its next row of tiles)."""

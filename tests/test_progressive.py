@@ -152,9 +152,11 @@ def test_a_failed_render_does_not_stop_the_worker(capsys):
 
     with ProgressiveRenderer(volume, tf, precision="float64", on_frame=on_frame) as renderer:
         renderer.request("iso", (8, 8), lens="not a lens")
-        end = time.monotonic() + 30
-        while "lens must have a rays" not in capsys.readouterr().err and time.monotonic() < end:
+        end, printed = time.monotonic() + 30, ""
+        while "lens must have a rays" not in printed and time.monotonic() < end:
             time.sleep(0.02)
+            printed += capsys.readouterr().err
+        assert "TypeError: lens must have a rays(camera, size) method; got str" in printed
         renderer.request("iso", (8, 8))
         assert done.wait(60)
     assert seen[-1].level == "full" and seen[-1].image.shape == (8, 8)

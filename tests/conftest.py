@@ -21,6 +21,15 @@ REPO_ROOT = pathlib.Path(__file__).resolve().parent.parent
 SHARED_DATA = REPO_ROOT.parent / "shared" / "data"
 
 
+def require(ok, message):
+    """Skip the test with ``message`` unless ``ok``; under CI, fail it instead (CI
+    installs every tool the suite needs)."""
+    if not ok:
+        if in_ci():
+            pytest.fail(message + " (CI is set: .ci/run installs it)", pytrace=False)
+        pytest.skip(message)
+
+
 def in_ci():
     """Whether the ``CI`` environment variable is set to a true value (CI runs do)."""
     return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")

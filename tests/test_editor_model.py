@@ -329,3 +329,14 @@ def test_colour_intensity_is_drawn_and_picked_on_the_colour_axis():
     model.set_display(color_scale="log")
     assert model.transfer_function() is model.transfer_function() and model.pick_color_intensity(
         sx, float(model.color_axis.forward(2.0))) == 1
+
+
+def test_load_reads_the_editors_json_and_paraview_preset_files(tmp_path):
+    model = TransferFunctionModel(_log_tf())
+    model.save(tmp_path / "editor.json")
+    model.save_paraview_preset(tmp_path / "preset.json", "p")
+    assert TransferFunctionModel.load(tmp_path / "editor.json").to_dict() == model.to_dict()
+    assert TransferFunctionModel.load(tmp_path / "preset.json").to_dict() == model.to_dict()
+    (tmp_path / "empty.json").write_text("[]")
+    with pytest.raises(ValueError, match="the file holds 0 presets"):
+        TransferFunctionModel.load(tmp_path / "empty.json")

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REPO_ROOT, in_ci
+from conftest import REPO_ROOT, require
 
 pytest.importorskip("ipywidgets")
 
@@ -27,13 +27,6 @@ import pv_hdrvol as hv  # noqa: E402
 from pv_hdrvol.viewer.notebook import TransferFunctionEditor, editor_picture  # noqa: E402
 
 EMBED = "node_modules/@jupyter-widgets/html-manager/dist/embed.js"
-
-
-def _need(ok, message):
-    if not ok:
-        if in_ci():
-            pytest.fail(message + " (CI is set: .ci/run installs it)", pytrace=False)
-        pytest.skip(message)
 
 
 def _embed_js():
@@ -57,9 +50,9 @@ def _find(haystack, needle):
 
 def test_the_editor_draws_in_headless_chromium(tmp_path):
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    _need(chromium is not None, "chromium is not installed (apt-get install chromium)")
+    require(chromium is not None, "chromium is not installed (apt-get install chromium)")
     embed = _embed_js()
-    _need(embed is not None, "the Jupyter widgets' html-manager is not installed "
+    require(embed is not None, "the Jupyter widgets' html-manager is not installed "
                              "(npm install --prefix tests/.widgets @jupyter-widgets/html-manager@1)")
     from ipywidgets.embed import embed_minimal_html
 

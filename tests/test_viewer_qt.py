@@ -7,23 +7,15 @@ import shutil
 import subprocess
 import sys
 
-import pytest
-
-from conftest import REPO_ROOT, in_ci
-
-
-def _need(ok, message):
-    if not ok:
-        if in_ci():
-            pytest.fail(message + " (CI is set: .ci/run installs it)", pytrace=False)
-        pytest.skip(message)
+from conftest import REPO_ROOT, require
 
 
 def test_the_qt_viewer_checks_pass_under_xvfb():
     xvfb_run = shutil.which("xvfb-run")
-    _need(xvfb_run is not None, "xvfb-run is not installed (apt-get install xvfb xauth)")
+    require(xvfb_run is not None, "xvfb-run is not installed (apt-get install xvfb xauth)")
     for module in ("qtpy", "pyvistaqt", "pytestqt"):
-        _need(importlib.util.find_spec(module) is not None, f"{module} is not installed (pip install -e '.[test]')")
+        require(importlib.util.find_spec(module) is not None,
+                f"{module} is not installed (pip install -e '.[test]')")
     env = {k: v for k, v in os.environ.items() if k not in ("QT_QPA_PLATFORM", "VTK_DEFAULT_OPENGL_WINDOW")}
     files = sorted(str(p) for p in (REPO_ROOT / "tests" / "qt").glob("qt_*.py"))
     done = subprocess.run([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", sys.executable, "-m", "pytest", "-q",

@@ -712,9 +712,14 @@ class TransferFunctionModel:
 
     @classmethod
     def load(cls, path, values=None):
-        """Read a file written by :meth:`save` (or a transfer function's JSON)."""
+        """Read a file written by :meth:`save`, a transfer function's JSON, or a
+        ParaView preset file (a JSON list: its first preset)."""
         with open(os.fspath(path), encoding="utf-8") as fh:
-            return cls.from_dict(json.load(fh), values)
+            data = json.load(fh)
+        if isinstance(data, list):
+            first = data[0] if data and hasattr(data[0], "get") else {}
+            return cls.from_paraview_preset(data, first.get("Name"), values)
+        return cls.from_dict(data, values)
 
     def save_paraview_preset(self, path, name="pv_hdrvol"):
         """Write the function as a ParaView preset file (see

@@ -511,6 +511,16 @@ class _CurveFitted(Fitted):
         return np.asarray(self.operator.inverse(np.asarray(display_luminance, dtype=np.float64)), dtype=np.float64)
 
 
+#: How an exposure control, in stops (0: the operator's default), sets each global
+#: operator's parameters: the viewers' exposure sliders (Reinhard has no exposure: its
+#: key, 0.18 by default, scales instead).
+EXPOSURE_PARAMETERS = {
+    "reinhard": lambda stops: {"key": 0.18 * 2.0 ** stops},
+    "drago": lambda stops: {"exposure_stops": stops},
+    "linear": lambda stops: {"exposure_stops": stops},
+    "gamma": lambda stops: {"exposure_stops": stops},
+}
+
 OPERATORS = {"linear": Linear, "gamma": Gamma, "reinhard": Reinhard, "drago": Drago, "durand": Durand,
              "fattal": Fattal}
 

@@ -262,15 +262,11 @@ def _cmd_view(args):
     path = _readable_file(args.file)
     tf = None
     if args.tf is not None:
-        import json
-
         from ..editor.model import TransferFunctionModel
 
         tf_path = _existing_file(args.tf)
         try:
-            data = json.loads(tf_path.read_text(encoding="utf-8"))
-            model = TransferFunctionModel.from_paraview_preset(data, data[0].get("Name")) \
-                if isinstance(data, list) else TransferFunctionModel.from_dict(data)
+            model = TransferFunctionModel.load(tf_path)
         except (ValueError, TypeError, KeyError, IndexError, AttributeError) as exc:
             raise UserError(f"cannot read the transfer function {str(tf_path)!r}: {exc}") from None
         tf = model.transfer_function()

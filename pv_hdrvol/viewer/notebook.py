@@ -28,15 +28,12 @@ import threading
 import numpy as np
 
 from ..editor.model import PRESETS, TransferFunctionModel
+from ..image.tonemap import EXPOSURE_PARAMETERS
 from ..image.tonemap import tonemap as _tonemap
 from ..rays.camera import Camera
 from .progressive import ProgressiveRenderer
 
-TONEMAPS = {
-    "reinhard": lambda stops: {"key": 0.18 * 2.0 ** stops},
-    "drago": lambda stops: {"exposure_stops": stops},
-    "linear": lambda stops: {"exposure_stops": stops},
-}
+TONEMAPS = {name: EXPOSURE_PARAMETERS[name] for name in ("reinhard", "drago", "linear")}
 
 
 def _png(rgb_u8):

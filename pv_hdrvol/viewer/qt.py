@@ -21,16 +21,11 @@ from qtpy import QtCore, QtGui, QtWidgets
 from ..data.transfer import SCALES
 from ..editor.model import (PRESETS, TransferFunctionModel, global_alpha_from_slider,
                             slider_from_global_alpha)
+from ..image.tonemap import EXPOSURE_PARAMETERS
 from ..rays.lenses import Magnifier
 from .scene import add_hdr_volume
 
-#: Tone-mapping operators offered, and how the exposure slider (stops) sets each.
-TONEMAPS = {
-    "reinhard": lambda stops: {"key": 0.18 * 2.0 ** stops},
-    "drago": lambda stops: {"exposure_stops": stops},
-    "linear": lambda stops: {"exposure_stops": stops},
-    "gamma": lambda stops: {"exposure_stops": stops},
-}
+TONEMAPS = EXPOSURE_PARAMETERS
 _PICK_RADIUS = 8  # pixels
 
 
@@ -88,7 +83,8 @@ class TransferFunctionEditorWidget(QtWidgets.QWidget):
     def color_intensity_position(self, index):
         """Widget pixel of colour point ``index``'s intensity (largest channel) on the colour axis."""
         v, c = self.model.color_points
-        return self.to_widget(float(self.model.screen_x(v[index])), float(self.model.color_axis.forward(c[index].max())))
+        return self.to_widget(float(self.model.screen_x(v[index])),
+                              float(self.model.color_axis.forward(c[index].max())))
 
     def opacity_point_position(self, index):
         """Widget pixel of opacity point ``index`` (for tests and tools)."""
@@ -603,15 +599,7 @@ class HDRViewer(QtWidgets.QMainWindow):
     def load_tf_dialog(self):
         path = self._file_dialog("Load transfer function", "JSON (*.json)", save=False)
         if path:
-            import json
-
-            with open(path, encoding="utf-8") as fh:
-                data = json.load(fh)
-            if isinstance(data, list):  # a ParaView preset file
-                loaded = TransferFunctionModel.from_paraview_preset(data, data[0].get("Name"))
-            else:
-                loaded = TransferFunctionModel.from_dict(data)
-            self.model.set_function(loaded.transfer_function())
+            self.model.set_function(TransferFunctionModel.load(path).transfer_function())
 
     def closeEvent(self, event):
         self.actor.close()

@@ -1,0 +1,1 @@
+"""Visualization by proxy: depth, multi-perspective and attenuation proxy images of a volume, explored without it."""

@@ -217,7 +217,7 @@ class ProxySet:
         return int(layer)
 
     def synthesize(self, opacity_scale=None, *, rotate=None, light=None, enhance=None, contrast=0.5,
-                   layers=None, ambient_occlusion=None, ambient=0.1, diffuse=0.9, specular=0.2, specular_power=10.0):
+                   layers=None, ambient_occlusion=None, ambient=0.1, diffuse=0.7, specular=0.2, specular_power=10.0):
         """An image synthesised from the proxies alone.
 
         Parameters

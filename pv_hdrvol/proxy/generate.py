@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .._validate import as_int, as_real, as_size
-from ..data.transfer import SCALE_CODES, TransferFunction, _scale_inverse
+from ..data.transfer import SCALE_CODES, _scale_inverse
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
 from ..raycast.grid import as_volume, resolve_transfer_function
@@ -77,6 +77,16 @@ class VolumeDistortionCamera(Lens):
         norm = np.sqrt(np.einsum("ij,ij->i", aim, aim))
         directions = np.where(norm[:, None] > 0, aim / np.where(norm > 0, norm, 1.0)[:, None], fwd)
         return Rays(base.origins, np.ascontiguousarray(directions), base.width, base.height)
+
+
+def as_proxy_camera(camera, bounds):
+    """A parallel-projection :class:`Camera` from ``None`` (the iso view), a view name
+    (``"xy"``, ``"iso"``, ...: :meth:`Camera.fit`) or a parallel Camera."""
+    if camera is None:
+        camera = "iso"
+    if isinstance(camera, str):
+        return Camera.fit(bounds, camera, parallel_projection=True)
+    return camera
 
 
 def proxy_camera(camera, bounds):
@@ -247,9 +257,9 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
     Parameters
     ----------
     data : image volume (``pyvista.ImageData``, ``vtkImageData``, 3-D array, GridVolume)
-    camera : Camera, optional
-        A parallel-projection camera; default ``Camera.fit(data, "iso",
-        parallel_projection=True)``. Its position is moved along the view to the near
+    camera : Camera or str, optional
+        A parallel-projection camera, or a view name framed with one (default "iso":
+        ``Camera.fit(data, "iso", parallel_projection=True)``). Its position is moved along the view to the near
         side of the volume's bounding sphere (no pixel changes).
     size : int or (width, height)
     tf : TransferFunction, optional
@@ -286,9 +296,7 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
     clusters = as_int("clusters", clusters, low=1)
     width, height = as_size(size)
     tf = resolve_transfer_function(volume, tf)
-    if camera is None:
-        camera = Camera.fit(volume.bounds, "iso", parallel_projection=True)
-    camera = proxy_camera(camera, volume.bounds)
+    camera = proxy_camera(as_proxy_camera(camera, volume.bounds), volume.bounds)
     if layers is None:
         isovalues = np.empty(0)
     elif isinstance(layers, (int, np.integer)) and not isinstance(layers, bool):

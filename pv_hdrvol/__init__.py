@@ -16,6 +16,8 @@ from .image.tonemap import ToneMapped, tonemap
 from .image.upsample import upsample
 from .parallel.render import render_parallel
 from .params import PRECISIONS, Light, RenderOptions
+from .proxy.generate import VolumeDistortionCamera, make_proxies
+from .proxy.proxies import ProxyFormatError, ProxySet, load_proxies
 from .rays.camera import Camera, Rays
 from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
 from .raycast.grid import BlockGrid, EmptyRenderWarning, render_volume
@@ -95,4 +97,5 @@ __all__ = [
     "TransferFunction", "TransferFunctionFamily", "depth_layers", "load", "render", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
     "volume_from_array", "volume_from_dataset", "view", "add_hdr_volume", "TransferFunctionEditor",
+    "make_proxies", "load_proxies", "ProxySet", "ProxyFormatError", "VolumeDistortionCamera",
 ]

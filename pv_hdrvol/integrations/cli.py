@@ -155,6 +155,53 @@ def build_parser():
                    help="print the metadata as JSON instead (all of the settings: every control point)")
     p.set_defaults(handler=_cmd_info, subparser=p)
 
+    p = sub.add_parser("proxy", help="proxy images: make them from a volume, synthesise images from them",
+                       description="Visualization by proxy (docs/proxy.md): 'make' casts a volume once into a "
+                                   "proxy folder (multi-channel OpenEXR, JSON, a Cinema index); 'view' synthesises "
+                                   "an image from the folder alone: another opacity per intensity interval, a "
+                                   "rotated view, lighting, enhancement.")
+    psub = p.add_subparsers(dest="proxy_command", metavar="ACTION", required=True)
+    q = psub.add_parser("make", help="cast a volume file into a proxy folder")
+    q.add_argument("file", metavar="FILE", help=f"image volume, one of {', '.join(READABLE)}")
+    q.add_argument("output", metavar="FOLDER", help="proxy folder to write (created)")
+    q.add_argument("--scalars", default=None, metavar="NAME", help="array to use (default: active scalars)")
+    q.add_argument("--size", type=int, nargs="+", default=[512], metavar="N",
+                   help="image size: N (square) or W H (default 512)")
+    q.add_argument("--view", default="iso", metavar="VIEW",
+                   help=f"direction of the parallel view, one of {', '.join(VIEWS)} (default iso)")
+    q.add_argument("--intervals", type=int, default=16, metavar="L", help="intensity intervals (default 16)")
+    g = q.add_mutually_exclusive_group()
+    g.add_argument("--layers", type=float, nargs="+", default=None, metavar="ISO",
+                   help="isovalues of depth layers")
+    g.add_argument("--peaks", type=int, default=None, metavar="K",
+                   help="K depth layers at the highest peaks of the opacity")
+    q.add_argument("--multi-perspective", action="store_true",
+                   help="also cast along the distortion camera's 45-degree rays (rotation up to 60 degrees)")
+    q.add_argument("--training", type=int, default=3, metavar="N",
+                   help="training renders of the colour model (default 3; 0: no model)")
+    q.add_argument("--clusters", type=int, default=24, metavar="K", help="clusters of the colour model (default 24)")
+    q.add_argument("--step", type=float, default=0.5, help="sample distance in voxels (default 0.5)")
+    q.set_defaults(handler=_cmd_proxy_make, subparser=q)
+    q = psub.add_parser("view", help="synthesise an image from a proxy folder",
+                        description="Synthesise an image from a proxy folder (no volume needed) and write it "
+                                    "(.exr keeps it linear; .png tone-maps it).")
+    q.add_argument("folder", metavar="FOLDER", help="proxy folder (pv-hdrvol proxy make)")
+    q.add_argument("-o", "--output", required=True, metavar="OUT", help="image to write: .exr, .npy or .png")
+    q.add_argument("--opacity", nargs="+", default=None, metavar="I=K",
+                   help="scale the extinction of interval I by K (0 removes it), e.g. --opacity 3=0.2 7=0")
+    q.add_argument("--rotate", type=float, nargs=2, default=None, metavar=("AZIMUTH", "ELEVATION"),
+                   help="turn the view about the focal point, degrees")
+    q.add_argument("--light", type=float, nargs=3, action="append", default=None, metavar=("X", "Y", "Z"),
+                   help="relight with a white light from this world direction (repeatable)")
+    q.add_argument("--headlight", action="store_true", help="relight with a headlight")
+    q.add_argument("--enhance", type=float, default=None, metavar="LAMBDA",
+                   help="depth-aware enhancement strength (paper Eq. 11)")
+    q.add_argument("--layer", nargs=5, action="append", default=None, metavar=("J", "R", "G", "B", "OPACITY"),
+                   help="draw depth layer J in this colour and opacity instead of the volume (repeatable)")
+    q.add_argument("--ambient-occlusion", type=float, default=None, metavar="STRENGTH",
+                   help="layers: proxy ambient occlusion (paper Eq. 5)")
+    q.set_defaults(handler=_cmd_proxy_view, subparser=q)
+
     p = sub.add_parser("paraview", help="print the environment that loads the ParaView plugin",
                        description="Print shell lines that make ParaView (GUI, pvpython, pvbatch) load the "
                                    "pv_hdrvol plugin: PV_PLUGIN_PATH names paraview_plugin/, and PYTHONPATH the "
@@ -303,6 +350,76 @@ def _cmd_demo(args):
     image.metadata["source"] = f"pv_hdrvol.datasets.hydrogen_orbital(n={n}, l={l}, m={m}, size={args.grid})"
     _write(image, out_dir / "demo.exr", out_dir / "demo.png", args, tf, "probability density")
     _print_stats(image, f"hydrogen orbital n={n} l={l} m={m} on {args.grid}^3 points")
+
+
+def _cmd_proxy_make(args):
+    path = _readable_file(args.file)
+    out = pathlib.Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{str(out)!r} exists and is not a folder")
+    if args.view not in VIEWS:
+        raise UserError(f"--view must be one of {', '.join(VIEWS)}; got {args.view!r}")
+    volume = _read_volume(path, args)
+    if not hasattr(volume, "values"):
+        raise UserError(f"{str(path)!r} holds a mesh; proxies are made of image volumes")
+    from ..proxy.generate import make_proxies
+
+    layers = args.peaks if args.peaks is not None else args.layers
+    try:
+        proxies = make_proxies(volume, args.view, _size(args.size), intervals=args.intervals, layers=layers,
+                               multi_perspective=args.multi_perspective, training=args.training,
+                               clusters=args.clusters, step=args.step, progress_bar=None)
+        proxies.save(out)
+    except (ValueError, TypeError) as exc:
+        raise UserError(str(exc)) from None
+    except OSError as exc:
+        raise UserError(f"cannot write: {exc}") from None
+    st = proxies.storage()
+    print(f"wrote {out}: {proxies!r}")
+    print(f"  {st['proxy_bytes'] / 2**20:.1f} MiB of proxies for {st['volume_bytes'] / 2**20:.1f} MiB of volume "
+          f"(ratio {st['ratio']:.3g}); {proxies.info['seconds']:.1f} s")
+
+
+def _cmd_proxy_view(args):
+    from ..params import Light
+    from ..proxy.proxies import load_proxies
+
+    out = pathlib.Path(args.output)
+    if out.suffix.lower() not in (".exr", ".npy", ".png"):
+        raise UserError(f"output {str(out)!r} must end in .exr, .npy or .png")
+    _check_writable("-o/--output", out)
+    scale = None
+    if args.opacity:
+        scale = {}
+        for item in args.opacity:
+            try:
+                i, k = item.split("=")
+                scale[int(i)] = float(k)
+            except ValueError:
+                raise UserError(f"--opacity takes I=K (an interval and a scale); got {item!r}") from None
+    lights = [Light(tuple(d)) for d in args.light or ()] + ([Light()] if args.headlight else [])
+    layers = None
+    if args.layer:
+        layers = {}
+        for j, r, g, b, a in args.layer:
+            try:
+                layers[int(j)] = ((float(r), float(g), float(b)), float(a))
+            except ValueError:
+                raise UserError(f"--layer takes J R G B OPACITY (numbers); got {' '.join((j, r, g, b, a))}") \
+                    from None
+    try:
+        proxies = load_proxies(args.folder)
+        image = proxies.synthesize(scale, rotate=args.rotate, light=lights or None, enhance=args.enhance,
+                                   layers=layers, ambient_occlusion=args.ambient_occlusion)
+    except FileNotFoundError as exc:
+        raise UserError(str(exc)) from None
+    except (ValueError, TypeError) as exc:
+        raise UserError(str(exc)) from None
+    try:
+        image.save_png(out) if out.suffix.lower() == ".png" else image.save(out)
+    except OSError as exc:
+        raise UserError(f"cannot write: {exc}") from None
+    print(f"wrote {out}")
 
 
 def _cmd_info(args):

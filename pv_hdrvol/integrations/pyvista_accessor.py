@@ -145,6 +145,27 @@ class HDRVolAccessor:
                              progress_bar=progress_bar, progress=progress, cmap=cmap, clim=clim, opacity=opacity,
                              scale=scale, **options)
 
+    def make_proxies(self, camera=None, size=(512, 512), tf=None, scalars=None, preference="point", **options):
+        """Proxy images of this ``ImageData`` for exploring it later without it (views,
+        opacity changes, lighting): :func:`~pv_hdrvol.make_proxies`, whose keywords
+        (``intervals``, ``layers``, ``multi_perspective``, ``training``, ``clusters``,
+        ``step``, ...) it takes. ``camera``: a parallel-projection
+        :class:`~pv_hdrvol.Camera` or a view name (default ``"iso"``).
+
+        Returns
+        -------
+        ProxySet
+            ``.save(folder)``, ``.synthesize(...)``.
+        """
+        from ..proxy.generate import make_proxies
+
+        self._check_renderable()
+        if self._dataset.GetClassName() == "vtkUnstructuredGrid":
+            raise TypeError("proxies are made of image data (ImageData); resample a mesh onto one first "
+                            "(pyvista.ImageData(...).sample(mesh))")
+        volume = self._volumes.get(self._dataset, scalars, preference)
+        return make_proxies(volume, camera, size, tf, **options)
+
     def __repr__(self):
         ds = self._dataset
         kind = type(ds).__name__

@@ -621,6 +621,123 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         return plan
 
 
+class HDRProxyWriter(HDRVolumeRenderer):
+    """Write the proxy folder of a ``vtkImageData`` (:func:`~pv_hdrvol.make_proxies`,
+    docs/proxy.md) from a pipeline: in situ, where the volume is, for exploration later
+    without it. The output is the reference render (as :class:`HDRVolumeRenderer`'s).
+
+    Set what :class:`HDRVolumeRenderer` takes (image size, scalars, transfer function
+    or its keywords, a camera -- which must be a parallel projection; a view name frames
+    one -- ``step``, ``opacity_unit_distance``), and :meth:`SetFileName` (the folder),
+    :meth:`SetIntervals`, :meth:`SetLayers`, :meth:`SetMultiPerspective`,
+    :meth:`SetTraining`, :meth:`SetClusters`. Every execution writes the folder.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    >>> source = vtkRTAnalyticSource()
+    >>> writer = HDRProxyWriter()
+    >>> writer.SetInputConnection(source.GetOutputPort())
+    >>> writer.SetImageSize(16, 16); writer.SetTraining(0)
+    >>> writer.SetFileName(os.path.join(tempfile.mkdtemp(), "wavelet.proxy"))
+    >>> writer.Update()
+    True
+    >>> sorted(os.listdir(writer.GetFileName()))
+    ['data.csv', 'preview.png', 'proxies.exr', 'proxies.json']
+    """
+
+    REPORT_NAME = "HDRProxyWriter"
+
+    def __init__(self):
+        super().__init__()
+        self._file_name = None
+        self._proxy_options = {"intervals": 16, "layers": None, "multi_perspective": False, "training": 3,
+                               "clusters": 24}
+        #: the ProxySet written by the last execution
+        self.proxies = None
+
+    def _set_proxy(self, name, value):
+        if self._proxy_options[name] != value:
+            self._proxy_options[name] = value
+            self.Modified()
+
+    def SetFileName(self, name):
+        """The proxy folder to write (created; its proxy files are replaced)."""
+        if name is not None and not isinstance(name, str):
+            raise TypeError(f"the file name must be a str; got {type(name).__name__}")
+        if name != self._file_name:
+            self._file_name = name
+            self.Modified()
+
+    def GetFileName(self):
+        return self._file_name
+
+    def SetIntervals(self, n):
+        """``L``, intensity intervals (2..64; default 16)."""
+        from .._validate import as_int
+
+        self._set_proxy("intervals", as_int("intervals", n, low=2, high=64))
+
+    def SetLayers(self, layers):
+        """Isovalues of depth layers (a sequence), a count of opacity peaks (an int) or ``None``."""
+        if layers is not None and not isinstance(layers, numbers.Integral):
+            layers = tuple(float(v) for v in layers)
+        self._set_proxy("layers", layers)
+
+    def SetMultiPerspective(self, on):
+        self._set_proxy("multi_perspective", bool(on))
+
+    def SetTraining(self, n):
+        """Training renders of the colour model (0: none; default 3)."""
+        from .._validate import as_int
+
+        self._set_proxy("training", as_int("training", n, low=0))
+
+    def SetClusters(self, k):
+        from .._validate import as_int
+
+        self._set_proxy("clusters", as_int("clusters", k, low=1))
+
+    def GetProxyOptions(self):
+        """The proxy settings as a dict (a copy)."""
+        return dict(self._proxy_options)
+
+    def _execute(self, inInfo, outInfo):
+        from ..image.hdr import HDRImage
+        from ..proxy.generate import as_proxy_camera, make_proxies
+
+        inp = vtkDataObject.GetData(inInfo[0])
+        out = vtkImageData.GetData(outInfo)
+        if _output_piece(outInfo) != 0:
+            out.Initialize()
+            return 1
+        kind = inp.GetClassName() if inp is not None else None
+        if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid") or inp.GetNumberOfPoints() == 0:
+            raise ValueError(f"HDRProxyWriter needs a non-empty vtkImageData on input port 0; got "
+                             f"{'nothing' if inp is None else kind}")
+        if not self._file_name:
+            raise ValueError("HDRProxyWriter has no file name: SetFileName(folder) first")
+        scalars, preference = self._scalars_to_render()
+        data = self._volumes.get(inp, scalars, preference)
+        camera = Camera(**self._camera) if isinstance(self._camera, dict) else self._camera
+        camera = as_proxy_camera(camera, inp.GetBounds())
+        tf = self._transfer_function()
+        if tf is None:
+            from ..raycast.grid import resolve_transfer_function
+
+            tf = resolve_transfer_function(data, None, **self._tf_keywords)
+        self.SetProgressText("casting proxies")
+        proxies = make_proxies(data, camera, self._size, tf, step=self._options.step,
+                               opacity_unit_distance=self._options.opacity_unit_distance, progress_bar=False,
+                               **self._proxy_options)
+        proxies.save(self._file_name)
+        self.proxies = proxies
+        self.UpdateProgress(1.0)
+        out.ShallowCopy(HDRImage(proxies.rgba).to_vtk())
+        return 1
+
+
 def _output_piece(outInfo):
     """The piece of the output the pipeline asks for (0 without pieces)."""
     info = outInfo.GetInformationObject(0)

@@ -138,15 +138,15 @@ class ProxySet:
         rows, cols). The slab model (``model.propagate``) with each interval's own
         opacity and entry depth; rotation warps each interval's slab from the
         multi-perspective proxies (experimental)."""
-        from .model import propagate
+        from .model import propagate_corrected
 
         scale = as_scale(opacity_scale, self.intervals)
         if self._rotation(rotate) is None:
             if np.all(scale == 1.0):
                 return self.atten.copy(), self.entry
-            return propagate(self.atten, scale, own=self.own, entry=self.entry), self.entry
-        own, entry = self._warp_slabs(rotate)
-        return propagate(np.zeros_like(own), scale, own=own, entry=entry), entry
+            return propagate_corrected(self.atten, scale, own=self.own, entry=self.entry), self.entry
+        atten, own, entry = self._warp_slabs(rotate)
+        return propagate_corrected(atten, scale, own=own, entry=entry), entry
 
     def _rotation(self, rotate):
         """``None`` for no rotation, else the checked ``(azimuth, elevation)``."""
@@ -169,27 +169,27 @@ class ProxySet:
         cam = self._rotation(rotate)
         src = "mp_" if self.multi_perspective else ""
         own_src, entry_src = self.arrays[src + "own"], self.arrays[src + "entry"]
+        atten_src = self.arrays[src + "atten"]
         h, w = entry_src.shape[1:]
         own = np.zeros((self.intervals, h, w))
+        atten = np.zeros((self.intervals, h, w))
         entry = np.full((self.intervals, h, w), np.inf)
         for i in range(self.intervals):
             z = np.where(own_src[i] > 0, entry_src[i], np.inf)
             dist = z / self.pole_scale if self.multi_perspective else None
             pts, idx = S.surface_points(self.mp_camera or self.camera, self.size, z, dist)
             col, row, znew = S.project(cam, self.size, pts)
-            zbuf, (o,) = S.splat(self.size, col, row, znew, [own_src[i].reshape(-1)[idx]])
+            zbuf, (o, a) = S.splat(self.size, col, row, znew, [own_src[i].reshape(-1)[idx],
+                                                                  atten_src[i].reshape(-1)[idx]])
             filled = S.fill_holes(zbuf)
-            # fill the own opacity of filled holes from the neighbours' mean too
-            o = np.where(np.isfinite(o), o, 0.0)
             hole = ~np.isfinite(zbuf) & np.isfinite(filled)
-            if hole.any():
-                pad = np.pad(o, 1)
-                acc = sum(pad[1 + a:1 + a + h, 1 + b:1 + b + w] for a in (-1, 0, 1) for b in (-1, 0, 1) if a or b)
-                cnt = np.pad(np.isfinite(zbuf).astype(float), 1)
-                n = sum(cnt[1 + a:1 + a + h, 1 + b:1 + b + w] for a in (-1, 0, 1) for b in (-1, 0, 1) if a or b)
-                o = np.where(hole, acc / np.maximum(n, 1), o)
-            own[i], entry[i] = o, filled
-        return own, entry
+            # a filled hole takes the mean of its covered neighbours' values too
+            own[i], atten[i] = (S.fill_values(v, np.isfinite(zbuf), hole) for v in (o, a))
+            entry[i] = filled
+        # warped attenuation from different pixels need not sum to at most 1
+        s = atten.sum(axis=0)
+        atten *= np.where(s > 1.0, 1.0 / np.where(s > 1.0, s, 1.0), 1.0)
+        return atten, own, entry
 
     def layer_depth(self, layer=0, rotate=None):
         """Depth image (rows, cols) of depth layer ``layer`` for the view turned by
@@ -252,7 +252,7 @@ class ProxySet:
         cam = self._rotation(rotate) or self.camera
         basis = cam.basis()
         shading = dict(ambient=ambient, diffuse=diffuse, specular=specular, specular_power=specular_power)
-        meta = {"renderer": "pv_hdrvol proxy synthesis", "rotate": None if rotate is None else list(rotate),
+        meta = {"renderer": "pv_hdrvol proxy synthesis", "precision": "float64", "rotate": None if rotate is None else list(rotate),
                 "opacity_scale": as_scale(opacity_scale, self.intervals).tolist()}
         if layers is not None:
             if not isinstance(layers, dict) or not layers:

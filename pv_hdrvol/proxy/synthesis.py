@@ -154,6 +154,17 @@ def fill_holes(zbuf, passes=FILL_PASSES, jump=None):
     return z
 
 
+def fill_values(values, covered, hole):
+    """``values`` (NaN where not ``covered``) with 0 where uncovered and, at ``hole``
+    pixels, the mean of their covered 8 neighbours."""
+    v = np.where(covered, values, 0.0)
+    if hole.any():
+        acc = _neighbour_stack(v, 0.0).sum(axis=0)
+        n = _neighbour_stack(covered.astype(np.float64), 0.0).sum(axis=0)
+        v = np.where(hole, acc / np.maximum(n, 1.0), v)
+    return v
+
+
 def warp_depth(camera, size, depth, dist, new_camera, jump=None):
     """A depth layer seen by ``new_camera``: undistort, reproject, splat, fill holes."""
     pts, _ = surface_points(camera, size, depth, dist)

@@ -279,10 +279,10 @@ class ProxySet:
         scale = as_scale(opacity_scale, self.intervals)
         identity = np.all(scale == 1.0) and self._rotation(rotate) is None
         atten, entry = self.attenuation(scale, rotate)
-        alpha = atten.sum(axis=0)
-        if identity:
-            rgb = self.rgba[..., :3].copy()
+        if identity:  # the reference render itself
+            rgb, alpha = self.rgba[..., :3].copy(), self.rgba[..., 3].copy()
         else:
+            alpha = atten.sum(axis=0)
             if self.model is None:
                 raise ValueError("these proxies have no colour model (made with training=0): they can show the "
                                  "reference render and its layers, not an opacity change or a rotated volume")

@@ -18,7 +18,7 @@ def test_pvbatch_pipeline_writes_a_proxy_folder_that_loads_without_the_volume(tm
     source = simple.Wavelet(WholeExtent=[-12, 12, -12, 12, -12, 12])
     image = servermanager.Fetch(source)  # the volume, as a ParaView filter's input sees it
     writer = HDRProxyWriter()
-    writer.SetInputData(image)
+    writer.SetInputDataObject(image)
     writer.SetImageSize(48, 40)
     writer.SetIntervals(8)
     writer.SetLayers([150.0])
@@ -26,7 +26,8 @@ def test_pvbatch_pipeline_writes_a_proxy_folder_that_loads_without_the_volume(tm
     writer.SetTraining(2)
     writer.SetClusters(4)
     writer.SetFileName(str(tmp_path / "wavelet.proxy"))
-    assert writer.Update(), writer.GetLastError()
+    writer.Update()  # returns None in ParaView 5.11's VTK
+    assert writer.GetLastError() is None, writer.GetLastError()
     made = writer.proxies
     out = writer.GetOutput()
     assert out.GetDimensions() == (48, 40, 1)

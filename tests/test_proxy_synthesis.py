@@ -186,3 +186,33 @@ def test_exploration_errors_are_named():
     before = p.atten.copy()
     p.synthesize({2: 0.0}, enhance=0.5)
     np.testing.assert_array_equal(p.atten, before)
+
+
+def test_the_synthesis_kernels_equal_the_numpy_reference():
+    from pv_hdrvol.proxy.model import propagate_corrected
+
+    values, spacing, origin = hv.datasets.hydrogen_orbital_array(size=32)
+    volume = hv.volume_from_array(values, spacing, origin)
+    p = make_proxies(volume, "iso", 40, intervals=16, training=2, clusters=6)
+    k = np.linspace(0.0, 2.0, 16)
+    rgb, atten, _ = p._predict(k, None)
+    reference = propagate_corrected(p.atten, k, own=p.own, entry=p.entry)
+    np.testing.assert_allclose(atten, reference, rtol=0, atol=1e-12)
+    expected = p.model.predict(reference)
+    expected[reference.sum(axis=0) <= 0] = 0.0
+    np.testing.assert_allclose(rgb, expected, rtol=0, atol=1e-12)
+    # slabs warped into the same view land on their own pixels
+    from pv_hdrvol.proxy._synth_kernels import splat_slabs
+    from pv_hdrvol.proxy import synthesis as S
+
+    plane = np.ascontiguousarray(S.pixel_points(p.camera, p.size)[0].reshape(-1, 3))
+    right, up, fwd = p.camera.basis()
+    cam = np.concatenate([np.asarray(p.camera.position), right, up, fwd, [p.pitch]])
+    flat = [np.ascontiguousarray(x.reshape(16, -1)) for x in (p.entry, p.own, p.atten)]
+    z, own, att = (np.empty((16, 1600)) for _ in range(3))
+    splat_slabs(plane, np.zeros_like(plane), np.asarray(fwd), 0.0, *flat, cam, 40, 40, 6, 0, 0.0, z, own, att)
+    seen = flat[1] > 0
+    np.testing.assert_allclose(z[seen], flat[0][seen], rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(own[seen], flat[1][seen])
+    np.testing.assert_array_equal(att[seen], flat[2][seen])
+    assert np.all(np.isinf(z[~seen]))

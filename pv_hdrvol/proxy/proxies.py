@@ -148,6 +148,30 @@ class ProxySet:
         atten, own, entry = self._warp_slabs(rotate)
         return propagate_corrected(atten, scale, own=own, entry=entry), entry
 
+    def _predict(self, scale, rotate):
+        """``(rgb, atten, entry)`` after the opacity change ``scale`` (and rotation):
+        the corrected slab model and the colour model in one pass per pixel
+        (``_synth_kernels.predict_colors``; the same as :meth:`attenuation` and
+        ``ColorModel.predict``, to rounding)."""
+        from ._synth_kernels import predict_colors
+
+        if self.model is None:
+            raise ValueError("these proxies have no colour model (made with training=0): they can show the "
+                             "reference render and its layers, not an opacity change or a rotated volume")
+        if self._rotation(rotate) is None:
+            atten, own, entry = self.atten, self.own, self.entry
+        else:
+            atten, own, entry = self._warp_slabs(rotate)
+        shape = atten.shape
+        flat = [np.ascontiguousarray(x.reshape(self.intervals, -1), dtype=np.float64) for x in (atten, own, entry)]
+        m = self.model
+        rgb = np.empty((flat[0].shape[1], 3))
+        out = np.empty_like(flat[0])
+        predict_colors(flat[0], flat[1], flat[2], np.ascontiguousarray(scale, dtype=np.float64),
+                       np.ascontiguousarray(m.centroids), np.ascontiguousarray(m.colors),
+                       np.ascontiguousarray(m.jacobians), rgb, out)
+        return rgb.reshape(shape[1:] + (3,)), out.reshape(shape), entry
+
     def _rotation(self, rotate):
         """``None`` for no rotation, else the checked ``(azimuth, elevation)``."""
         if rotate is None:
@@ -166,30 +190,35 @@ class ProxySet:
         return cam
 
     def _warp_slabs(self, rotate):
+        """Each interval's slab (entry depth, own opacity, attenuation) seen from the
+        view turned by ``rotate``: ``(atten, own, entry)``, each (intervals, rows, cols)."""
+        from ._synth_kernels import splat_slabs
+
         cam = self._rotation(rotate)
-        src = "mp_" if self.multi_perspective else ""
-        own_src, entry_src = self.arrays[src + "own"], self.arrays[src + "entry"]
-        atten_src = self.arrays[src + "atten"]
-        h, w = entry_src.shape[1:]
-        own = np.zeros((self.intervals, h, w))
-        atten = np.zeros((self.intervals, h, w))
-        entry = np.full((self.intervals, h, w), np.inf)
-        for i in range(self.intervals):
-            z = np.where(own_src[i] > 0, entry_src[i], np.inf)
-            dist = z / self.pole_scale if self.multi_perspective else None
-            pts, idx = S.surface_points(self.mp_camera or self.camera, self.size, z, dist)
-            col, row, znew = S.project(cam, self.size, pts)
-            zbuf, (o, a) = S.splat(self.size, col, row, znew, [own_src[i].reshape(-1)[idx],
-                                                                  atten_src[i].reshape(-1)[idx]])
-            filled = S.fill_holes(zbuf)
-            hole = ~np.isfinite(zbuf) & np.isfinite(filled)
-            # a filled hole takes the mean of its covered neighbours' values too
-            own[i], atten[i] = (S.fill_values(v, np.isfinite(zbuf), hole) for v in (o, a))
-            entry[i] = filled
+        mp = self.multi_perspective
+        src = "mp_" if mp else ""
+        source_cam = self.mp_camera if mp else self.camera
+        plane, _ = S.pixel_points(source_cam, self.size)
+        plane = np.ascontiguousarray(plane.reshape(-1, 3))
+        lateral = plane - np.asarray(source_cam.position)
+        d = np.linalg.norm(lateral, axis=1)
+        lateral = np.ascontiguousarray(np.where(d[:, None] > 0, lateral / np.where(d > 0, d, 1.0)[:, None], 0.0))
+        w, h = self.size
+        flat = [np.ascontiguousarray(self.arrays[src + g].reshape(self.intervals, -1), dtype=np.float64)
+                for g in ("entry", "own", "atten")]
+        right, up, fwd = cam.basis()
+        cam_array = np.concatenate([np.asarray(cam.position), right, up, fwd, [self.pitch]])
+        z = np.empty((self.intervals, w * h))
+        own = np.empty_like(z)
+        atten = np.empty_like(z)
+        splat_slabs(plane, lateral, np.asarray(source_cam.basis()[2]), 1.0 / self.pole_scale if mp else 0.0,
+                    flat[0], flat[1], flat[2], cam_array, w, h, S.FILL_NEIGHBOURS, S.FILL_PASSES, 4.0 * self.pitch,
+                    z, own, atten)
         # warped attenuation from different pixels need not sum to at most 1
-        s = atten.sum(axis=0)
-        atten *= np.where(s > 1.0, 1.0 / np.where(s > 1.0, s, 1.0), 1.0)
-        return atten, own, entry
+        total = atten.sum(axis=0)
+        atten *= np.where(total > 1.0, 1.0 / np.where(total > 1.0, total, 1.0), 1.0)
+        shape = (self.intervals, h, w)
+        return atten.reshape(shape), own.reshape(shape), z.reshape(shape)
 
     def layer_depth(self, layer=0, rotate=None):
         """Depth image (rows, cols) of depth layer ``layer`` for the view turned by
@@ -278,16 +307,12 @@ class ProxySet:
 
         scale = as_scale(opacity_scale, self.intervals)
         identity = np.all(scale == 1.0) and self._rotation(rotate) is None
-        atten, entry = self.attenuation(scale, rotate)
         if identity:  # the reference render itself
             rgb, alpha = self.rgba[..., :3].copy(), self.rgba[..., 3].copy()
+            atten, entry = self.atten, self.entry
         else:
+            rgb, atten, entry = self._predict(scale, rotate)
             alpha = atten.sum(axis=0)
-            if self.model is None:
-                raise ValueError("these proxies have no colour model (made with training=0): they can show the "
-                                 "reference render and its layers, not an opacity change or a rotated volume")
-            rgb = self.model.predict(atten)
-            rgb[alpha <= 0] = 0.0
         weight = np.where(np.isfinite(entry), atten, 0.0)
         wsum = weight.sum(axis=0)
         zrep = np.where(wsum > 0, (weight * np.where(np.isfinite(entry), entry, 0.0)).sum(axis=0)

@@ -67,7 +67,20 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 def view(data, tf=None, **kwargs):
     """Explore ``data`` in the Qt viewer (:func:`pv_hdrvol.viewer.qt.view`: orbit, the
     transfer-function editor, tone mapping, probe, lens, saving). Needs Qt and pyvistaqt
-    (``pip install 'pv_hdrvol[gui]'``)."""
+    (``pip install 'pv_hdrvol[gui]'``).
+
+    A :class:`ProxySet` or the path of a proxy folder opens the proxy viewer instead
+    (:func:`pv_hdrvol.proxy.qt.view`: opacity per interval, turning, relighting,
+    layers, enhancement; no volume needed)."""
+    import os
+
+    if isinstance(data, ProxySet) or (isinstance(data, (str, os.PathLike))
+                                      and os.path.isfile(os.path.join(data, "proxies.json"))):
+        if tf is not None:
+            raise TypeError("a proxy set has its transfer function: tf= does not apply")
+        from .proxy.qt import view as _view_proxies
+
+        return _view_proxies(data, **kwargs)
     from .viewer.qt import view as _view
 
     return _view(data, tf, **kwargs)

@@ -182,11 +182,13 @@ def build_parser():
     q.add_argument("--clusters", type=int, default=24, metavar="K", help="clusters of the colour model (default 24)")
     q.add_argument("--step", type=float, default=0.5, help="sample distance in voxels (default 0.5)")
     q.set_defaults(handler=_cmd_proxy_make, subparser=q)
-    q = psub.add_parser("view", help="synthesise an image from a proxy folder",
-                        description="Synthesise an image from a proxy folder (no volume needed) and write it "
-                                    "(.exr keeps it linear; .png tone-maps it).")
+    q = psub.add_parser("view", help="explore a proxy folder in a window, or synthesise an image from it",
+                        description="Without -o: open the proxy viewer (Qt; pip install 'pv_hdrvol[gui]'), "
+                                    "with sliders for each interval's opacity, the view, lighting, layers and "
+                                    "enhancement. With -o: synthesise one image from the folder (no volume "
+                                    "needed) and write it (.exr keeps it linear; .png tone-maps it).")
     q.add_argument("folder", metavar="FOLDER", help="proxy folder (pv-hdrvol proxy make)")
-    q.add_argument("-o", "--output", required=True, metavar="OUT", help="image to write: .exr, .npy or .png")
+    q.add_argument("-o", "--output", default=None, metavar="OUT", help="image to write: .exr, .npy or .png")
     q.add_argument("--opacity", nargs="+", default=None, metavar="I=K",
                    help="scale the extinction of interval I by K (0 removes it), e.g. --opacity 3=0.2 7=0")
     q.add_argument("--rotate", type=float, nargs=2, default=None, metavar=("AZIMUTH", "ELEVATION"),
@@ -384,6 +386,22 @@ def _cmd_proxy_view(args):
     from ..params import Light
     from ..proxy.proxies import load_proxies
 
+    if args.output is None:
+        if any(x is not None and x is not False for x in (args.opacity, args.rotate, args.light, args.enhance,
+                                                          args.layer, args.ambient_occlusion)) or args.headlight:
+            raise UserError("the options set one image to write: give -o OUT, or none of them for the window")
+        try:
+            proxies = load_proxies(args.folder)
+        except FileNotFoundError as exc:
+            raise UserError(str(exc)) from None
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+        try:
+            from ..proxy.qt import view
+        except ImportError as exc:
+            raise UserError(f"the proxy viewer needs Qt (pip install 'pv_hdrvol[gui]'): {exc}") from None
+        view(proxies, title=f"pv_hdrvol proxies: {args.folder}")
+        return
     out = pathlib.Path(args.output)
     if out.suffix.lower() not in (".exr", ".npy", ".png"):
         raise UserError(f"output {str(out)!r} must end in .exr, .npy or .png")

@@ -226,6 +226,19 @@ def volume_ao(volume, iso, camera, depth, radius_world, rays=32, steps=8, seed=0
     return out.reshape(depth.shape)
 
 
+def interior(volume, camera, depth, margin=1.5):
+    """Pixels whose surface point lies more than ``margin`` voxels inside the volume's
+    box: where a dataset is cut by its box (the CT head's top), the layer is the box face
+    and the shaded render lights the material behind it: not the same surface."""
+    pts, idx = S.surface_points(camera, depth.shape[::-1], depth)
+    b = np.asarray(volume.bounds).reshape(3, 2)
+    m = margin * voxel(volume)
+    inside = np.all((pts > b[:, 0] + m) & (pts < b[:, 1] - m), axis=1)
+    out = np.zeros(depth.size, dtype=bool)
+    out[idx[inside]] = True
+    return out.reshape(depth.shape)
+
+
 def bench_light(size):
     print(f"\n== relighting and ambient occlusion (Figs. 8-9): {size}^2 ==")
     light = hv.Light((1.0, 1.0, 1.0))
@@ -244,16 +257,18 @@ def bench_light(size):
             ref = hv.render(volume, tf, cam, size, shade=True, lights=[light], shade_threshold=0.0, precision="float64", step=step,
                             termination=0.0, opacity_unit_distance=step * voxel(volume), progress_bar=False)
             t_ref = time.perf_counter() - t0
-            both = (img.rgba[..., 3] > 0) & (ref.rgba[..., 3] > 0.99)
+            z = p.layer_depth(0, rotate=(angle, 0)) if angle else p.depth[0]
+            both = (img.rgba[..., 3] > 0) & (ref.rgba[..., 3] > 0.99) & interior(volume, cam, np.where(
+                np.isfinite(z), z, np.inf))
             err = float(np.sqrt(np.mean((img.rgba[both, :3] - ref.rgba[both, :3]) ** 2)))
             print(f"{name} {angle:2d} deg: relit layer RMSE {err:.4f} of RGB (peak {ref.rgba[both, :3].max():.2f}) "
-                  f"over {both.sum()} px; shaded render {t_ref:.1f} s   [{load_note()}]", flush=True)
+                  f"over {both.sum()} px inside the box; shaded render {t_ref:.1f} s   [{load_note()}]", flush=True)
         depth = p.depth[0]
         radius = 8
         gt = volume_ao(volume, iso, p.camera, depth, radius * p.pitch)
         ours = LT.ambient_occlusion(depth, p.pitch, radius=radius)
         base = LT.unsharp_occlusion(depth, p.pitch, radius=radius)
-        ok = np.isfinite(gt) & np.isfinite(depth)
+        ok = np.isfinite(gt) & np.isfinite(depth) & interior(volume, p.camera, depth)
         for label, f in (("proxy AO (Eq. 5)", ours), ("unsharp masking", base)):
             r = float(np.corrcoef(f[ok], gt[ok])[0, 1])
             rmse = float(np.sqrt(np.mean((f[ok] - gt[ok]) ** 2)))

@@ -270,7 +270,9 @@ class ProxySet:
         Returns
         -------
         HDRImage
-            Linear premultiplied RGBA; ``depth`` the world distance from the image plane.
+            Linear premultiplied RGBA. ``depth``: for layers the nearest layer's
+            distance from the image plane; for the relit volume the depth it was lit
+            by (attenuation-weighted entry depths); else none.
         """
         from . import lighting as LT
 
@@ -313,11 +315,9 @@ class ProxySet:
         else:
             rgb, atten, entry = self._predict(scale, rotate)
             alpha = atten.sum(axis=0)
-        weight = np.where(np.isfinite(entry), atten, 0.0)
-        wsum = weight.sum(axis=0)
-        zrep = np.where(wsum > 0, (weight * np.where(np.isfinite(entry), entry, 0.0)).sum(axis=0)
-                        / np.where(wsum > 0, wsum, 1.0), np.inf)
+        zrep = None  # the attenuation-weighted entry depth: formed only to light by it
         if lights is not None:
+            zrep = self._mean_depth(atten, entry)
             n = LT.normals_from_depth(zrep, self.pitch)
             safe = np.where(alpha > 0, alpha, 1.0)[..., None]
             lit = LT.shade(n, rgb / safe, lights, basis=basis, **shading) * alpha[..., None]
@@ -328,6 +328,16 @@ class ProxySet:
             rgba = LT.enhance(rgba, atten, strength=enhance, contrast=contrast)
             meta["enhance"] = [float(enhance), float(contrast)]
         return HDRImage(rgba, zrep, metadata=meta)
+
+    @staticmethod
+    def _mean_depth(atten, entry):
+        """Per pixel, the entry depths of the intervals weighted by their attenuation
+        (``inf`` where nothing shows): the surface the volume image is lit by."""
+        seen = np.isfinite(entry) & (atten > 0)
+        weight = np.where(seen, atten, 0.0)
+        total = weight.sum(axis=0)
+        depth = (weight * np.where(seen, entry, 0.0)).sum(axis=0)
+        return np.where(total > 0, depth / np.where(total > 0, total, 1.0), np.inf)
 
     def radiality(self, layer=0, multi_perspective=None):
         """``(counts, bin_edges)``: the radiality histogram of a layer (methods.md B.1.9),

@@ -37,7 +37,10 @@ def main(size=384):
                              [[0, 0, 0], [0.9, 0.6, 0.45], [0.95, 0.7, 0.55], [0.8, 0.4, 0.3], [0.7, 0.3, 0.25],
                               [1, 1, 0.9], [1, 1, 1], [1, 1, 1]],
                              [0, 0, 0.02, 0.03, 0.03, 0.2, 0.6, 0.8])
+    # the scan's head points to -z: look at the face with -z up
     cam = hv.Camera.fit(volume.bounds, "xz", parallel_projection=True)
+    cam = hv.Camera(cam.position, cam.focal_point, (0, 0, -1), parallel_projection=True,
+                    parallel_scale=cam.parallel_scale)
     p = hv.make_proxies(volume, cam, size, tf, intervals=16, layers=[40.0, 90.0], multi_perspective=True,
                         training=3, clusters=24)
     pp = ProxyPass(volume, tf, 16, [])

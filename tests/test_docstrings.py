@@ -21,6 +21,10 @@ MODULES = [
     "pv_hdrvol.editor.axis",
     "pv_hdrvol.editor.model",
     "pv_hdrvol.viewer.progressive",
+    "pv_hdrvol.proxy.generate",
+    "pv_hdrvol.proxy.model",
+    "pv_hdrvol.proxy.lighting",
+    "pv_hdrvol.proxy.proxies",
 ]
 
 

@@ -27,32 +27,8 @@ import math
 import numba
 
 from .._jit import fused_parallel_kernel, inline_kernel
+from ..culling._kernels import _trilinear
 from ..raycast._kernels import _ray_box, sigma_at, table_position, table_row
-
-
-@inline_kernel
-def _trilinear(values, x, y, z):
-    """Trilinear value of ``values`` (z, y, x) at voxel coordinates inside the box."""
-    nz, ny, nx = values.shape
-    i = int(x)
-    j = int(y)
-    k = int(z)
-    if i > nx - 2:
-        i = nx - 2
-    if j > ny - 2:
-        j = ny - 2
-    if k > nz - 2:
-        k = nz - 2
-    fx = x - i
-    fy = y - j
-    fz = z - k
-    c00 = values[k, j, i] + fx * (values[k, j, i + 1] - values[k, j, i])
-    c10 = values[k, j + 1, i] + fx * (values[k, j + 1, i + 1] - values[k, j + 1, i])
-    c01 = values[k + 1, j, i] + fx * (values[k + 1, j, i + 1] - values[k + 1, j, i])
-    c11 = values[k + 1, j + 1, i] + fx * (values[k + 1, j + 1, i + 1] - values[k + 1, j + 1, i])
-    c0 = c00 + fy * (c10 - c00)
-    c1 = c01 + fy * (c11 - c01)
-    return c0 + fz * (c1 - c0)
 
 
 @inline_kernel

@@ -19,19 +19,11 @@ import math
 import numba
 import numpy as np
 
-from .._jit import kernel, parallel_kernel
+from .._jit import parallel_kernel
+from ._kernels import _scaled
 
 #: pixels per chunk of ``predict_colors``
 CHUNK = 1024
-
-
-@kernel
-def _scaled(beta, k):
-    if k == 1.0:
-        return beta
-    if beta >= 1.0:
-        return 1.0 if k > 0.0 else 0.0
-    return -math.expm1(k * math.log1p(-beta))
 
 
 @parallel_kernel

@@ -77,9 +77,13 @@ def test_rendered_colour_is_linear_in_the_interval_attenuations():
 
 def test_one_cluster_recovers_the_interval_colours():
     volume, tf = stack_volume(), stack_tf()
-    training = [{}, {3: 0.3, 5: 0.1}, [0.5] * L, {1: 0.05, 2: 2.0, 6: 0.2}]
+    training = [{3: 0.3, 5: 0.1}, [0.5] * L, {1: 0.05, 2: 2.0, 6: 0.2}]
     p = make_proxies(volume, front_camera(volume), 12, tf, intervals=L, training=training, clusters=1)
-    assert p.model.clusters == 1
+    assert p.model.clusters == 1 and len(p.training) == 4  # the function itself comes first
+    # the proxies are those of the function itself, whatever the training renders
+    plain = make_proxies(volume, front_camera(volume), 12, tf, intervals=L, training=0)
+    np.testing.assert_array_equal(p.atten, plain.atten)
+    np.testing.assert_array_equal(p.rgba, plain.rgba)
     # intervals 1..7 are populated and vary across the training renders
     np.testing.assert_allclose(p.model.jacobians[0][:, 1:], COLORS[1:].T, atol=1e-9)
     # a new opacity setting is predicted exactly: model and propagation are exact here

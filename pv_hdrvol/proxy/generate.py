@@ -210,13 +210,24 @@ def as_scale(spec, intervals, name="opacity_scale"):
 
 
 def training_scales(training, intervals, seed=0):
-    """The extinction scales of the training renders: the first is the transfer
-    function itself; further ones scale each interval by a factor drawn log-uniformly
-    from [0.01, 1] (seeded), or as given (a list of ``opacity_scale`` specs)."""
+    """The extinction scales of the training renders. The first is always the transfer
+    function itself (the proxies' own render); ``training`` renders in all, the others
+    with each interval's extinction scaled by a factor drawn log-uniformly from
+    [0.01, 1] (seeded); or, for a list of ``opacity_scale`` specs, one more render per
+    spec (a spec of all ones is the first render, not repeated).
+
+    Examples
+    --------
+    >>> [s.tolist() for s in training_scales([{1: 0.5}, {}], 3)]
+    [[1.0, 1.0, 1.0], [1.0, 0.5, 1.0]]
+    """
     if isinstance(training, (list, tuple)):
-        if not training:
-            raise ValueError("training must name at least one render")
-        return [as_scale(spec, intervals, "training") for spec in training]
+        scales = [np.ones(intervals)]
+        for spec in training:
+            scale = as_scale(spec, intervals, "training")
+            if not np.all(scale == 1.0):
+                scales.append(scale)
+        return scales
     n = as_int("training", training, low=1)
     rng = np.random.default_rng(seed)
     scales = [np.ones(intervals)]
@@ -274,9 +285,10 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
         (``pole_scale``), which see around the object: depth layers for rotation and
         attenuation for the (experimental) rotation of the volume image.
     training : int or list
-        Training renders of the colour model: the transfer function itself, then
-        renders with each interval's extinction scaled (:func:`training_scales`); or a
-        list of ``opacity_scale`` specs. ``0`` fits no colour model.
+        Training renders of the colour model, the transfer function itself first: a
+        count (the others with random interval scales), or a list of
+        ``opacity_scale`` specs, one more render each (:func:`training_scales`).
+        ``0`` fits no colour model.
     clusters : int
         ``K`` of the colour model (paper: 24; 48 for turbulent data).
     step : float

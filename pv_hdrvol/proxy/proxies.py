@@ -134,10 +134,11 @@ class ProxySet:
 
     # -- exploration ----------------------------------------------------------------
     def attenuation(self, opacity_scale=None, rotate=None):
-        """Per-interval attenuation after an opacity change (and rotation): (intervals,
-        rows, cols). The slab model (``model.propagate``) with each interval's own
-        opacity and entry depth; rotation warps each interval's slab from the
-        multi-perspective proxies (experimental)."""
+        """``(atten, entry)``, each (intervals, rows, cols): the attenuation after an
+        opacity change (``opacity_scale`` as :meth:`synthesize`'s) and the entry depths,
+        for the view turned by ``rotate``. The corrected slab model
+        (``model.propagate_corrected``) with each interval's own opacity and entry
+        depth; a turn first warps each interval's slab (experimental)."""
         from .model import propagate_corrected
 
         scale = as_scale(opacity_scale, self.intervals)

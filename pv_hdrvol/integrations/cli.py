@@ -392,9 +392,7 @@ def _cmd_proxy_view(args):
             raise UserError("the options set one image to write: give -o OUT, or none of them for the window")
         try:
             proxies = load_proxies(args.folder)
-        except FileNotFoundError as exc:
-            raise UserError(str(exc)) from None
-        except ValueError as exc:
+        except (FileNotFoundError, ValueError) as exc:  # a missing or broken folder
             raise UserError(str(exc)) from None
         try:
             from ..proxy.qt import view
@@ -429,9 +427,7 @@ def _cmd_proxy_view(args):
         proxies = load_proxies(args.folder)
         image = proxies.synthesize(scale, rotate=args.rotate, light=lights or None, enhance=args.enhance,
                                    layers=layers, ambient_occlusion=args.ambient_occlusion)
-    except FileNotFoundError as exc:
-        raise UserError(str(exc)) from None
-    except (ValueError, TypeError) as exc:
+    except (FileNotFoundError, ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
     try:
         image.save_png(out) if out.suffix.lower() == ".png" else image.save(out)

@@ -5,7 +5,8 @@
 reference; tests compare): the opacity change propagated by the corrected slab model,
 the nearest centroid, the cluster's linear colour. ``splat_slabs`` warps each
 interval's slab (entry depth, own opacity, attenuation) into a turned view and fills
-the cracks, as ``synthesis.splat`` / ``fill_holes`` / ``fill_values`` do.
+the cracks as ``synthesis.splat`` and ``fill_holes`` do for a depth layer, carrying the
+own opacity and attenuation along with the depth.
 
 Per-pixel scratch arrays live per chunk of pixels (one allocation per chunk, not per
 pixel); ``prange`` runs over chunks, and over intervals for the splat (each interval's

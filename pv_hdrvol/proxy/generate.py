@@ -150,21 +150,21 @@ class ProxyPass:
     validated once; :meth:`run` casts any rays with any interval scaling."""
 
     def __init__(self, volume, tf, intervals, isovalues, step=0.5, opacity_unit_distance=None):
-        opts = RenderOptions(step=step, precision="float64", termination=0.0,
-                             opacity_unit_distance=opacity_unit_distance)
-        self.volume, self.tf, self.options = volume, tf, opts
+        from ..raycast.grid import GridPlan
+
+        # the grid ray caster's own tables (float64: opacity per full step, extinction)
+        plan = GridPlan(volume, tf, RenderOptions(step=step, precision="float64", termination=0.0,
+                                                  opacity_unit_distance=opacity_unit_distance))
+        self.volume, self.tf, self.options = volume, tf, plan.options
         self.intervals = intervals
         self.isovalues = np.ascontiguousarray(isovalues, dtype=np.float64)
-        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else float(volume.spacing.min())
-        step_world = opts.step * float(volume.spacing.min())
-        rgb, sigma = tf.table(np.float64, 1.0, unit, tf.table_size)
-        self.table = np.ascontiguousarray(np.column_stack([rgb, -np.expm1(-sigma * step_world)]).reshape(-1))
-        self.sigma = np.ascontiguousarray(sigma, dtype=np.float64)
+        self.table = np.ascontiguousarray(plan.table.reshape(-1))
+        self.sigma = plan.sigma
         a0, a1 = tf.axis_range
-        self.params = K.GridParams(float(step_world), PRECISION_CODES["float64"], SCALE_CODES[tf.scale], float(a0),
-                                   float(1.0 / (a1 - a0)), float(tf.linthresh), math.inf, 1.0, 3)
+        self.params = K.GridParams(float(plan.step_world), PRECISION_CODES["float64"], SCALE_CODES[tf.scale],
+                                   float(a0), float(1.0 / (a1 - a0)), float(tf.linthresh), math.inf, 1.0, 3)
         self.values = np.ascontiguousarray(volume.values, dtype=np.float64)
-        self.unit, self.step_world = unit, step_world
+        self.unit, self.step_world = plan.unit, plan.step_world
 
     def run(self, rays, scale=None):
         """Cast ``rays`` (world). Returns ``rgba (n, 4)``, ``atten``, ``optical depth``,

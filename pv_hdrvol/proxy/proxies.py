@@ -230,11 +230,8 @@ class ProxySet:
         if cam is None:
             return self.depth[k].copy()
         if self.multi_perspective:
-            # (the rotated view keeps the original's extent: cam is the rotated self.camera)
-            pts, _ = S.surface_points(self.mp_camera, self.size, self.mp_depth[k], self.mp_dist[k])
-            col, row, z = S.project(cam, self.size, pts)
-            zbuf = S.drop_leaks(S.splat(self.size, col, row, z)[0], 4 * self.pitch)
-            return S.fill_holes(zbuf, jump=4 * self.pitch)
+            return S.warp_depth(self.mp_camera, self.size, self.mp_depth[k], self.mp_dist[k], cam,
+                                jump=4 * self.pitch)
         return S.warp_depth(self.camera, self.size, self.depth[k], None, cam, jump=4 * self.pitch)
 
     def _layer(self, layer):

@@ -16,7 +16,6 @@ from dataclasses import replace
 import numpy as np
 
 from .._validate import as_real
-from ..rays.camera import Camera
 
 #: a hole is filled when at least this many of its 8 neighbours are covered
 FILL_NEIGHBOURS = 6
@@ -89,30 +88,16 @@ def project(camera, size, points):
     return col, row, rel @ fwd
 
 
-def splat(size, col, row, z, attributes=()):
-    """Depth buffer of points splatted to their nearest pixel: ``(zbuf, attrs)``,
-    ``zbuf`` (rows, cols) ``inf`` where nothing landed, each attribute (one value per
-    point) taken from the nearest point of its pixel."""
+def splat(size, col, row, z):
+    """Depth buffer (rows, cols) of points splatted to their nearest pixel, ``inf``
+    where nothing landed."""
     w, h = size
     c = np.floor(col).astype(np.int64)
     r = np.floor(row).astype(np.int64)
     inside = (c >= 0) & (c < w) & (r >= 0) & (r < h) & np.isfinite(z)
-    idx = r[inside] * w + c[inside]
-    zi = z[inside]
     zbuf = np.full(w * h, np.inf)
-    np.minimum.at(zbuf, idx, zi)
-    out = []
-    if attributes:
-        # the nearest point of each pixel wins (ties: the first such point)
-        order = np.lexsort((np.arange(idx.size), zi, idx))
-        first = np.ones(order.size, dtype=bool)
-        first[1:] = idx[order][1:] != idx[order][:-1]
-        win = order[first]
-        for a in attributes:
-            buf = np.full(w * h, np.nan)
-            buf[idx[win]] = np.asarray(a)[inside][win]
-            out.append(buf.reshape(h, w))
-    return zbuf.reshape(h, w), out
+    np.minimum.at(zbuf, r[inside] * w + c[inside], z[inside])
+    return zbuf.reshape(h, w)
 
 
 def _neighbour_stack(z, fill=np.inf):
@@ -154,22 +139,11 @@ def fill_holes(zbuf, passes=FILL_PASSES, jump=None):
     return z
 
 
-def fill_values(values, covered, hole):
-    """``values`` (NaN where not ``covered``) with 0 where uncovered and, at ``hole``
-    pixels, the mean of their covered 8 neighbours."""
-    v = np.where(covered, values, 0.0)
-    if hole.any():
-        acc = _neighbour_stack(v, 0.0).sum(axis=0)
-        n = _neighbour_stack(covered.astype(np.float64), 0.0).sum(axis=0)
-        v = np.where(hole, acc / np.maximum(n, 1.0), v)
-    return v
-
-
 def warp_depth(camera, size, depth, dist, new_camera, jump=None):
     """A depth layer seen by ``new_camera``: undistort, reproject, splat, fill holes."""
     pts, _ = surface_points(camera, size, depth, dist)
     col, row, z = project(new_camera, size, pts)
-    zbuf, _ = splat(size, col, row, z)
+    zbuf = splat(size, col, row, z)
     if jump is not None:
         zbuf = drop_leaks(zbuf, jump)
     return fill_holes(zbuf, jump=jump)
@@ -187,9 +161,3 @@ def depth_correlation(synthesized, truth):
     if a.std() == 0 or b.std() == 0:
         return (1.0 if np.allclose(a, b) else math.nan), float(coverage)
     return float(np.corrcoef(a, b)[0, 1]), float(coverage)
-
-
-def check_camera(camera):
-    if not isinstance(camera, Camera) or not camera.parallel_projection:
-        raise ValueError("view synthesis needs a parallel-projection Camera")
-    return camera

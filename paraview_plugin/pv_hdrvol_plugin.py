@@ -7,7 +7,9 @@ on ``PYTHONPATH`` first: ``pv-hdrvol paraview`` prints the environment to use
 (docs/paraview.md).
 
 Filters: **HDR Volume Render** (image data or a tetrahedral unstructured grid -> a 2-D
-image with the HDR ``rgba``, ``depth`` and a tone-mapped ``tonemapped`` array),
+image with the HDR ``rgba``, ``depth`` and a tone-mapped ``tonemapped`` array, and the
+'In View' surface that the render view shows: the image facing the camera at the
+volume's depth, docs/paraview.md),
 **HDR Tone Map**, **HDR Upsample**; a reader and writers for ``.exr`` and ``.hdr``.
 
 This file is only the ParaView layer: decorated classes that call the VTK algorithms of
@@ -81,8 +83,10 @@ def _string_list(values, name="list"):
 
 
 def _parse_parameters(text):
-    """``"key=0.18, white=4, local=true"`` -> ``{"key": 0.18, "white": 4.0, "local": True}``."""
+    """``"key=0.18, white=4, local=true"`` -> ``{"key": 0.18, "white": 4.0, "local": True}``;
+    ``""`` or ``None`` (what ParaView 5.11 pushes for an empty string property) -> ``{}``."""
     parameters = {}
+    text = text or ""
     for item in filter(None, (part.strip() for part in text.replace(";", ",").split(","))):
         name, sep, value = (piece.strip() for piece in item.partition("="))
         if not sep or not name.isidentifier() or not value:
@@ -101,6 +105,53 @@ def _parse_parameters(text):
     return parameters
 
 
+def _surface_of(image, camera):
+    """HDR Volume Render's 'In View' output: the tone-mapped image as a surface facing
+    ``camera`` at the volume's depth (VTK rows, bottom first, to pv_hdrvol's)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    from pv_hdrvol.integrations.vtk_surface import view_surface
+
+    cols, rows, _ = image.GetDimensions()
+    data = image.GetPointData()
+    alpha = vtk_to_numpy(data.GetArray("rgba"))[:, 3].reshape(rows, cols)[::-1]
+    depth = vtk_to_numpy(data.GetArray("depth")).reshape(rows, cols)[::-1]
+    colors = vtk_to_numpy(data.GetArray("tonemapped"))[:, :3].reshape(rows, cols, 3)[::-1]
+    return view_surface(alpha, depth, colors, camera)
+
+
+def _setting(algorithm, name, apply):
+    """Run a property setter's work. A value it refuses raises (ParaView reports it) and
+    stays the filter's error until a valid value is set: the next execution fails with
+    it (GetLastError says it) instead of rendering with the previous value."""
+    refused = algorithm.__dict__.setdefault("_refused", {})
+    try:
+        apply()
+    except Exception as exc:
+        refused[name] = f"{type(exc).__name__}: {exc}"
+        algorithm.Modified()
+        raise
+    if refused.pop(name, None) is not None:
+        algorithm.Modified()
+
+
+def _raise_refused(algorithm):
+    refused = algorithm.__dict__.get("_refused")
+    if refused:
+        raise ValueError("; ".join(f"{name} was refused ({why})" for name, why in refused.items())
+                         + ": set a valid value; nothing is rendered with the previous one")
+
+
+def _say_once(algorithm, text):
+    """A warning in ParaView's Output Messages, once per filter and text."""
+    said = algorithm.__dict__.setdefault("_said", set())
+    if text not in said:
+        said.add(text)
+        from vtkmodules.vtkCommonCore import vtkOutputWindow
+
+        vtkOutputWindow.GetInstance().DisplayWarningText(text + "\n")
+
+
 def _documentation(text):
     return f"<Documentation>{text}</Documentation>"
 
@@ -108,7 +159,14 @@ def _documentation(text):
 if HDRVolumeRenderer is not None:
 
     @smproxy.filter(name="HDRVolumeRender", label="HDR Volume Render", support_reload=False)
-    @smhint.xml('<ShowInMenu category="pv_hdrvol"/>')
+    # port 0, the HDR image, is data (save it, tone map it, upsample it) and is not shown
+    # by Apply: drawn flat in the 3-D view whose camera made it, it would turn with the
+    # view like a plane. Port 1, the image as a surface facing the camera at the
+    # volume's depth, is what the render view shows (pv_hdrvol.integrations.vtk_surface).
+    @smhint.xml('<ShowInMenu category="pv_hdrvol"/>'
+                '<OutputPort index="0" name="HDR Image"/><OutputPort index="1" name="In View"/>'
+                '<View type="None" port="0"/><Visibility replace_input="0"/>'
+                '<RepresentationType view="RenderView" type="Surface" port="1"/>')
     @smproperty.input(name="Input", port_index=0)
     @smdomain.datatype(dataTypes=["vtkImageData", "vtkUnstructuredGrid"], composite_data_supported=False)
     @smdomain.xml('<InputArrayDomain name="input_array" attribute_type="any" number_of_components="1"/>')
@@ -133,7 +191,14 @@ if HDRVolumeRenderer is not None:
             self._display = vtk_image.HDRToneMapper()
             self._display_operator = "reinhard"
             self._push_camera()
+            self.SetNumberOfOutputPorts(2)
             _install_client_hook()
+
+        def FillOutputPortInformation(self, port, info):
+            from vtkmodules.vtkCommonDataModel import vtkDataObject
+
+            info.Set(vtkDataObject.DATA_TYPE_NAME(), "vtkImageData" if port == 0 else "vtkPolyData")
+            return 1
 
         # -- the array, the size ---------------------------------------------------
         @smproperty.xml("""
@@ -150,8 +215,11 @@ if HDRVolumeRenderer is not None:
         @smproperty.intvector(name="ImageSize", label="Image Size", default_values=[512, 512])
         @smdomain.intrange(min=1, max=8192)
         def SetImageSize(self, width, height):
-            super().SetImageSize(width, height)
-            self._push_lens()  # its centre and radius are fractions of the image
+            def apply():
+                HDRVolumeRenderer.SetImageSize(self, width, height)
+                self._push_lens()  # its centre and radius are fractions of the image
+
+            _setting(self, "Image Size", apply)
 
         # -- the lens (image data) ------------------------------------------------------
         @smproperty.stringvector(name="Lens", default_values="none", number_of_elements=1)
@@ -318,7 +386,7 @@ if HDRVolumeRenderer is not None:
             "and a parallel projection only; the colour map is not used. Empty: no culling."))
         def SetPOFFile(self, value):
             self._pof_file = value or ""
-            self._push_culling()
+            _setting(self, "POF File", self._push_culling)
 
         @smproperty.stringvector(name="FamilyWeights", label="Family Weights", default_values="",
                                  number_of_elements=1)
@@ -326,7 +394,7 @@ if HDRVolumeRenderer is not None:
                                      "(empty: all 1)."))
         def SetFamilyWeights(self, value):
             self._pof_weights = value or ""
-            self._push_culling()
+            _setting(self, "Family Weights", self._push_culling)
 
         def _push_culling(self):
             if not self._pof_file:
@@ -366,6 +434,16 @@ if HDRVolumeRenderer is not None:
             "where it is."))
         def SetFollowView(self, value):
             pass  # nothing for the filter: the client side (this plugin's hook) links and unlinks
+
+        @smproperty.xml("""
+          <IntVectorProperty name="ImageSizeFollowsView" command="SetImageSizeFollowsView" number_of_elements="1"
+                             default_values="0" panel_visibility="never">
+            <BooleanDomain name="bool"/>
+            <Documentation>Set by the plugin when Image Size follows the view's size (kept in state files, so
+            that a loaded state follows it again).</Documentation>
+          </IntVectorProperty>""")
+        def SetImageSizeFollowsView(self, value):
+            pass  # nothing for the filter: the client side (this plugin's hook) links the size
 
         @smproperty.doublevector(name="CameraPosition", label="Camera Position", default_values=[0.0, 0.0, 0.0])
         def SetCameraPosition(self, x, y, z):
@@ -419,129 +497,312 @@ if HDRVolumeRenderer is not None:
                 self._display_operator = value
                 self.Modified()
 
-        def RequestData(self, request, inInfo, outInfo):
-            status = super().RequestData(request, inInfo, outInfo)
-            from vtkmodules.vtkCommonDataModel import vtkImageData
+        def _execute(self, inInfo, outInfo):
+            _raise_refused(self)
+            return super()._execute(inInfo, outInfo)
 
-            out = vtkImageData.GetData(outInfo)
+        def RequestData(self, request, inInfo, outInfo):
+            from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
+
+            if self._tf_source == TRANSFER_FUNCTIONS[0] and self._lut is None and not self._pof_file:
+                _say_once(self, "HDR Volume Render: Transfer Function is 'Color Map Editor' but its Lookup Table "
+                                "is not set (no colour map was found for the array when the filter was made), so "
+                                "pv_hdrvol's default transfer function renders. Set LookupTable = "
+                                "GetColorTransferFunction(array) and ScalarOpacityFunction = "
+                                "GetOpacityTransferFunction(array), or Transfer Function = 'pv_hdrvol default'.")
+            status = super().RequestData(request, inInfo, outInfo)
+
+            out = vtkImageData.GetData(outInfo, 0)
+            surface = vtkPolyData.GetData(outInfo, 1)
+            surface.Initialize()
             if status and out.GetNumberOfPoints():
                 self._display.SetInputDataObject(0, out)
                 self._display.Update()
                 out.ShallowCopy(self._display.GetOutputDataObject(0))
                 self._display.SetInputDataObject(0, None)
+                surface.ShallowCopy(_surface_of(out, self.GetLastCamera()))
             return status
 
     # ------------------------------------------------------------------------------
     # The client side: fill a new HDR Volume Render's camera and colour map from the
     # active view and the array's colour map, as ParaView's own representations do.
+    #
+    # Only the server manager's C++ objects are used here, on the session that
+    # registered the filter; never ``paraview.simple`` or ``paraview.servermanager``.
+    # servermanager takes the active session once, when first imported: imported by a
+    # plugin that ParaView's GUI loads before its builtin session exists, it keeps no
+    # session, and ``paraview.simple`` (the Python Shell's first line, or an observer
+    # of ours) then runs ``Connect()``, making a second builtin session. Links made
+    # there between proxies of the first crashed the GUI (Filters > pv_hdrvol > HDR
+    # Volume Render, SIGSEGV in pqCore), and the Python Shell saw none of the pipeline.
     # ------------------------------------------------------------------------------
-    def _link_camera(proxy, view):
-        """Keep ``proxy``'s camera properties equal to ``view``'s (one link per pair)."""
-        from paraview import servermanager
+    #: Filter global ID -> the vtkSMPropertyLinks that make its camera follow a view.
+    #: Held here, not registered with the proxy manager: a registered link is shown in
+    #: the Link Manager and saved in state files, and the plugin links again on load.
+    _CAMERA_LINKS = {}
+    #: Filter global ID -> the lookup table the plugin chose for it (followed when the
+    #: filter's Scalars change); a table set by the user is never replaced.
+    _AUTO_LUT = {}
+    _seen = set()
 
-        pxm = servermanager.ProxyManager()
-        for name in CAMERA_PROPERTIES:
-            link = servermanager.vtkSMPropertyLink()
-            link.AddLinkedProperty(view.SMProxy, name, 1)   # vtkSMLink::INPUT
-            link.AddLinkedProperty(proxy.SMProxy, name, 2)  # vtkSMLink::OUTPUT
-            pxm.RegisterLink(f"pv_hdrvol:{proxy.GetGlobalIDAsString()}:{name}", link)
-            proxy.SMProxy.GetProperty(name).Copy(view.SMProxy.GetProperty(name))
-        proxy.SMProxy.UpdateVTKObjects()
+    def _sm(proxy):
+        """The vtkSMProxy of a ``servermanager`` proxy wrapper, or the proxy itself."""
+        return getattr(proxy, "SMProxy", proxy)
+
+    def _property(proxy, name):
+        """The value of a vector property as a list, or a proxy property's first proxy."""
+        prop = proxy.GetProperty(name)
+        if prop is None:
+            return None
+        if prop.IsA("vtkSMProxyProperty"):
+            return prop.GetProxy(0) if prop.GetNumberOfProxies() else None
+        return [prop.GetElement(i) for i in range(prop.GetNumberOfElements())]
+
+    def _set_proxy_property(proxy, name, value):
+        prop = proxy.GetProperty(name)
+        prop.RemoveAllProxies()
+        if value is not None:
+            prop.AddProxy(value)
+
+    def _active_render_view(pxm):
+        """The session's active view (what the GUI and paraview.simple call active), if a render view."""
+        model = pxm.GetSelectionModel("ActiveView")
+        view = model.GetCurrentProxy() if model is not None else None
+        return view if view is not None and view.GetXMLName() == "RenderView" else None
+
+    def _link_camera(proxy, view, copy=True):
+        """Keep ``proxy``'s camera properties equal to ``view``'s (one link per pair);
+        ``copy``: take the view's camera now, else from its next change."""
+        from paraview.modules.vtkRemotingServerManager import vtkSMPropertyLink
+
+        _unlink_camera(proxy)
+        links = []
+        # the image size follows the view's, so that each pixel of the view is one ray,
+        # unless the user chose a size (not the default) when the filter was made; a
+        # filter whose size followed (a state file's) follows again
+        follow_size = bool(proxy.GetProperty("ImageSize").IsValueDefault()
+                           or _property(proxy, "ImageSizeFollowsView")[0])
+        proxy.GetProperty("ImageSizeFollowsView").SetElement(0, int(follow_size))
+        pairs = [(n, n) for n in CAMERA_PROPERTIES] + ([("ViewSize", "ImageSize")] if follow_size else [])
+        for view_name, name in pairs:
+            link = vtkSMPropertyLink()
+            link.AddLinkedProperty(view, view_name, 1)   # vtkSMLink::INPUT
+            link.AddLinkedProperty(proxy, name, 2)  # vtkSMLink::OUTPUT
+            links.append(link)
+            if copy or name == "ImageSize":
+                proxy.GetProperty(name).Copy(view.GetProperty(view_name))
+        _CAMERA_LINKS[proxy.GetGlobalIDAsString()] = links
+        proxy.UpdateVTKObjects()
 
     def _unlink_camera(proxy):
-        from paraview import servermanager
-
-        pxm = servermanager.ProxyManager()
-        for name in CAMERA_PROPERTIES:
-            pxm.UnRegisterLink(f"pv_hdrvol:{proxy.GetGlobalIDAsString()}:{name}")
+        for link in _CAMERA_LINKS.pop(_sm(proxy).GetGlobalIDAsString(), ()):
+            link.RemoveAllLinks()
 
     def follow_view(proxy, view=None):
-        """Link an HDR Volume Render's camera to ``view`` (default the active render view)
-        and use the colour map of its array; what the plugin does for each new filter."""
-        from paraview import simple
-
-        view = view or simple.GetActiveView()
+        """Link an HDR Volume Render's camera to ``view`` (default the session's active
+        render view) and use the colour map of its array; what the plugin does for each
+        new filter. ``proxy`` and ``view``: ``paraview.simple`` proxies or vtkSMProxy."""
+        proxy = _sm(proxy)
+        view = _sm(view) if view is not None else _active_render_view(proxy.GetSessionProxyManager())
         if view is not None and view.GetXMLName() == "RenderView":
-            _unlink_camera(proxy)
             _link_camera(proxy, view)
         _use_array_color_map(proxy)
 
-    def _use_array_color_map(proxy):
-        from paraview import simple
+    def _array_range(proxy, association, name):
+        """The data range of the input's array ``name``, or None where not known."""
+        inputs = proxy.GetProperty("Input")
+        if inputs is None or not inputs.GetNumberOfProxies():
+            return None
+        info = inputs.GetProxy(0).GetDataInformation(inputs.GetOutputPortForConnection(0))
+        attributes = info.GetCellDataInformation() if association == "1" else info.GetPointDataInformation()
+        array = attributes.GetArrayInformation(name) if attributes is not None else None
+        return None if array is None else array.GetComponentRange(0)
 
-        if proxy.LookupTable is not None:
-            return
-        scalars = proxy.Scalars
-        name = scalars[1] if len(scalars) > 1 else ""
+    def _use_array_color_map(proxy):
+        """Set Lookup Table and Scalar Opacity Function to ParaView's for the filter's
+        array (spanning the data if ParaView had no range yet), unless the user set them."""
+        from paraview.modules.vtkRemotingViews import vtkSMTransferFunctionManager, vtkSMTransferFunctionProxy
+
+        gid = proxy.GetGlobalIDAsString()
+        current = _property(proxy, "LookupTable")
+        if current is not None and current is not _AUTO_LUT.get(gid):
+            return  # the user's table
+        scalars = _property(proxy, "SelectInputScalars") or []
+        association, name = (scalars[3], scalars[4]) if len(scalars) == 5 else ("0", "")
         if not name:
             return
-        lut = simple.GetColorTransferFunction(name)
-        if not lut.ScalarRangeInitialized:  # a new colour map: span the data, as ParaView does
-            info = proxy.Input.GetDataInformation().DataInformation
-            array_info = (info.GetPointDataInformation() if scalars[0] == "POINTS"
-                          else info.GetCellDataInformation()).GetArrayInformation(name)
-            if array_info is not None:
-                lo, hi = array_info.GetComponentRange(0)
-                lut.RescaleTransferFunction(lo, hi)
-                simple.GetOpacityTransferFunction(name).RescaleTransferFunction(lo, hi)
-        proxy.LookupTable = lut
-        proxy.ScalarOpacityFunction = simple.GetOpacityTransferFunction(name)
-
-    _seen = set()
-
-    def _on_register(*_):
-        """A proxy was registered: set up each new HDR Volume Render once."""
-        try:
-            from paraview import simple
-        except ImportError:  # a server process without the client's modules
+        pxm = proxy.GetSessionProxyManager()
+        manager = vtkSMTransferFunctionManager()
+        lut = manager.GetColorTransferFunction(name, pxm)
+        opacity = manager.GetOpacityTransferFunction(name, pxm)
+        if lut is None or opacity is None:
             return
-        for proxy in list(simple.GetSources().values()):
-            if proxy.GetXMLName() != "HDRVolumeRender" or proxy.GetGlobalIDAsString() in _seen:
+        if not _property(lut, "ScalarRangeInitialized")[0]:  # a new colour map: span the data, as ParaView does
+            span = _array_range(proxy, association, name)
+            if span is not None and span[0] <= span[1]:
+                for function in (lut, opacity):
+                    vtkSMTransferFunctionProxy.RescaleTransferFunction(function, span[0], span[1], False)
+                lut.GetProperty("ScalarRangeInitialized").SetElement(0, 1)
+                lut.UpdateVTKObjects()
+        _set_proxy_property(proxy, "LookupTable", lut)
+        _set_proxy_property(proxy, "ScalarOpacityFunction", opacity)
+        _AUTO_LUT[gid] = lut
+        proxy.UpdateVTKObjects()
+
+    def _say(text):
+        from vtkmodules.vtkCommonCore import vtkOutputWindow
+
+        vtkOutputWindow.GetInstance().DisplayWarningText(f"pv_hdrvol plugin: {text}\n")
+
+    def _filters(pxm):
+        """The HDR Volume Render proxies registered in ``pxm``'s session."""
+        from paraview.modules.vtkRemotingServerManager import vtkSMProxyIterator
+
+        found = []
+        iterator = vtkSMProxyIterator()
+        iterator.SetSessionProxyManager(pxm)
+        iterator.SetModeToOneGroup()
+        iterator.Begin("sources")
+        while not iterator.IsAtEnd():
+            proxy = iterator.GetProxy()
+            if proxy is not None and proxy.GetXMLName() == "HDRVolumeRender":
+                found.append(proxy)
+            iterator.Next()
+        return found
+
+    def _on_register(pxm, _event):
+        """A proxy was registered in ``pxm``'s session: set up each new HDR Volume Render
+        once, and each new representation of its 'In View' output."""
+        try:
+            _show_colors(pxm)
+        except Exception as exc:  # an observer must not break ParaView: say it, go on
+            _say(f"could not show HDR Volume Render's colours ({type(exc).__name__}: {exc}); colour its "
+                 f"'In View' output by 'colors' with Map Scalars off")
+        for proxy in _filters(pxm):
+            gid = proxy.GetGlobalIDAsString()
+            if gid in _seen:
                 continue
-            _seen.add(proxy.GetGlobalIDAsString())
+            _seen.add(gid)
             try:
-                camera_set = list(proxy.CameraPosition) != list(proxy.CameraFocalPoint)
-                view = simple.GetActiveView()
-                if not camera_set and proxy.FollowView and view is not None and view.GetXMLName() == "RenderView":
-                    _link_camera(proxy, view)
+                camera_unset = _property(proxy, "CameraPosition") == _property(proxy, "CameraFocalPoint")
+                view = _active_render_view(pxm)
+                if _property(proxy, "FollowView")[0] and view is not None:
+                    _link_camera(proxy, view, copy=camera_unset)
                 _use_array_color_map(proxy)
-                # by its ID, not the proxy itself: an observer on the proxy's own property that
-                # held it would keep the deleted filter (and its render plan) alive
-                proxy.SMProxy.GetProperty("FollowView").AddObserver(
-                    "ModifiedEvent", lambda *_, gid=proxy.GetGlobalIDAsString(): _follow_changed(gid))
+                # by the ID and the session, not the proxy itself: an observer on the proxy's
+                # own property that held it would keep the deleted filter (and its plan) alive
+                for name, react in (("FollowView", _follow_changed), ("SelectInputScalars", _scalars_changed)):
+                    proxy.GetProperty(name).AddObserver(
+                        "ModifiedEvent", lambda *_, g=gid, m=pxm, f=react: f(m, g))
             except Exception as exc:  # an observer must not break ParaView: say it, go on
-                from vtkmodules.vtkCommonCore import vtkOutputWindow
+                _say(f"could not link HDR Volume Render to the view and the colour map "
+                     f"({type(exc).__name__}: {exc}); set its Camera and Lookup Table by hand")
+        _link_followers(pxm)
 
-                vtkOutputWindow.GetInstance().DisplayWarningText(
-                    f"pv_hdrvol plugin: could not link HDR Volume Render to the view and the colour map "
-                    f"({type(exc).__name__}: {exc}); set its Camera and Lookup Table by hand\n")
+    def _link_followers(pxm, *_):
+        """Link each filter that follows the view but has no view yet (made before any
+        render view; loaded from a state file before its view became active) to the
+        session's active render view."""
+        _watch_active_view(pxm)
+        view = _active_render_view(pxm)
+        if view is None:
+            return
+        for proxy in _filters(pxm):
+            gid = proxy.GetGlobalIDAsString()
+            if gid in _seen and gid not in _CAMERA_LINKS and _property(proxy, "FollowView")[0]:
+                try:
+                    unset = _property(proxy, "CameraPosition") == _property(proxy, "CameraFocalPoint")
+                    _link_camera(proxy, view, copy=unset)
+                except Exception as exc:  # an observer must not break ParaView
+                    _say(f"could not link HDR Volume Render to the view ({type(exc).__name__}: {exc})")
 
-    def _follow_changed(gid):
-        from paraview import simple
+    def _watch_active_view(pxm):
+        """Observe the session's active-view selection once it exists (the GUI and
+        paraview.simple make it): a view made active later links waiting filters."""
+        model = pxm.GetSelectionModel("ActiveView")
+        key = ("active view", pxm.GetAddressAsString("vtkObject"))
+        if model is not None and key not in _hooked:
+            _hooked.add(key)
+            model.AddObserver("CurrentChangedEvent", lambda *_: _link_followers(pxm))
 
-        proxy = next((p for p in simple.GetSources().values() if p.GetGlobalIDAsString() == gid), None)
+    _shown = set()
+
+    def _show_colors(pxm):
+        """Representations of an 'In View' output draw its RGBA colours as they are (Map
+        Scalars off, unlit): the image's own pixels, not a colour map or a shading of them."""
+        from paraview.modules.vtkRemotingServerManager import vtkSMProxyIterator
+
+        iterator = vtkSMProxyIterator()
+        iterator.SetSessionProxyManager(pxm)
+        iterator.SetModeToOneGroup()
+        iterator.Begin("representations")
+        while not iterator.IsAtEnd():
+            representation = iterator.GetProxy()
+            iterator.Next()
+            if representation is None or not representation.IsA("vtkSMPVRepresentationProxy"):
+                continue
+            inputs = representation.GetProperty("Input")
+            if inputs is None or not inputs.GetNumberOfProxies() or representation.GetProperty("MapScalars") is None:
+                continue
+            source = inputs.GetProxy(0)
+            gid = representation.GetGlobalIDAsString()
+            if gid in _shown or source is None or source.GetXMLName() != "HDRVolumeRender" \
+                    or inputs.GetOutputPortForConnection(0) != 1:
+                continue
+            _shown.add(gid)
+            # the pixels' own colours (no colour map), unlit: ambient 1, diffuse 0, so that
+            # the view's light kit does not shade the picture of a volume
+            for name, value in (("MapScalars", 0), ("Ambient", 1.0), ("Diffuse", 0.0), ("Specular", 0.0)):
+                representation.GetProperty(name).SetElement(0, value)
+            representation.UpdateVTKObjects()
+
+    def _on_unregister(pxm, _event):
+        """Drop the links of filters that are no longer registered (they hold the proxy)."""
+        alive = {proxy.GetGlobalIDAsString() for proxy in _filters(pxm)}
+        for gid in [g for g in _CAMERA_LINKS if g not in alive]:
+            for link in _CAMERA_LINKS.pop(gid):
+                link.RemoveAllLinks()
+        for gid in [g for g in _AUTO_LUT if g not in alive]:
+            del _AUTO_LUT[gid]
+
+    def _find(pxm, gid):
+        return next((p for p in _filters(pxm) if p.GetGlobalIDAsString() == gid), None)
+
+    def _follow_changed(pxm, gid):
+        proxy = _find(pxm, gid)
         if proxy is None:
             return
         _unlink_camera(proxy)
-        view = simple.GetActiveView()
-        if proxy.FollowView and view is not None and view.GetXMLName() == "RenderView":
+        view = _active_render_view(pxm)
+        if _property(proxy, "FollowView")[0] and view is not None:
             _link_camera(proxy, view)
+
+    def _scalars_changed(pxm, gid):
+        proxy = _find(pxm, gid)
+        if proxy is not None:
+            _use_array_color_map(proxy)
 
     _hooked = set()
 
-    def _install_client_hook():
-        """Observe proxy registrations of the active session, once per session. Called when
-        the plugin loads and when a filter is made: a plugin on PV_PLUGIN_PATH loads
-        before pvpython/pvbatch has a session."""
-        try:
-            from paraview import servermanager
+    def _install_client_hook(*_):
+        """Observe proxy registrations of the active session, once per session: when the
+        plugin loads, when the active session changes (pvpython's Connect(), a GUI
+        connecting to a server) and when a filter is made."""
+        try:  # not paraview.servermanager: see the note above
+            from paraview.modules.vtkRemotingServerManager import vtkSMProxyManager
         except ImportError:
             return
-        pxm = servermanager.vtkSMProxyManager.GetProxyManager()
-        session_pxm = pxm.GetActiveSessionProxyManager() if pxm is not None else None
-        if session_pxm is not None and session_pxm.GetAddressAsString("vtkObject") not in _hooked:
-            _hooked.add(session_pxm.GetAddressAsString("vtkObject"))
-            session_pxm.AddObserver("RegisterEvent", _on_register)
+        manager = vtkSMProxyManager.GetProxyManager()
+        if manager is None:
+            return
+        if "manager" not in _hooked:
+            _hooked.add("manager")
+            manager.AddObserver(manager.ActiveSessionChanged, _install_client_hook)
+        pxm = manager.GetActiveSessionProxyManager()
+        if pxm is not None and pxm.GetAddressAsString("vtkObject") not in _hooked:
+            _hooked.add(pxm.GetAddressAsString("vtkObject"))
+            pxm.AddObserver("RegisterEvent", _on_register)
+            pxm.AddObserver("UnRegisterEvent", _on_unregister)
 
     _install_client_hook()
 
@@ -555,8 +816,8 @@ if HDRVolumeRenderer is not None:
 
         @smproperty.stringvector(name="Operator", default_values="reinhard", number_of_elements=1)
         @smdomain.xml(_string_list(TONEMAP_OPERATORS))
-        def SetOperator(self, value):
-            super().SetOperator(value)
+        def SetOperatorName(self, value):
+            _setting(self, "Operator", lambda: vtk_image.HDRToneMapper.SetOperator(self, value))
 
         @smproperty.stringvector(name="Encoding", default_values="srgb", number_of_elements=1)
         @smdomain.xml(_documentation("srgb, linear, or a display gamma such as 2.2"))
@@ -572,7 +833,11 @@ if HDRVolumeRenderer is not None:
             "The operator's parameters as name=value pairs separated by commas, as in hv.tonemap: "
             "exposure_stops=1, key=0.18, white=4, bias=0.85, saturation=0.8, sigma_range=0.4, ..."))
         def SetParameterText(self, text):
-            self.SetParameters(_parse_parameters(text))
+            _setting(self, "Parameters", lambda: self.SetParameters(_parse_parameters(text)))
+
+        def _execute(self, inInfo, outInfo):
+            _raise_refused(self)
+            return super()._execute(inInfo, outInfo)
 
     @smproxy.filter(name="HDRUpsample", label="HDR Upsample", support_reload=False)
     @smhint.xml('<ShowInMenu category="pv_hdrvol"/>')
@@ -607,7 +872,10 @@ if HDRVolumeRenderer is not None:
             if name and name != "None":  # ParaView 5.11 pushes "None" while it makes the proxy
                 super().SetFileName(name)
 
-    @smproxy.writer(extensions="exr", file_description="OpenEXR HDR image (pv_hdrvol)", support_reload=False)
+    # supports_parallel: ParaView offers only such writers under MPI; rank 0 writes the
+    # image (the others hold none)
+    @smproxy.writer(extensions="exr", file_description="OpenEXR HDR image (pv_hdrvol)", support_reload=False,
+                    supports_parallel="1")
     @smproperty.input(name="Input", port_index=0)
     @smdomain.datatype(dataTypes=["vtkImageData"], composite_data_supported=False)
     class HDRExrWriter(vtk_image.HDRImageWriter):
@@ -625,7 +893,8 @@ if HDRVolumeRenderer is not None:
         def SetPixelType(self, value):
             super().SetPixelType(value)
 
-    @smproxy.writer(extensions="hdr", file_description="Radiance HDR image (pv_hdrvol)", support_reload=False)
+    @smproxy.writer(extensions="hdr", file_description="Radiance HDR image (pv_hdrvol)", support_reload=False,
+                    supports_parallel="1")
     @smproperty.input(name="Input", port_index=0)
     @smdomain.datatype(dataTypes=["vtkImageData"], composite_data_supported=False)
     class HDRRadianceWriter(vtk_image.HDRImageWriter):

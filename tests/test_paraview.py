@@ -15,6 +15,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -73,7 +74,7 @@ def test_plugin_checks_pass_in_pvbatch(shared_data):
         assert "skipped" not in summary, summary
 
 
-def test_one_rank_renders_the_whole_volume_under_mpi(shared_data):
+def test_one_rank_renders_the_whole_volume_under_mpi(shared_data, tmp_path):
     """``mpiexec -n 2 pvbatch --mpi --symmetric``: each rank's reader holds a piece; rank 0
     renders the whole volume (equal to hv.render), rank 1 outputs an empty image."""
     pvbatch = _tool("pvbatch")
@@ -82,7 +83,8 @@ def test_one_rank_renders_the_whole_volume_under_mpi(shared_data):
     # mpich wheel that pip's mpi4py uses (first on PATH where pyenv's shims are)
     mpiexec = "/usr/bin/mpiexec" if os.access("/usr/bin/mpiexec", os.X_OK) else _tool("mpiexec")
     env = _paraview_environment()
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PV_HDRVOL_DATA=str(shared_data))
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PV_HDRVOL_DATA=str(shared_data),
+               PV_HDRVOL_MPI_OUT=str(tmp_path))
     command = [xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", mpiexec, "-n", "2", pvbatch, "--mpi", "--symmetric",
                str(REPO_ROOT / "tests" / "paraview" / "mpi_render.py")]
     done = subprocess.run(command, env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -91,37 +93,203 @@ def test_one_rank_renders_the_whole_volume_under_mpi(shared_data):
     assert done.returncode == 0, f"the MPI run failed (exit {done.returncode}):\n{_failure_text(done.stdout, 4000)}"
     for line in ("rank 1: structured/engine_256x256x128_uint8.vti: a piece of",
                  "rank 0: structured/engine_256x256x128_uint8.vti: a piece of",
-                 "rank 0: unstructured/bluntfin_187395tets.vtu: a piece of"):
+                 "rank 0: unstructured/bluntfin_187395tets.vtu: a piece of",
+                 "rank 0: the array's colour map, equal to hv.render with it; render.exr written",
+                 "rank 1: the array's colour map; no image, nothing written"):
         assert line in done.stdout, line
+    assert sorted(os.listdir(tmp_path)) == ["render.exr"]
+    for bad in ("Traceback", "outside the whole extent", "is not set (no colour map"):
+        assert bad not in done.stdout, f"{bad!r} in the output:\n{done.stdout[-3000:]}"
 
 
-def test_gui_loads_the_plugin_and_shows_the_image(shared_data, tmp_path):
-    """``paraview --script`` under Xvfb with PV_PLUGIN_PATH: the plugin auto-loads, the
-    filter runs on the GUI's view camera, and a screenshot shows the tone-mapped image."""
+def test_client_server(shared_data):
+    """``pvserver`` and ``pvpython`` connected over the loopback: the filter runs on the
+    server, the plugin's client side links the view's camera and the array's colour map
+    (tests/paraview/client_server.py)."""
+    import socket
+
+    pvserver, pvpython, xvfb_run = _tool("pvserver"), _tool("pvpython"), _tool("xvfb-run")
+    with socket.socket() as probe:  # a free port on the loopback
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    env = _paraview_environment()
+    env.update(PV_HDRVOL_DATA=str(shared_data))
+    server = subprocess.Popen([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", pvserver, f"--server-port={port}",
+                               "--timeout=10"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        lines = []
+        for line in server.stdout:  # wait until it listens
+            lines.append(line)
+            if "Accepting connection" in line:
+                break
+        else:
+            raise AssertionError("pvserver did not start:\n" + "".join(lines))
+        done = subprocess.run([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", pvpython,
+                               str(REPO_ROOT / "tests" / "paraview" / "client_server.py"), str(port)], env=env,
+                              cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=900)
+    finally:
+        server.kill()
+        server.wait()
+    assert done.returncode == 0, f"the client failed (exit {done.returncode}):\n{done.stdout[-4000:]}"
+    assert ("client-server: the array's colour map and the view's camera; the image equals hv.render"
+            in done.stdout), done.stdout[-3000:]
+
+
+#: Typed into ParaView's Python Shell: what the GUI holds, for the test to read
+_EXPORT = ("import json; r = FindSource('HDRVolumeRender1'); v = GetActiveView(); "
+           "SaveData('{dir}/image{n}.vti', OutputPort(r, 0)); "
+           "json.dump(dict(view_size=list(v.ViewSize), camera=list(v.CameraPosition), "
+           "filter_camera=list(r.CameraPosition), image_size=list(r.ImageSize), "
+           "lut=r.LookupTable.SMProxy.GetGlobalIDAsString() if r.LookupTable else None, "
+           "array_lut=GetColorTransferFunction('ImageFile').SMProxy.GetGlobalIDAsString(), "
+           "connections=len(servermanager.Connections)), open('{dir}/state{n}.json', 'w'))")
+
+
+def _exported(folder, n):
+    """The HDR image (row 0 at the top) and the facts the Python Shell wrote."""
+    import json
+
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+    reader = vtkXMLImageDataReader()
+    reader.SetFileName(str(folder / f"image{n}.vti"))
+    reader.Update()
+    image = reader.GetOutput()
+    cols, rows, _ = image.GetDimensions()
+    data = image.GetPointData()
+    rgba = vtk_to_numpy(data.GetArray("rgba")).reshape(rows, cols, 4)[::-1]
+    shown = vtk_to_numpy(data.GetArray("tonemapped")).reshape(rows, cols, 3)[::-1]
+    return rgba, shown, json.loads((folder / f"state{n}.json").read_text())
+
+
+def _start_gui(args, tmp_path):
+    """ParaView's GUI with the plugin on PV_PLUGIN_PATH, on a private Xvfb."""
     paraview = _tool("paraview")
+    for tool in ("Xvfb", "xdotool", "import"):
+        _tool(tool)
+    from paraview_gui import ParaViewGUI
+
+    env = _paraview_environment()
+    env.update(PV_PLUGIN_PATH=str(REPO_ROOT / "paraview_plugin"))
+    gui = ParaViewGUI([paraview, "--dr", *args], env, tmp_path / "paraview.log", tmp_path)
+    gui.wait_for_window()
+    return gui
+
+
+def _open_python_shell(gui):
+    gui.menu(100, [])  # View > Python Shell
+    gui.click(149, 386)
+    time.sleep(3)
+
+
+def _export(gui, folder, n):
+    """Type the export line into the Python Shell; the image and facts it wrote."""
+    gui.click(700, 600)  # the Python Shell's input (a drag leaves the focus on the view)
+    gui.type_line(_EXPORT.format(dir=folder, n=n))
+    gui.wait_for(f"the Python Shell's export {n}", lambda: (folder / f"state{n}.json").exists(), 400)
+    return _exported(folder, n)
+
+
+def _on_screen(gui, rgba, shown, name):
+    """Wait until the view shows the render: its opaque pixels within 2 levels, 90 % of
+    them (the input's outline and the orientation axes cover up to 6 % seen); where it is."""
+    from paraview_gui import find_image
+
+    opaque = rgba[..., 3] >= 0.999
+    assert opaque.sum() > 2000, f"only {opaque.sum()} opaque pixels in the render"
+    assert len(np.unique(shown[opaque], axis=0)) > 50  # a picture, not a few flat colours
+    found = []
+
+    def matches():
+        found[:] = find_image(gui.screenshot(name), shown, opaque)
+        return found[2] >= 0.9
+
+    gui.wait_for(f"the render on screen ({name})", matches, 120, interval=2.0)
+    return found
+
+
+def _quit_cleanly(gui):
+    status = gui.quit()
+    log = gui.log()
+    assert status == 0, f"ParaView exited with {status}:\n{log[-3000:]}"
+    for bad in ("Traceback", "SIGSEGV", "Cannot connect null objects", "Error"):
+        assert bad not in log, f"{bad!r} in ParaView's output:\n{log[-3000:]}"
+
+
+def _keep_screenshots(gui, tmp_path, names):
+    keep = os.environ.get("PV_HDRVOL_GUI_SHOTS")  # where to keep the screenshots (docs/images)
+    if gui.alive():
+        gui.screenshot("failure.png")  # what the GUI showed, beside the log in tmp_path
+    gui.close()
+    for name in names if keep else ():
+        if (tmp_path / name).exists():
+            shutil.copy(tmp_path / name, os.path.join(keep, name))
+
+
+def test_gui_filters_menu_apply_rotate_and_exit(shared_data, tmp_path):
+    """ParaView's GUI as a person uses it, with real X events on Xvfb: open engine, Apply,
+    Filters > pv_hdrvol > HDR Volume Render, Apply; the view shows the render pixel for
+    pixel; a mouse drag turns the view and the volume is rendered again for the new
+    camera; Ctrl+Q exits with status 0. Nothing crashes, and the GUI has one session
+    (a second one, made by importing paraview.simple too early, crashed it at Apply)."""
+    engine = shared_data / "structured" / "engine_256x256x128_uint8.vti"
+    gui = _start_gui([str(engine)], tmp_path)
+    try:
+        gui.press_apply(timeout=120)  # the reader
+        time.sleep(2)
+        gui.menu(215, ["Up", "Right", "Up", "Return"])  # Filters > pv_hdrvol (last) > HDR Volume Render (last)
+        gui.press_apply()
+        time.sleep(2)
+        _open_python_shell(gui)
+        rgba1, shown1, state1 = _export(gui, tmp_path, 1)
+        assert state1["connections"] == 1, "a second session (ParaView's Python has a builtin server of its own)"
+        assert state1["lut"] == state1["array_lut"], "HDR Volume Render does not use the array's colour map"
+        assert state1["filter_camera"] == state1["camera"]
+        assert state1["image_size"] == state1["view_size"] == [shown1.shape[1], shown1.shape[0]]
+        top, left, _ = _on_screen(gui, rgba1, shown1, "before_rotation.png")
+        # turn the view with the mouse: the filter renders the volume again for the new camera
+        gui.drag((left + shown1.shape[1] // 2, top + shown1.shape[0] // 2), (160, 0))
+        time.sleep(2)
+        rgba2, shown2, state2 = _export(gui, tmp_path, 2)
+        assert state2["camera"] != state1["camera"], "the drag did not turn the view"
+        assert state2["filter_camera"] == state2["camera"]
+        assert not np.array_equal(rgba1, rgba2)
+        _on_screen(gui, rgba2, shown2, "after_rotation.png")
+        _quit_cleanly(gui)
+    finally:
+        _keep_screenshots(gui, tmp_path, ("before_rotation.png", "after_rotation.png"))
+
+
+def test_gui_loads_a_state_saved_in_pvbatch(shared_data, tmp_path):
+    """File > Load State's path (``paraview --state``) for a state saved in pvbatch with HDR
+    Volume Render shown: no traceback, the view shows the render, a drag re-renders it."""
+    pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     env = _paraview_environment()
-    shot = tmp_path / "gui.png"
-    env.update(PV_PLUGIN_PATH=str(REPO_ROOT / "paraview_plugin"), PV_HDRVOL_DATA=str(shared_data),
-               PV_HDRVOL_SCREENSHOT=str(shot))
-    # --dr: no saved settings (no first-start dialog waiting for a click)
-    command = [xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", paraview, "--dr",
-               "--script=" + str(REPO_ROOT / "tests" / "paraview" / "gui_smoke.py")]
-    done = subprocess.run(command, env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                          text=True, timeout=600)
-    assert done.returncode == 0, f"the GUI script failed (exit {done.returncode}):\n{done.stdout[-4000:]}"
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-    from vtkmodules.vtkIOImage import vtkPNGReader
-
-    png = vtkPNGReader()
-    png.SetFileName(str(shot))
-    png.Update()
-    assert png.GetOutput().GetDimensions()[:2] == (400, 300)
-    pixels = vtk_to_numpy(png.GetOutput().GetPointData().GetScalars())[:, :3].astype(int)
-    # the image (not the view's grey-blue background, not black) covers part of the shot
-    warm = (pixels[:, 0] > pixels[:, 2] + 40).mean()  # 0.028 seen: the engine's dense parts
-    assert warm > 0.01, f"no rendered volume in the screenshot ({warm:.3f} of the pixels)"
-    assert len(np.unique(pixels, axis=0)) > 200  # a picture, not a few flat colours
+    env.update(PV_PLUGIN_PATH=str(REPO_ROOT / "paraview_plugin"), PV_HDRVOL_DATA=str(shared_data))
+    state = tmp_path / "hdr.pvsm"
+    done = subprocess.run([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", pvbatch,
+                           str(REPO_ROOT / "tests" / "paraview" / "save_state.py"), str(state)], env=env,
+                          cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=900)
+    assert done.returncode == 0 and state.exists(), f"pvbatch could not save the state:\n{done.stdout[-3000:]}"
+    assert "Traceback" not in done.stdout, done.stdout[-3000:]
+    gui = _start_gui([f"--state={state}"], tmp_path)
+    try:
+        time.sleep(5)
+        _open_python_shell(gui)
+        rgba1, shown1, state1 = _export(gui, tmp_path, 1)
+        assert state1["connections"] == 1
+        assert state1["lut"] == state1["array_lut"]
+        top, left, _ = _on_screen(gui, rgba1, shown1, "state_loaded.png")
+        gui.drag((left + shown1.shape[1] // 2, top + shown1.shape[0] // 2), (0, 120))
+        time.sleep(2)
+        rgba2, shown2, state2 = _export(gui, tmp_path, 2)
+        assert state2["camera"] != state1["camera"] and state2["filter_camera"] == state2["camera"]
+        _on_screen(gui, rgba2, shown2, "state_rotated.png")
+        _quit_cleanly(gui)
+    finally:
+        _keep_screenshots(gui, tmp_path, ())
 
 
 def test_without_numba_the_plugin_says_so_and_paraview_goes_on(tmp_path):

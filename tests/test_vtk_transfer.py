@@ -221,3 +221,125 @@ def test_a_colour_map_does_not_keep_a_dropped_algorithm_alive():
     gc.collect()
     assert ref() is None
     ctf.AddRGBPoint(100.0, 0.5, 0.5, 0.5)  # its observer outlives the algorithm harmlessly
+
+
+# -- edges: the range ends, beyond them, 0 and negative values, mixed axes --------------
+def _edge_points(ctf, pwf):
+    """The colour map's and the opacity function's ends, 1e-9 (relative) and 1 beside
+    each, 0, negative values, far beyond, and 2001 points between (on both axes)."""
+    ends = [ctf.GetRange()[0], ctf.GetRange()[1], pwf.GetRange()[0], pwf.GetRange()[1]]
+    x = [0.0, -1.0, -1e-6, -1e3, 1e-6, 1e6]
+    for e in ends:
+        x += [e, e - 1e-9 * max(abs(e), 1.0), e + 1e-9 * max(abs(e), 1.0), e - 1.0, e + 1.0]
+    lo, hi = min(ends), max(ends)
+    between = np.linspace(lo, hi, 2001)
+    return np.concatenate([x, between, np.geomspace(max(lo, 1e-3), hi, 2001)])
+
+
+def _errors(tf, ctf, pwf, x):
+    rgb, alpha = _vtk_values(ctf, pwf, x)
+    return np.abs(tf.color_at(x) - rgb).max(), np.abs(tf.opacity_at(x) - alpha).max()
+
+
+_COLOUR_POINTS = [(1.0, 0.2, 0.3, 0.4), (100.0, 1.0, 0.5, 0.0), (255.0, 1.0, 0.9, 0.8)]
+#: (colour map log, opacity points, opacity log, the axis, the tolerance): linear on the
+#: same axis is exact; mixed axes within TOLERANCE
+_EDGE_CASES = {
+    "linear/linear": (False, [(-50.0, 0.2), (0.0, 0.0), (128.0, 0.3), (300.0, 1.0)], False, "linear", 1e-12),
+    "log/linear": (True, [(0.0, 0.0), (128.0, 0.3), (255.0, 1.0)], False, "symlog", TOLERANCE),
+    "linear/log": (False, [(0.5, 0.1), (10.0, 0.3), (255.0, 1.0)], True, "linear", TOLERANCE),
+    "log/log": (True, [(0.5, 0.1), (10.0, 0.3), (400.0, 1.0)], True, "log", 1e-12),
+}
+
+
+@pytest.mark.parametrize("clamping", [True, False])
+@pytest.mark.parametrize("case", list(_EDGE_CASES))
+def test_vtk_is_followed_at_and_beyond_the_range_ends(case, clamping):
+    colour_log, opacity_points, opacity_log, scale, tolerance = _EDGE_CASES[case]
+    ctf = _colors(_COLOUR_POINTS, log=colour_log)
+    pwf = _opacity(opacity_points, log=opacity_log)
+    ctf.SetClamping(int(clamping))  # off: black beyond the colour map's ends
+    pwf.SetClamping(int(clamping))  # off: opacity 0 beyond the opacity function's ends (and at its last point)
+    tf = transfer_function_from_vtk(ctf, pwf)
+    assert tf.scale == scale
+    colour_error, opacity_error = _errors(tf, ctf, pwf, _edge_points(ctf, pwf))
+    assert colour_error <= tolerance
+    assert opacity_error <= tolerance
+    assert tf.values.size < 500
+
+
+def test_reported_log_colour_map_with_a_linear_opacity_from_zero():
+    # A log lookup table over [1, 255] and a linear opacity function over [0, 255]
+    # gave zero voxels the opacity at 1 (1/255): on a log axis every value <= 0
+    # takes the first entry. A symlog axis (linthresh: the colour map's start) gives
+    # 0 and negative values their own.
+    ctf = _colors([(1.0, 0.0, 0.0, 0.0), (255.0, 1.0, 1.0, 1.0)], log=True)
+    pwf = _opacity([(0.0, 0.0), (255.0, 1.0)])
+    assert pwf.GetValue(0.0) == 0.0
+    tf = transfer_function_from_vtk(ctf, pwf)
+    assert (tf.scale, tf.linthresh, tf.vmin, tf.vmax) == ("symlog", 1.0, 0.0, 255.0)
+    assert float(tf.opacity_at(0.0)) == 0.0
+    x = np.array([-100.0, -1.0, 0.0, 0.25, 0.5, 1.0, 2.0, 10.0, 100.0, 254.0, 255.0, 1000.0])
+    rgb, alpha = _vtk_values(ctf, pwf, x)
+    np.testing.assert_allclose(tf.opacity_at(x), alpha, rtol=0, atol=TOLERANCE)
+    np.testing.assert_allclose(tf.color_at(x), rgb, rtol=0, atol=TOLERANCE)
+    np.testing.assert_array_equal(tf.opacity_at(np.array([-100.0, -1.0, 0.0, 255.0, 1000.0])),
+                                  [0.0, 0.0, 0.0, 1.0, 1.0])
+
+
+def test_log_colour_map_keeps_its_log_axis_where_vtk_is_constant_up_to_it():
+    # opacity 0 from -10 to 10 covers the colour map's start (1): a log axis, whose
+    # first entry every value <= 0 takes, is then exact
+    ctf = _colors(_COLOUR_POINTS, log=True)
+    pwf = _opacity([(-10.0, 0.0), (0.0, 0.0), (10.0, 0.0), (255.0, 1.0)])
+    tf = transfer_function_from_vtk(ctf, pwf)
+    assert tf.scale == "log"
+    assert tf.vmin == 1.0
+    colour_error, opacity_error = _errors(tf, ctf, pwf, _edge_points(ctf, pwf))
+    assert colour_error <= 1e-12
+    assert opacity_error <= TOLERANCE  # linear opacity on the log axis: halved segments
+
+
+def test_below_and_above_range_colours_are_followed():
+    # GetColor gives them beyond the range when clamping is on; DeepCopy drops them
+    ctf = _colors([(1.0, 0.2, 0.3, 0.4), (255.0, 1.0, 0.9, 0.8)])
+    ctf.SetUseBelowRangeColor(1)
+    ctf.SetBelowRangeColor(0.1, 0.5, 0.9)
+    ctf.SetUseAboveRangeColor(1)
+    ctf.SetAboveRangeColor(0.7, 0.7, 0.7)
+    pwf = _opacity([(0.0, 0.0), (300.0, 1.0)])
+    tf = transfer_function_from_vtk(ctf, pwf)
+    x = np.array([-5.0, 0.0, np.nextafter(1.0, 0.0), 1.0, 2.0, 255.0, np.nextafter(255.0, 300.0), 300.0, 400.0])
+    rgb, alpha = _vtk_values(ctf, pwf, x)
+    assert rgb[0].tolist() == [0.1, 0.5, 0.9] and rgb[-1].tolist() == [0.7, 0.7, 0.7]
+    np.testing.assert_allclose(tf.color_at(x), rgb, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(tf.opacity_at(x), alpha, rtol=0, atol=1e-12)
+
+
+def test_log_opacity_function_through_zero_is_a_clear_error():
+    ctf = _colors(_COLOUR_POINTS, log=True)
+    pwf = _opacity([(0.0, 0.0), (255.0, 1.0)], log=True)
+    assert np.isnan(pwf.GetValue(10.0))  # VTK's own value: log10 of the point at 0
+    with pytest.raises(ValueError) as info:
+        transfer_function_from_vtk(ctf, pwf)
+    assert str(info.value) == (
+        "the opacity function uses a log scale but its range [0.0, 255.0] is not positive (VTK evaluates it as "
+        "NaN there): move its points above 0 or turn its log scale off (SetUseLogScale(0); ParaView: the "
+        "opacity function's UseLogScale = 0)")
+    with pytest.raises(ValueError) as info:
+        transfer_function_from_vtk(_colors([(-1.0, 0, 0, 0), (1.0, 1, 1, 1)], log=True))
+    assert str(info.value) == (
+        "the colour map uses a log scale but its range [-1.0, 1.0] is not positive (VTK then interpolates it "
+        "linearly): turn its log scale off (SetScale(0); ParaView: UseLogScale = 0) or move its first point "
+        "above 0")
+
+
+def test_too_many_control_points_is_a_clear_error(monkeypatch):
+    from pv_hdrvol.integrations import vtk_transfer
+
+    monkeypatch.setattr(vtk_transfer, "MAX_POINTS", 8)
+    ctf = _colors(_COLOUR_POINTS, log=True)
+    with pytest.raises(ValueError, match=r"^following VTK's colour map and opacity function within 0.0001 needs "
+                                         r"more than 8 control points \(still .* off between .* on a symlog "
+                                         r"axis\): put the opacity function on the colour map's axis"):
+        transfer_function_from_vtk(ctf, _opacity([(0.0, 0.0), (255.0, 1.0)]))

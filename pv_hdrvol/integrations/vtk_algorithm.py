@@ -181,6 +181,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._plan = None  # (key, GridPlan or TetPlan): kept while data, tf and options are unchanged
         self._default_tf = None  # (data, keywords, the data's default transfer function)
         self._camera = None
+        self._last_camera = None
         self._lens = None
         self._cull = None
         self._labels = None
@@ -447,6 +448,11 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             self._lens = lens
             self.Modified()
 
+    def GetLastCamera(self):
+        """The :class:`~pv_hdrvol.Camera` of the last render (a view name or fields
+        resolved), or ``None`` before the first."""
+        return self._last_camera
+
     def GetLens(self):
         """The lens set last, or ``None``."""
         return self._lens
@@ -547,6 +553,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         scalars, preference = self._scalars_to_render()
         camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
                            inp.GetBounds())
+        self._last_camera = camera
         tf = self._transfer_function()
 
         first = _first_use(kind == "vtkUnstructuredGrid", self._options.precision)

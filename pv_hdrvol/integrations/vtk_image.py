@@ -60,6 +60,19 @@ def _set_whole_extent(info, cols, rows):
     info.Set(vtkDataObject.ORIGIN(), 0.0, 0.0, 0.0)
 
 
+def _empty_on_another_rank(inInfo, port):
+    """Whether input ``port`` is empty on an MPI rank other than 0: where HDR Volume
+    Render puts no image (rank 0 holds the whole one), the filters after it output an
+    empty image and the writers write nothing, as VTK's parallel pipelines do."""
+    image = vtkDataObject.GetData(inInfo[port])
+    if image is not None and image.GetNumberOfPoints():
+        return False
+    from vtkmodules.vtkParallelCore import vtkMultiProcessController
+
+    controller = vtkMultiProcessController.GetGlobalController()
+    return controller is not None and controller.GetNumberOfProcesses() > 1 and controller.GetLocalProcessId() != 0
+
+
 def _image_on(inInfo, port, who):
     """The 2-D, non-empty ``vtkImageData`` on input ``port``; ``(image, cols, rows)``."""
     image = vtkImageData.GetData(inInfo[port])
@@ -240,6 +253,9 @@ class HDRToneMapper(_ImageOutput, _ReportingAlgorithm):
         return values.reshape(rows, cols, n)[::-1]
 
     def _execute(self, inInfo, outInfo):
+        if _empty_on_another_rank(inInfo, 0):
+            vtkImageData.GetData(outInfo).Initialize()
+            return 1
         image, cols, rows = _image_on(inInfo, 0, "HDRToneMapper")
         pixels = self._pixels(image, cols, rows)
         operator = make_operator(self._operator, **self._parameters)  # the parameters meet the operator here
@@ -445,6 +461,8 @@ class HDRImageWriter(_ReportingAlgorithm):
     def _execute(self, inInfo, outInfo):
         if self._file_name is None:
             raise ValueError("HDRImageWriter has no file to write: call SetFileName(path)")
+        if _empty_on_another_rank(inInfo, 0):  # rank 0 writes the image
+            return 1
         image, _, _ = _image_on(inInfo, 0, "HDRImageWriter")
         self.UpdateProgress(0.0)
         HDRImage.from_pyvista(image).save(self._file_name, pixel_type=self._pixel_type)
@@ -574,6 +592,9 @@ class HDRUpsampler(_ImageOutput, _ReportingAlgorithm):
     def _execute(self, inInfo, outInfo):
         from ..raycast.layers import depth_layers
 
+        if _empty_on_another_rank(inInfo, 0):
+            vtkImageData.GetData(outInfo).Initialize()
+            return 1
         vtk_image, cols, rows = _image_on(inInfo, 0, "HDRUpsampler")
         image = HDRImage.from_pyvista(vtk_image)
         dataset = vtkDataSet.GetData(inInfo[1]) if inInfo[1].GetNumberOfInformationObjects() else None

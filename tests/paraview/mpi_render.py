@@ -52,6 +52,45 @@ def main():
               f"dataset", flush=True)
         simple.Delete(render)
         simple.Delete(reader)
+    color_map_editor(rank)
+
+
+def color_map_editor(rank):
+    """Without a view, Scalars set after the filter is made (as a script does): every rank
+    takes the array's colour map, rank 0 renders with it; SaveData (.exr) and HDR
+    Tone Map work on every rank (rank 0 writes, the others hold no image)."""
+    from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+    name, array, whole_reader = CASES[0]
+    reader = simple.OpenDataFile(os.path.join(DATA, name))
+    render = simple.HDRVolumeRender(Input=reader, ImageSize=[32, 24], Camera="iso")
+    render.Scalars = ["POINTS", array]
+    lut = simple.GetColorTransferFunction(array)
+    assert render.LookupTable == lut, (rank, render.LookupTable)
+    assert render.ScalarOpacityFunction == simple.GetOpacityTransferFunction(array)
+    render.UpdatePipeline()
+    out = render.GetClientSideObject().GetOutputDataObject(0)
+    folder = os.environ["PV_HDRVOL_MPI_OUT"]
+    simple.SaveData(os.path.join(folder, "render.exr"), proxy=simple.OutputPort(render, 0))
+    tonemap = simple.HDRToneMap(Input=simple.OutputPort(render, 0))
+    tonemap.UpdatePipeline()
+    shown = tonemap.GetClientSideObject().GetOutputDataObject(0)
+    if rank != 0:
+        assert out.GetNumberOfPoints() == 0 and shown.GetNumberOfPoints() == 0
+        print(f"rank {rank}: the array's colour map; no image, nothing written", flush=True)
+        return
+    whole = whole_reader()
+    whole.SetFileName(os.path.join(DATA, name))
+    whole.Update()
+    tf = transfer_function_from_vtk(lut.GetClientSideObject(), simple.GetOpacityTransferFunction(array)
+                                    .GetClientSideObject())
+    expected = hv.render(whole.GetOutput(), tf, "iso", (32, 24), scalars=array, progress_bar=False)
+    got = hv.HDRImage.from_pyvista(out)
+    np.testing.assert_array_equal(got.rgba, expected.rgba)
+    np.testing.assert_array_equal(hv.load(os.path.join(folder, "render.exr")).rgba, expected.rgba.astype(np.float32))
+    assert shown.GetPointData().GetArray("tonemapped") is not None
+    print(f"rank 0: the array's colour map, equal to hv.render with it; render.exr written",
+          flush=True)
 
 
 if __name__ == "__main__":

@@ -247,3 +247,94 @@ def test_pof_file_culls_with_the_family_of_its_bases(plugin, tmp_path):
     assert "culling" not in _image(render).metadata
     simple.Delete(render)
     simple.Delete(view)
+
+
+def _warnings(action):
+    """What ``action()`` writes to VTK's output window."""
+    from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow
+
+    window, previous = vtkStringOutputWindow(), vtkOutputWindow.GetInstance()
+    vtkOutputWindow.SetInstance(window)
+    try:
+        action()
+    finally:
+        vtkOutputWindow.SetInstance(previous)
+    return window.GetOutput()
+
+
+def test_in_view_output_is_the_image_at_its_depth(plugin, shared_data):
+    """Port 1: one quad per visible pixel with its colours, seen from the render's camera
+    at the pixel's depth (the unit test checks the geometry; here, that ParaView gets it)."""
+    reader, array = _reader(shared_data, ENGINE)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[40, 30], Camera="iso",
+                                       TransferFunction="pv_hdrvol default")
+    image = _image(render)
+    surface = render.GetClientSideObject().GetOutputDataObject(1)
+    assert surface.GetClassName() == "vtkPolyData"
+    visible = (image.rgba[..., 3] >= 0.5 / 255).sum()
+    assert visible > 100 and surface.GetNumberOfCells() == visible
+    colors = surface.GetCellData().GetArray("colors")
+    assert colors.GetNumberOfComponents() == 4 and colors.GetDataTypeAsString() == "unsigned char"
+    simple.Delete(render)
+
+
+def test_a_refused_value_fails_the_render_until_fixed(plugin, shared_data):
+    """A value a setter refuses is not silently replaced by the previous one: the next
+    update fails with it (GetLastError), a valid value renders again."""
+    reader, array = _reader(shared_data, ENGINE)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[16, 12], Camera="iso",
+                                       TransferFunction="pv_hdrvol default")
+    assert _error_text(render) is None
+    # through the proxy, as the Properties panel and scripts set it: the setter's
+    # exception is printed by ParaView, the property holds the refused value
+    said = _warnings(lambda: setattr(render, "ImageSize", [0, 10]))
+    text = _error_text(render)
+    assert text.startswith("ValueError: Image Size was refused (ValueError: ") and "set a valid value" in text, text
+    render.ImageSize = [20, 10]
+    assert _error_text(render) is None and _image(render).rgba.shape == (10, 20, 4)
+    render.POFFile = "/no/such.pof.npz"
+    assert _error_text(render).startswith("ValueError: POF File was refused (ValueError: POF File "
+                                          "'/no/such.pof.npz' is not a file")
+    render.POFFile = ""
+    assert _error_text(render) is None
+    tone = plugin["HDRToneMap"](Input=render)  # no Parameters: no traceback (ParaView pushes None)
+    said = _warnings(tone.UpdatePipeline)
+    assert tone.GetClientSideObject().GetLastError() is None and "Traceback" not in said, said
+    tone.Parameters = "key"
+    tone.UpdatePipeline()
+    assert tone.GetClientSideObject().GetLastError().startswith("ValueError: Parameters was refused")
+    simple.Delete(tone)
+    simple.Delete(render)
+
+
+def test_color_map_editor_without_a_lookup_table_says_so(plugin, shared_data):
+    reader, array = _reader(shared_data, ENGINE)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[16, 12], Camera="iso")
+    assert render.LookupTable == simple.GetColorTransferFunction(array)
+    render.LookupTable = None
+    render.ScalarOpacityFunction = None
+    said = _warnings(render.UpdatePipeline)
+    assert "Transfer Function is 'Color Map Editor' but its Lookup Table is not set" in said, said
+    assert "LookupTable = GetColorTransferFunction(array)" in said
+    render.TransferFunction = "pv_hdrvol default"
+    assert "Lookup Table" not in _warnings(render.UpdatePipeline)
+    simple.Delete(render)
+
+
+def test_lookup_table_follows_scalars_set_after_the_filter(plugin):
+    """A script sets Scalars after making the filter: the plugin's lookup table follows
+    the new array; one the user set is kept."""
+    source = simple.Wavelet()
+    calculator = simple.Calculator(Input=source, ResultArrayName="doubled", Function="2*RTData")
+    calculator.UpdatePipeline()
+    render = plugin["HDRVolumeRender"](Input=calculator, ImageSize=[8, 8], Camera="iso")
+    render.Scalars = ["POINTS", "RTData"]
+    assert render.LookupTable == simple.GetColorTransferFunction("RTData")
+    render.Scalars = ["POINTS", "doubled"]
+    assert render.LookupTable == simple.GetColorTransferFunction("doubled")
+    assert render.ScalarOpacityFunction == simple.GetOpacityTransferFunction("doubled")
+    mine = simple.GetColorTransferFunction("mine")
+    render.LookupTable = mine
+    render.Scalars = ["POINTS", "RTData"]
+    assert render.LookupTable == mine
+    simple.Delete(render)

@@ -1,0 +1,32 @@
+"""Save a ParaView state with HDR Volume Render shown in a render view, as a pvbatch
+user would: ``pvbatch save_state.py OUT.pvsm`` (plugin on PV_PLUGIN_PATH, engine from
+$PV_HDRVOL_DATA). tests/test_paraview.py loads it in the GUI."""
+import os
+import sys
+
+from paraview import simple
+
+try:
+    out = sys.argv[1]
+    assert hasattr(simple, "HDRVolumeRender"), "the plugin did not auto-load from PV_PLUGIN_PATH"
+    reader = simple.OpenDataFile(os.path.join(os.environ["PV_HDRVOL_DATA"], "structured",
+                                              "engine_256x256x128_uint8.vti"))
+    view = simple.GetActiveViewOrCreate("RenderView")
+    view.ViewSize = [600, 400]
+    simple.Show(reader, view)
+    simple.ResetCamera(view)
+    view.GetActiveCamera().Elevation(20)
+    render = simple.HDRVolumeRender(Input=reader)
+    assert render.LookupTable is not None, "the filter did not take the array's colour map"
+    simple.Show(simple.OutputPort(render, 1), view)
+    simple.Render(view)
+    simple.SaveState(out)
+    print(f"saved {out}", flush=True)
+    code = 0
+except BaseException:
+    import traceback
+
+    traceback.print_exc()
+    code = 1
+sys.stdout.flush()
+os._exit(code)

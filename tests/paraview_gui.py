@@ -1,0 +1,184 @@
+"""Drive ParaView's GUI as a person does: real X events (XTest through ``xdotool``) on a
+private Xvfb, screenshots of the X screen (ImageMagick's ``import``).
+
+Used by tests/test_paraview.py from the main suite's interpreter (not inside ParaView).
+What the GUI holds is read back the way a user would: typed into View > Python Shell,
+which writes files the test reads. Coordinates are those of ParaView 5.11's default
+layout (``--dr``: no saved settings) on a 1280x1024 screen; the Apply button and the
+render view are found in the screenshot by their colours, not assumed.
+"""
+import os
+import subprocess
+import time
+
+import numpy as np
+
+SCREEN = (1280, 1024)
+#: ParaView's default render-view background, (0.32, 0.34, 0.43) as 8-bit sRGB
+BACKGROUND = (82, 87, 110)
+#: The Apply button while something waits to be applied (ParaView's green)
+APPLY_GREEN = ((100, 200), (180, 255), (100, 200))  # (low, high) of R, G, B
+
+
+class GUIError(AssertionError):
+    pass
+
+
+class ParaViewGUI:
+    """A ParaView GUI on its own Xvfb display, started with ``args`` and ``env``."""
+
+    def __init__(self, args, env, log_path, shot_dir):
+        self.shot_dir = shot_dir
+        self.xvfb = subprocess.Popen(["Xvfb", "-displayfd", "1", "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24",
+                                      "-nolisten", "tcp"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                     text=True)
+        display = self.xvfb.stdout.readline().strip()
+        if not display.isdigit():
+            self.xvfb.kill()
+            raise GUIError(f"Xvfb gave no display number ({display!r})")
+        self.env = dict(env, DISPLAY=f":{display}")
+        self.log_path = log_path
+        self._log = open(log_path, "w")
+        self.process = subprocess.Popen(args, env=self.env, stdout=self._log, stderr=subprocess.STDOUT)
+        self.shots = 0
+
+    # -- X ---------------------------------------------------------------------------
+    def xdotool(self, *args):
+        subprocess.run(["xdotool", *map(str, args)], env=self.env, check=True, timeout=60)
+
+    def screenshot(self, name=None):
+        """The X screen as an (rows, cols, 3) uint8 array (and a PNG in shot_dir)."""
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+        from vtkmodules.vtkIOImage import vtkPNGReader
+
+        self.shots += 1
+        path = os.path.join(self.shot_dir, name or f"shot{self.shots:02d}.png")
+        subprocess.run(["import", "-window", "root", path], env=self.env, check=True, timeout=60)
+        reader = vtkPNGReader()
+        reader.SetFileName(path)
+        reader.Update()
+        image = reader.GetOutput()
+        cols, rows, _ = image.GetDimensions()
+        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(rows, cols, -1)[::-1, :, :3]
+        return np.ascontiguousarray(pixels)
+
+    def alive(self):
+        return self.process.poll() is None
+
+    def log(self):
+        self._log.flush()
+        with open(self.log_path) as f:
+            return f.read()
+
+    def check_alive(self, step):
+        if not self.alive():
+            raise GUIError(f"ParaView died ({self.process.returncode}) {step}:\n{self.log()[-4000:]}")
+
+    def wait_for(self, what, condition, timeout, interval=1.0):
+        """Poll ``condition()`` until it is true; fail naming ``what`` after ``timeout`` s."""
+        end = time.monotonic() + timeout
+        while True:
+            self.check_alive(f"while waiting for {what}")
+            value = condition()
+            if value:
+                return value
+            if time.monotonic() > end:
+                raise GUIError(f"timed out after {timeout} s waiting for {what}")
+            time.sleep(interval)
+
+    def wait_for_window(self, timeout=120):
+        def found():
+            done = subprocess.run(["xdotool", "search", "--onlyvisible", "--name", "ParaView"], env=self.env,
+                                  stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+            return done.stdout.split()
+
+        self.wait_for("ParaView's window", found, timeout)
+
+    # -- what a person does ----------------------------------------------------------
+    def click(self, x, y, button=1):
+        self.xdotool("mousemove", x, y)
+        time.sleep(0.2)
+        self.xdotool("click", button)
+
+    def apply_button(self, shot=None):
+        """Centre of the green (pending) Apply button, or None."""
+        shot = self.screenshot() if shot is None else shot
+        (r0, r1), (g0, g1), (b0, b1) = APPLY_GREEN
+        panel = shot[300:600, :300].astype(int)
+        mask = ((panel[..., 0] >= r0) & (panel[..., 0] <= r1) & (panel[..., 1] >= g0) & (panel[..., 1] <= g1)
+                & (panel[..., 2] >= b0) & (panel[..., 2] <= b1) & (panel[..., 1] > panel[..., 0] + 30))
+        if mask.sum() < 200:
+            return None
+        rows, cols = np.nonzero(mask)
+        return int(cols.mean()), int(rows.mean()) + 300
+
+    def press_apply(self, timeout=60):
+        x, y = self.wait_for("the Apply button to turn green", self.apply_button, timeout)
+        self.click(x, y)
+
+    def menu(self, x_title, keys):
+        """Open the menu whose title is at ``x_title`` on the menu bar, then press ``keys``."""
+        self.click(x_title, 10)
+        time.sleep(1.0)
+        for key in keys:
+            self.xdotool("key", key)
+            time.sleep(0.5)
+
+    def drag(self, start, delta, steps=12):
+        x, y = start
+        self.xdotool("mousemove", x, y)
+        time.sleep(0.2)
+        self.xdotool("mousedown", 1)
+        for i in range(1, steps + 1):
+            self.xdotool("mousemove", x + delta[0] * i // steps, y + delta[1] * i // steps)
+            time.sleep(0.05)
+        self.xdotool("mouseup", 1)
+
+    def type_line(self, text):
+        self.xdotool("type", "--delay", 4, text)
+        self.xdotool("key", "Return")
+
+    def quit(self, timeout=60):
+        """File > Exit by its shortcut; the exit status."""
+        self.xdotool("key", "ctrl+q")
+        try:
+            return self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            raise GUIError(f"ParaView did not exit within {timeout} s of Ctrl+Q") from None
+
+    def close(self):
+        for proc in (self.process, self.xvfb):
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        self._log.close()
+
+
+def view_rectangle(shot):
+    """(top, left, rows, cols) of the render view: the bounding box of its background colour."""
+    mask = np.all(shot == BACKGROUND, axis=2)
+    rows = np.nonzero(mask.sum(axis=1) > 50)[0]
+    cols = np.nonzero(mask.sum(axis=0) > 50)[0]
+    if rows.size == 0 or cols.size == 0:
+        raise GUIError("no render view (its background colour) in the screenshot")
+    return rows[0], cols[0], rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1
+
+
+def find_image(shot, image, opaque, search=6):
+    """Where ``image`` (rows, cols, 3 uint8) lies in ``shot``, matched on its ``opaque``
+    pixels: ``(top, left, fraction of opaque pixels within 2 levels)`` of the best
+    offset near the render view's rectangle."""
+    top, left, _, _ = view_rectangle(shot)
+    rows, cols = image.shape[:2]
+    best = (top, left, -1.0)
+    ii, jj = np.nonzero(opaque)
+    for dt in range(-search, search + 1):
+        for dl in range(-search, search + 1):
+            t, l = top + dt, left + dl
+            if t < 0 or l < 0 or t + rows > shot.shape[0] or l + cols > shot.shape[1]:
+                continue
+            diff = np.abs(shot[t + ii, l + jj].astype(int) - image[ii, jj].astype(int)).max(axis=1)
+            fraction = float((diff <= 2).mean()) if diff.size else 0.0
+            if fraction > best[2]:
+                best = (t, l, fraction)
+    return best

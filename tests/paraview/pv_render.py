@@ -338,3 +338,64 @@ def test_lookup_table_follows_scalars_set_after_the_filter(plugin):
     render.Scalars = ["POINTS", "RTData"]
     assert render.LookupTable == mine
     simple.Delete(render)
+
+
+def test_meshes_in_front_hide_the_volume_and_behind_are_hidden(plugin, shared_data, tmp_path):
+    """The In View surface lies at the volume's depth: an opaque sphere between the camera
+    and the volume covers it, the same sphere behind the volume is covered where the
+    volume is opaque."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOImage import vtkPNGReader
+
+    reader, array = _reader(shared_data, ENGINE)
+    view = simple.CreateView("RenderView")
+    view.ViewSize = [160, 120]
+    view.OrientationAxesVisibility = 0
+    view.Background = [0.0, 0.0, 0.0]
+    view.UseColorPaletteForBackground = 0
+    simple.SetActiveView(view)
+    simple.ResetCamera(view)  # no input shown: frame the volume by hand
+    bounds = reader.GetDataInformation().GetBounds()
+    centre = [(bounds[0] + bounds[1]) / 2, (bounds[2] + bounds[3]) / 2, (bounds[4] + bounds[5]) / 2]
+    view.CameraFocalPoint = centre
+    view.CameraPosition = [centre[0], centre[1], centre[2] + 800.0]
+    view.CameraViewUp = [0.0, 1.0, 0.0]
+    render = plugin["HDRVolumeRender"](Input=reader)
+    assert list(render.ImageSize) == [160, 120]
+    shown = simple.Show(simple.OutputPort(render, 1), view)
+    assert shown.MapScalars == 0 and shown.Ambient == 1.0 and shown.Diffuse == 0.0
+    image = _image(render)
+    opaque = image.rgba[..., 3] >= 0.99
+
+    def screenshot(name):
+        path = str(tmp_path / name)
+        simple.SaveScreenshot(path, view, ImageResolution=[160, 120])
+        png = vtkPNGReader()
+        png.SetFileName(path)
+        png.Update()
+        return vtk_to_numpy(png.GetOutput().GetPointData().GetScalars()).reshape(120, 160, -1)[::-1, :, :3]
+
+    sphere = simple.Sphere(Center=centre, Radius=20.0, ThetaResolution=32, PhiResolution=32)
+    simple.Show(sphere, view)
+    sphere_shown = simple.GetDisplayProperties(sphere, view)
+    sphere_shown.AmbientColor = sphere_shown.DiffuseColor = [0.0, 1.0, 0.0]
+    sphere_shown.Ambient, sphere_shown.Diffuse = 1.0, 0.0  # flat green, whatever the lights
+
+    def green(shot):
+        shot = shot.astype(int)
+        return (shot[..., 1] > 200) & (shot[..., 0] < 60) & (shot[..., 2] < 60)
+
+    sphere.Center = [centre[0], centre[1], bounds[5] + 100.0]  # between the camera and the volume
+    front = green(screenshot("front.png"))
+    assert front[57:63, 77:83].all()  # the sphere covers the middle of the view
+    covered = front & opaque  # where the sphere hides opaque volume
+    assert covered.sum() > 100, covered.sum()
+    sphere.Center = [centre[0], centre[1], bounds[4] - 100.0]  # behind the volume
+    behind = screenshot("behind.png").astype(int)
+    simple.Hide(sphere, view)
+    alone = screenshot("alone.png").astype(int)
+    # where the volume is opaque the sphere behind it changes nothing
+    assert np.abs(behind - alone)[covered].max() <= 1
+    simple.Delete(sphere)
+    simple.Delete(render)
+    simple.Delete(view)

@@ -806,6 +806,27 @@ if HDRVolumeRenderer is not None:
 
     _install_client_hook()
 
+    def _check_mpi_launch():
+        """Say so when an mpiexec started several processes but ParaView runs as one: an
+        mpiexec of another MPI than ParaView's (the MPICH of pip's mpi4py first on PATH,
+        where Debian's ParaView uses Open MPI) starts independent serial processes, each
+        rendering everything and writing the same files."""
+        launched = next((int(os.environ[name]) for name in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE",
+                                                            "MPI_LOCALNRANKS")
+                         if os.environ.get(name, "").isdigit()), 1)
+        if launched < 2:
+            return
+        from vtkmodules.vtkParallelCore import vtkMultiProcessController
+
+        controller = vtkMultiProcessController.GetGlobalController()
+        if controller is None or controller.GetNumberOfProcesses() == 1:
+            _say(f"this process was started by an mpiexec of {launched} processes, but ParaView runs as one: that "
+                 f"mpiexec is not the one of the MPI ParaView was built with (Debian's ParaView: Open MPI's "
+                 f"/usr/bin/mpiexec; check `mpiexec --version`), or pvbatch lacks --mpi. Each process renders "
+                 f"all of the data and they write the same files.")
+
+    _check_mpi_launch()
+
     # --------------------------------------------------------------------------------
     @smproxy.filter(name="HDRToneMap", label="HDR Tone Map", support_reload=False)
     @smhint.xml('<ShowInMenu category="pv_hdrvol"/>')

@@ -102,6 +102,27 @@ def test_one_rank_renders_the_whole_volume_under_mpi(shared_data, tmp_path):
         assert bad not in done.stdout, f"{bad!r} in the output:\n{done.stdout[-3000:]}"
 
 
+def test_an_mpiexec_of_another_mpi_is_named():
+    """MPICH's mpiexec (pip's ``mpich``, in the test extras) starts pvbatch as independent
+    serial processes, since Debian's ParaView uses Open MPI: each says so at plugin load;
+    under Open MPI's /usr/bin/mpiexec nothing is said."""
+    import glob
+
+    pvbatch = _tool("pvbatch")
+    candidates = [path for path in glob.glob(os.path.join(os.path.dirname(sys.executable), "mpiexec*"))
+                  if os.path.basename(path) in ("mpiexec", "mpiexec.hydra")]
+    assert candidates, f"no MPICH mpiexec beside {sys.executable} (pip install mpich: the test extras have it)"
+    env = _paraview_environment()
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    said = "this process was started by an mpiexec of 2 processes, but ParaView runs as one"
+    for mpiexec, count in ((candidates[0], 2), ("/usr/bin/mpiexec", 0)):
+        done = subprocess.run([mpiexec, "-n", "2", pvbatch, "--mpi", "--symmetric",
+                               str(REPO_ROOT / "tests" / "paraview" / "load_only.py")], env=env, cwd=REPO_ROOT,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=300)
+        assert done.returncode == 0 and done.stdout.count("loaded: True") == 2, done.stdout[-3000:]
+        assert done.stdout.count(said) == count, (mpiexec, done.stdout[-3000:])
+
+
 def test_client_server(shared_data):
     """``pvserver`` and ``pvpython`` connected over the loopback: the filter runs on the
     server, the plugin's client side links the view's camera and the array's colour map

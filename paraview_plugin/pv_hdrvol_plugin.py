@@ -164,9 +164,10 @@ if HDRVolumeRenderer is not None:
     # view like a plane. Port 1, the image as a surface facing the camera at the
     # volume's depth, is what the render view shows (pv_hdrvol.integrations.vtk_surface).
     @smhint.xml('<ShowInMenu category="pv_hdrvol"/>'
-                '<OutputPort index="0" name="HDR Image"/><OutputPort index="1" name="In View"/>'
                 '<View type="None" port="0"/><Visibility replace_input="0"/>'
                 '<RepresentationType view="RenderView" type="Surface" port="1"/>')
+    @smproperty.xml('<OutputPort name="HDR Image" index="0"/>')
+    @smproperty.xml('<OutputPort name="In View" index="1"/>')
     @smproperty.input(name="Input", port_index=0)
     @smdomain.datatype(dataTypes=["vtkImageData", "vtkUnstructuredGrid"], composite_data_supported=False)
     @smdomain.xml('<InputArrayDomain name="input_array" attribute_type="any" number_of_components="1"/>')
@@ -629,6 +630,20 @@ if HDRVolumeRenderer is not None:
             return  # the user's table
         scalars = _property(proxy, "SelectInputScalars") or []
         association, name = (scalars[3], scalars[4]) if len(scalars) == 5 else ("0", "")
+        inputs = proxy.GetProperty("Input")
+        if not name and inputs is not None and inputs.GetNumberOfProxies():
+            # a script's input that has not run yet lists no arrays, so Scalars got no
+            # default: run it (the render needs it anyway) and take the domain's default
+            inputs.GetProxy(0).UpdatePipeline()
+            proxy.UpdatePropertyInformation()
+            selection = proxy.GetProperty("SelectInputScalars")
+            domain = selection.GetDomain("array_list")
+            if domain is not None:
+                domain.Update(None)
+            selection.ResetToDomainDefaults()
+            proxy.UpdateVTKObjects()
+            scalars = _property(proxy, "SelectInputScalars") or []
+            association, name = (scalars[3], scalars[4]) if len(scalars) == 5 else ("0", "")
         if not name:
             return
         pxm = proxy.GetSessionProxyManager()

@@ -11,6 +11,7 @@ installed with ``/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR`
 ``PV_HDRVOL_PARAVIEW_NUMBA_CACHE``: numba's cache folder there (default: the plugin's,
 one per numba version); never the folder of this interpreter's numba.
 """
+import contextlib
 import os
 import shutil
 import subprocess
@@ -135,8 +136,10 @@ def test_client_server(shared_data):
         port = probe.getsockname()[1]
     env = _paraview_environment()
     env.update(PV_HDRVOL_DATA=str(shared_data))
+    # a process group of its own: xvfb-run, its Xvfb and pvserver are ended together
     server = subprocess.Popen([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", pvserver, f"--server-port={port}",
-                               "--timeout=10"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                               "--timeout=10"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                              start_new_session=True)
     try:
         lines = []
         for line in server.stdout:  # wait until it listens
@@ -149,7 +152,10 @@ def test_client_server(shared_data):
                                str(REPO_ROOT / "tests" / "paraview" / "client_server.py"), str(port)], env=env,
                               cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=900)
     finally:
-        server.kill()
+        import signal
+
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(server.pid, signal.SIGKILL)
         server.wait()
     assert done.returncode == 0, f"the client failed (exit {done.returncode}):\n{done.stdout[-4000:]}"
     assert ("client-server: the array's colour map and the view's camera; the image equals hv.render"

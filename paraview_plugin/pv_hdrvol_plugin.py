@@ -669,21 +669,25 @@ if HDRVolumeRenderer is not None:
 
         vtkOutputWindow.GetInstance().DisplayWarningText(f"pv_hdrvol plugin: {text}\n")
 
-    def _filters(pxm):
-        """The HDR Volume Render proxies registered in ``pxm``'s session."""
+    def _registered(pxm, group):
+        """The proxies registered in ``pxm``'s session under ``group`` (a list: callers
+        may register or unregister proxies while they go through it)."""
         from paraview.modules.vtkRemotingServerManager import vtkSMProxyIterator
 
         found = []
         iterator = vtkSMProxyIterator()
         iterator.SetSessionProxyManager(pxm)
         iterator.SetModeToOneGroup()
-        iterator.Begin("sources")
+        iterator.Begin(group)
         while not iterator.IsAtEnd():
-            proxy = iterator.GetProxy()
-            if proxy is not None and proxy.GetXMLName() == "HDRVolumeRender":
-                found.append(proxy)
+            if iterator.GetProxy() is not None:
+                found.append(iterator.GetProxy())
             iterator.Next()
         return found
+
+    def _filters(pxm):
+        """The HDR Volume Render proxies registered in ``pxm``'s session."""
+        return [proxy for proxy in _registered(pxm, "sources") if proxy.GetXMLName() == "HDRVolumeRender"]
 
     def _on_register(pxm, _event):
         """A proxy was registered in ``pxm``'s session: set up each new HDR Volume Render
@@ -745,16 +749,8 @@ if HDRVolumeRenderer is not None:
     def _show_colors(pxm):
         """Representations of an 'In View' output draw its RGBA colours as they are (Map
         Scalars off, unlit): the image's own pixels, not a colour map or a shading of them."""
-        from paraview.modules.vtkRemotingServerManager import vtkSMProxyIterator
-
-        iterator = vtkSMProxyIterator()
-        iterator.SetSessionProxyManager(pxm)
-        iterator.SetModeToOneGroup()
-        iterator.Begin("representations")
-        while not iterator.IsAtEnd():
-            representation = iterator.GetProxy()
-            iterator.Next()
-            if representation is None or not representation.IsA("vtkSMPVRepresentationProxy"):
+        for representation in _registered(pxm, "representations"):
+            if not representation.IsA("vtkSMPVRepresentationProxy"):
                 continue
             inputs = representation.GetProperty("Input")
             if inputs is None or not inputs.GetNumberOfProxies() or representation.GetProperty("MapScalars") is None:

@@ -53,14 +53,17 @@ class ParaViewGUI:
 
         self.shots += 1
         path = os.path.join(self.shot_dir, name or f"shot{self.shots:02d}.png")
-        subprocess.run(["import", "-window", "root", path], env=self.env, check=True, timeout=60)
+        # PNG24: always 8-bit RGB (ImageMagick writes a grey PNG of a screen of one colour)
+        subprocess.run(["import", "-window", "root", f"PNG24:{path}"], env=self.env, check=True, timeout=60)
         reader = vtkPNGReader()
         reader.SetFileName(path)
         reader.Update()
         image = reader.GetOutput()
         cols, rows, _ = image.GetDimensions()
-        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(rows, cols, -1)[::-1, :, :3]
-        return np.ascontiguousarray(pixels)
+        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(rows, cols, -1)[::-1]
+        if pixels.shape[2] < 3:  # grey (and alpha): the same value in R, G and B
+            pixels = np.repeat(pixels[..., :1], 3, axis=2)
+        return np.ascontiguousarray(pixels[..., :3])
 
     def alive(self):
         return self.process.poll() is None

@@ -61,13 +61,6 @@ def main(port):
 
 
 if __name__ == "__main__":
-    try:
-        main(int(sys.argv[1]))
-        code = 0
-    except BaseException:
-        import traceback
+    from script_exit import run
 
-        traceback.print_exc()
-        code = 1
-    sys.stdout.flush()
-    os._exit(code)
+    run(main, int(sys.argv[1]))

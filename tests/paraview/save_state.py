@@ -6,8 +6,8 @@ import sys
 
 from paraview import simple
 
-try:
-    out = sys.argv[1]
+
+def main(out):
     assert hasattr(simple, "HDRVolumeRender"), "the plugin did not auto-load from PV_PLUGIN_PATH"
     reader = simple.OpenDataFile(os.path.join(os.environ["PV_HDRVOL_DATA"], "structured",
                                               "engine_256x256x128_uint8.vti"))
@@ -22,11 +22,9 @@ try:
     simple.Render(view)
     simple.SaveState(out)
     print(f"saved {out}", flush=True)
-    code = 0
-except BaseException:
-    import traceback
 
-    traceback.print_exc()
-    code = 1
-sys.stdout.flush()
-os._exit(code)
+
+if __name__ == "__main__":
+    from script_exit import run
+
+    run(main, sys.argv[1])

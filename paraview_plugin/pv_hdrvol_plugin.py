@@ -619,6 +619,15 @@ if HDRVolumeRenderer is not None:
         array = attributes.GetArrayInformation(name) if attributes is not None else None
         return None if array is None else array.GetComponentRange(0)
 
+    def _array_of(proxy):
+        """``(association, name)`` of the filter's Scalars ("0" points, "1" cells; "" no array)."""
+        scalars = _property(proxy, "SelectInputScalars") or []
+        return (scalars[3], scalars[4]) if len(scalars) == 5 else ("0", "")
+
+    def _camera_unset(proxy):
+        """Whether the filter's camera properties were never set (position == focal point)."""
+        return _property(proxy, "CameraPosition") == _property(proxy, "CameraFocalPoint")
+
     def _use_array_color_map(proxy):
         """Set Lookup Table and Scalar Opacity Function to ParaView's for the filter's
         array (spanning the data if ParaView had no range yet), unless the user set them."""
@@ -628,8 +637,7 @@ if HDRVolumeRenderer is not None:
         current = _property(proxy, "LookupTable")
         if current is not None and current is not _AUTO_LUT.get(gid):
             return  # the user's table
-        scalars = _property(proxy, "SelectInputScalars") or []
-        association, name = (scalars[3], scalars[4]) if len(scalars) == 5 else ("0", "")
+        association, name = _array_of(proxy)
         inputs = proxy.GetProperty("Input")
         if not name and inputs is not None and inputs.GetNumberOfProxies():
             # a script's input that has not run yet lists no arrays, so Scalars got no
@@ -642,8 +650,7 @@ if HDRVolumeRenderer is not None:
                 domain.Update(None)
             selection.ResetToDomainDefaults()
             proxy.UpdateVTKObjects()
-            scalars = _property(proxy, "SelectInputScalars") or []
-            association, name = (scalars[3], scalars[4]) if len(scalars) == 5 else ("0", "")
+            association, name = _array_of(proxy)
         if not name:
             return
         pxm = proxy.GetSessionProxyManager()
@@ -703,10 +710,6 @@ if HDRVolumeRenderer is not None:
                 continue
             _seen.add(gid)
             try:
-                camera_unset = _property(proxy, "CameraPosition") == _property(proxy, "CameraFocalPoint")
-                view = _active_render_view(pxm)
-                if _property(proxy, "FollowView")[0] and view is not None:
-                    _link_camera(proxy, view, copy=camera_unset)
                 _use_array_color_map(proxy)
                 # by the ID and the session, not the proxy itself: an observer on the proxy's
                 # own property that held it would keep the deleted filter (and its plan) alive
@@ -714,14 +717,15 @@ if HDRVolumeRenderer is not None:
                     proxy.GetProperty(name).AddObserver(
                         "ModifiedEvent", lambda *_, g=gid, m=pxm, f=react: f(m, g))
             except Exception as exc:  # an observer must not break ParaView: say it, go on
-                _say(f"could not link HDR Volume Render to the view and the colour map "
-                     f"({type(exc).__name__}: {exc}); set its Camera and Lookup Table by hand")
-        _link_followers(pxm)
+                _say(f"could not give HDR Volume Render the colour map of its array "
+                     f"({type(exc).__name__}: {exc}); set its Lookup Table by hand")
+        _link_followers(pxm)  # the new filters' cameras follow the active render view
 
     def _link_followers(pxm, *_):
-        """Link each filter that follows the view but has no view yet (made before any
-        render view; loaded from a state file before its view became active) to the
-        session's active render view."""
+        """Link each filter that follows the view but has no view yet (just made; made
+        before any render view; loaded from a state file before its view became active)
+        to the session's active render view; a camera given when it was made is kept
+        until the view moves."""
         _watch_active_view(pxm)
         view = _active_render_view(pxm)
         if view is None:
@@ -730,10 +734,10 @@ if HDRVolumeRenderer is not None:
             gid = proxy.GetGlobalIDAsString()
             if gid in _seen and gid not in _CAMERA_LINKS and _property(proxy, "FollowView")[0]:
                 try:
-                    unset = _property(proxy, "CameraPosition") == _property(proxy, "CameraFocalPoint")
-                    _link_camera(proxy, view, copy=unset)
+                    _link_camera(proxy, view, copy=_camera_unset(proxy))
                 except Exception as exc:  # an observer must not break ParaView
-                    _say(f"could not link HDR Volume Render to the view ({type(exc).__name__}: {exc})")
+                    _say(f"could not link HDR Volume Render to the view ({type(exc).__name__}: {exc}); set its "
+                         f"Camera by hand")
 
     def _watch_active_view(pxm):
         """Observe the session's active-view selection once it exists (the GUI and

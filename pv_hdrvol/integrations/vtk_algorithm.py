@@ -10,6 +10,7 @@ import numbers
 import time
 import traceback
 import weakref
+from typing import NamedTuple
 
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
 from vtkmodules.vtkCommonCore import vtkOutputWindow
@@ -17,6 +18,7 @@ from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from .._validate import as_choice, as_size
+from ..parallel.comm import PointToPointComm
 from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
 from ..params import RenderOptions
 from ..rays.camera import Camera, Rays, as_camera
@@ -131,10 +133,17 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     so validated) by each setter, which then calls ``Modified()`` if the value
     changed.
 
-    Pieces (MPI, ``pvbatch --mpi``): piece 0 of the output asks its input for all of the
-    data (the whole extent of an image, piece 0 of 1 of a mesh) and renders the whole
-    image; other pieces are empty images. Until distributed rendering exists, one rank
-    renders, and no rank renders its piece of the volume as if it were the whole.
+    Pieces (MPI: ``pvbatch --mpi``, ``pvserver`` on several ranks): an image volume with
+    a transfer function (set, or a lookup table) is rendered where it lives. Each
+    process asks its input for its own piece of the extent (VTK's extent translator,
+    plus one ghost layer for shading and gradient opacity), renders the samples it owns,
+    and piece 0 composites the partial images in depth order into the whole image
+    (:mod:`pv_hdrvol.parallel.pieces`; equal to the serial render to rounding); the
+    other pieces output empty images. Otherwise (a tetrahedral mesh, the default
+    transfer function -- it reads every value --, a cell array, a lens, labels or
+    culling) piece 0 asks for all of the data (the whole extent of an image, piece 0 of
+    1 of a mesh) and renders it alone; no process renders its piece as if it were the
+    whole.
 
     Scalars: ``SetScalars(name)``, or the standard
     ``SetInputArrayToProcess(0, 0, 0, association, name)``; by default the active
@@ -165,6 +174,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     """
 
     REPORT_NAME = "HDRVolumeRenderer"  # also for subclasses (the ParaView filter)
+    #: whether an image volume is rendered where it lives under MPI (``_distribution``)
+    DISTRIBUTED = True
 
     def __init__(self):
         # vtkDataObject, not vtkDataSet: VTK would run a data-set filter once per block of
@@ -186,6 +197,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._cull = None
         self._labels = None
         self._label_styles = None
+        self._comm = None
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
         # by the input object, which ParaView hands over as a new shallow copy each time
         self._volumes = VolumeCache(dataset_mtime=False)
@@ -457,6 +469,25 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         """The lens set last, or ``None``."""
         return self._lens
 
+    def SetCommunicator(self, comm):
+        """The processes that render the pieces of a distributed image together: ``None``
+        (default: those of VTK's global ``vtkMultiProcessController``, ParaView's MPI
+        ranks) or an mpi4py-style communicator (``rank``, ``size``, ``gather``,
+        ``allgather``, ``alltoall``, ``bcast``; e.g. ``MPI.COMM_WORLD``) whose
+        ``rank`` is the piece this algorithm is asked for and ``size`` the number of
+        pieces."""
+        if comm is not None and not all(hasattr(comm, name) for name in ("rank", "size", "gather", "allgather",
+                                                                          "alltoall", "bcast")):
+            raise TypeError(f"the communicator must have rank, size, gather, allgather, alltoall and bcast (as "
+                            f"mpi4py's), or be None; got {type(comm).__name__}")
+        if comm is not self._comm:
+            self._comm = comm
+            self.Modified()
+
+    def GetCommunicator(self):
+        """The communicator set with :meth:`SetCommunicator`, or ``None``."""
+        return self._comm
+
     def SetCull(self, cull):
         """Visibility culling of image data: a :class:`~pv_hdrvol.culling.pof.PlenopticOpacity`
         of the input (or a ``Culling`` with its threshold), or ``None``. The transfer
@@ -503,14 +534,23 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         return 1
 
     def RequestUpdateExtent(self, request, inInfo, outInfo):
-        # A ray may cross any part of the volume: the piece that renders asks for all of
-        # it (the whole extent of an image; piece 0 of 1 of a mesh). Under MPI
-        # (pvbatch --mpi) that is piece 0: one rank reads and renders everything, the
-        # others output an empty image, and no rank renders its piece as if it were the
-        # whole. Other pieces leave the request as it is.
+        # Distributed (_distribution): each process asks for its piece of the extent.
+        # Otherwise a ray may cross any part of the volume: piece 0 asks for all of it
+        # (the whole extent of an image; piece 0 of 1 of a mesh) and renders alone, the
+        # other pieces leave the request as it is and output an empty image.
+        info = inInfo[0].GetInformationObject(0)
+        plan = self._distribution(inInfo, outInfo)
+        if plan is not None:
+            # the extent itself, ghost points included, as "piece 0 of 1": XML image
+            # readers cut their own pieces from the piece number and a ghost level, with
+            # another split than the extent translator's (ParaView 5.11, 3 processes)
+            info.Set(_SDDP.UPDATE_EXTENT(), plan.extent, 6)
+            info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
+            info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
+            info.Set(_SDDP.UPDATE_NUMBER_OF_GHOST_LEVELS(), 0)
+            return 1
         if _output_piece(outInfo) != 0:
             return 1
-        info = inInfo[0].GetInformationObject(0)
         _request_whole_extent(info)
         info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
         info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
@@ -532,9 +572,37 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         check = getattr(self, "CheckAbort", None)  # VTK >= 9.4 also sees upstream aborts
         return bool(check()) if check is not None else bool(self.GetAbortExecute())
 
+    def _distribution(self, inInfo, outInfo):
+        """The :class:`_Distribution` of this execution when the image volume is
+        rendered where it lives, else ``None`` (piece 0 renders all of it). Decided from
+        the pipeline's information and the filter's settings only, never from a piece's
+        data, so that every process decides alike (they then exchange images)."""
+        info = outInfo.GetInformationObject(0)
+        n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
+        in_info = inInfo[0].GetInformationObject(0)
+        if n < 2 or not self.DISTRIBUTED or not in_info.Has(_SDDP.WHOLE_EXTENT()) or self._lens is not None or self._labels is not None \
+                or self._cull is not None or self._scalars_to_render()[1] == "cell":
+            return None
+        try:
+            if self._transfer_function() is None:  # the default reads every value of the whole volume
+                return None
+        except (TypeError, ValueError):
+            return None  # piece 0 reports it
+        comm = self._comm if self._comm is not None else ControllerComm.world()
+        piece = _output_piece(outInfo)
+        if comm is None or comm.size != n or comm.rank != piece:
+            return None
+        whole = tuple(in_info.Get(_SDDP.WHOLE_EXTENT()))
+        ghosts = 1 if (self._options.shade or self._options.gradient_opacity is not None) else 0
+        return _Distribution(comm, whole, _piece_extent(whole, piece, n, 0), _piece_extent(whole, piece, n, ghosts),
+                             ghosts)
+
     def _execute(self, inInfo, outInfo):
         inp = vtkDataObject.GetData(inInfo[0])
         out = vtkImageData.GetData(outInfo)
+        distribution = self._distribution(inInfo, outInfo)
+        if distribution is not None:
+            return self._execute_piece(inp, out, distribution)
         if _output_piece(outInfo) != 0:  # piece 0 renders the whole image (RequestUpdateExtent)
             out.Initialize()
             return 1
@@ -588,6 +656,53 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             if first:
                 _display_text(f"pv_hdrvol: first {first} render took {time.perf_counter() - started:.1f} s")
         out.ShallowCopy(image.to_vtk())
+        return 1
+
+    def _execute_piece(self, inp, out, distribution):
+        """Render this process's piece of the image and composite on piece 0
+        (:func:`pv_hdrvol.parallel.pieces.gather_pieces`: if any process fails, all
+        raise, the others naming it)."""
+        from ..parallel.pieces import gather_pieces
+        from ..raycast.grid import VolumePiece
+
+        image = piece = spacing = rays = error = None
+        owned = distribution.owned
+        try:
+            if owned[1] <= owned[0] or owned[3] <= owned[2] or owned[5] <= owned[4]:
+                raise ValueError(f"the image of extent {distribution.whole} has too few cells for "
+                                 f"{distribution.comm.size} processes: process {distribution.comm.rank} owns "
+                                 f"{owned}; render it on fewer processes")
+            kind = inp.GetClassName() if inp is not None else None
+            if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
+                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkImageData; process "
+                                 f"{distribution.comm.rank} got {'nothing' if inp is None else kind}")
+            scalars, preference = self._scalars_to_render()
+            data = self._volumes.get(inp, scalars, preference)
+            if tuple(data.dims) != tuple(inp.GetDimensions()):
+                raise ValueError(f"a distributed image volume is rendered from a point array; "
+                                 f"{data.name or 'the active scalars'!r} is a cell array (apply Cell Data to Point "
+                                 f"Data, or render it on one process)")
+            spacing = data.spacing
+            piece = VolumePiece.from_extents(inp.GetOrigin(), inp.GetSpacing(), distribution.whole, inp.GetExtent(),
+                                             owned)
+            bounds = piece.bounds(spacing)
+            camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera, bounds)
+            self._last_camera = camera
+            rays = camera.rays(self._size)
+            plan = self._plan_for(inp, "vtkImageData", scalars, preference, self._transfer_function())
+
+            def progress(fraction):
+                self.UpdateProgress(fraction)
+                return not self._should_abort()
+
+            image = plan.execute(camera, self._size, piece=piece, progress=progress, progress_bar=False)
+        except Exception as e:  # every process learns of it in gather_pieces; none waits forever
+            error = e
+        whole = gather_pieces(image, piece, spacing, rays, comm=distribution.comm, root=0, error=error)
+        if whole is None:
+            out.Initialize()
+        else:
+            out.ShallowCopy(whole.to_vtk())
         return 1
 
     def _plan_for(self, inp, kind, scalars, preference, tf):
@@ -655,6 +770,7 @@ class HDRProxyWriter(HDRVolumeRenderer):
     """
 
     REPORT_NAME = "HDRProxyWriter"
+    DISTRIBUTED = False  # the proxies of the whole volume: piece 0 reads all of it
 
     def __init__(self):
         super().__init__()
@@ -745,6 +861,73 @@ class HDRProxyWriter(HDRVolumeRenderer):
         return 1
 
 
+class _Distribution(NamedTuple):
+    """How this process renders its piece: the communicator, the whole extent, the
+    extent it owns and the one it asks for (owned plus ``ghosts`` layers)."""
+
+    comm: "ControllerComm"
+    whole: tuple
+    owned: tuple
+    extent: tuple
+    ghosts: int
+
+
+def _piece_extent(whole, piece, n, ghosts):
+    """VTK's extent of ``piece`` of ``n`` of the ``whole`` extent (the extent
+    translator's block split, which readers and the pipeline use) with ``ghosts``
+    layers, clipped to the whole extent."""
+    from vtkmodules.vtkCommonExecutionModel import vtkExtentTranslator
+
+    translator = vtkExtentTranslator()
+    translator.SetWholeExtent(*whole)
+    translator.SetPiece(piece)
+    translator.SetNumberOfPieces(n)
+    translator.SetGhostLevel(ghosts)
+    translator.PieceToExtent()
+    return tuple(translator.GetExtent())
+
+
+class ControllerComm(PointToPointComm):
+    """A ``vtkMultiProcessController`` (ParaView's MPI processes) as the mpi4py-style
+    communicator :mod:`pv_hdrvol.parallel` takes: ``rank``, ``size`` and collectives of
+    Python objects, pickled and sent as bytes with ``Send``/``Receive``."""
+
+    TAG = 87113
+
+    def __init__(self, controller):
+        self._controller = controller
+        self.rank = controller.GetLocalProcessId()
+        self.size = controller.GetNumberOfProcesses()
+
+    @classmethod
+    def world(cls):
+        """The global controller's communicator, or ``None`` without one."""
+        from vtkmodules.vtkParallelCore import vtkMultiProcessController
+
+        controller = vtkMultiProcessController.GetGlobalController()
+        return None if controller is None else cls(controller)
+
+    def _send(self, value, dest):
+        import pickle
+
+        import numpy as np
+        from vtkmodules.util.numpy_support import numpy_to_vtk
+        from vtkmodules.vtkCommonCore import VTK_UNSIGNED_CHAR
+
+        payload = np.frombuffer(pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL), dtype=np.uint8)
+        self._controller.Send(numpy_to_vtk(payload, deep=1, array_type=VTK_UNSIGNED_CHAR), dest, self.TAG)
+
+    def _receive(self, source):
+        import pickle
+
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+        from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
+
+        payload = vtkUnsignedCharArray()
+        self._controller.Receive(payload, source, self.TAG)
+        return pickle.loads(vtk_to_numpy(payload).tobytes())
+
+
 def _output_piece(outInfo):
     """The piece of the output the pipeline asks for (0 without pieces)."""
     info = outInfo.GetInformationObject(0)
@@ -775,4 +958,4 @@ def _display_text(text):
     vtkOutputWindow.GetInstance().DisplayText(text + "\n")
 
 
-__all__ = ["HDRVolumeRenderer"]
+__all__ = ["ControllerComm", "HDRVolumeRenderer"]

@@ -36,48 +36,9 @@ from ..data.transfer import TransferFunctionFamily
 from ..image.hdr import HDRImage
 from ..rays.camera import Camera, as_size
 from ..raycast.grid import BlockGrid, GridPlan, _grid_shape, as_volume
+from .comm import WORLD, _communicator
 from .composite import composite, tile_grid
 from .distribute import assign
-
-WORLD = "world"
-
-
-class _Serial:
-    """The one-rank communicator of ``comm=None``: collectives are identities."""
-
-    rank = 0
-    size = 1
-
-    def allgather(self, value):
-        return [value]
-
-    def alltoall(self, items):
-        return list(items)
-
-    def gather(self, value, root=0):
-        return [value]
-
-    def bcast(self, value, root=0):
-        return value
-
-    def Get_size(self):
-        return 1
-
-
-def _communicator(comm):
-    if comm is None:
-        return _Serial()
-    if isinstance(comm, str) and comm == WORLD:
-        try:
-            from mpi4py import MPI
-        except ImportError:
-            raise ImportError("render_parallel(comm='world') needs mpi4py (pip install mpi4py mpich); "
-                              "comm=None renders serially") from None
-        return MPI.COMM_WORLD
-    if not all(hasattr(comm, name) for name in ("rank", "size", "allgather", "alltoall", "gather", "bcast")):
-        raise TypeError(f"comm must be an mpi4py communicator, 'world' or None; got {type(comm).__name__}")
-    return comm
-
 
 def block_rect(lo, hi, camera, size):
     """``(col, row, w, h)`` of the pixels whose centre rays can cross the box ``[lo, hi]``

@@ -141,6 +141,42 @@ def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far):
     return _slab(oz, dz, lo[2], hi[2], t0, t1)
 
 
+@inline_kernel
+def _owned_slab(o, d, lo, hi, closed, t0, t1):
+    """``_slab`` for an owned box, half open: a ray parallel to the axis lies in it for
+    ``lo <= o < hi`` (``<= hi`` where ``closed``: the whole box's far face), so that a
+    ray in the plane two pieces share belongs to one of them."""
+    if d != 0.0:
+        return _slab(o, d, lo, hi, t0, t1)
+    if o < lo or o > hi or (o == hi and not closed):
+        return 1.0, 0.0
+    return t0, t1
+
+
+@kernel
+def piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, step, t_far):
+    """``(k0, k1, last)``: the lattice segments of one ray that a piece of the volume
+    owns -- the full segments ``k0 <= k < k1`` and, if ``last``, the shortened last
+    one: those whose midpoints lie in the owned box ``[piece[0:3], piece[3:6])``.
+
+    ``[t0, t1]`` is the ray's span in the whole volume's box ``[0, hi]`` (the lattice
+    starts at ``t0`` in every piece). The owned boxes of the pieces tile the whole box
+    and share their faces exactly, so the entry of one piece is computed with the same
+    arithmetic as the exit of the one before it and each sample has exactly one owner.
+    A whole volume owns everything: ``(0, n_full, True)``.
+    """
+    n_full = max(int(math.ceil((t1 - t0) / step)), 1) - 1
+    a, b = _owned_slab(ox, dx, piece[0], piece[3], piece[3] >= hi[0], 0.0, t_far)
+    a, b = _owned_slab(oy, dy, piece[1], piece[4], piece[4] >= hi[1], a, b)
+    a, b = _owned_slab(oz, dz, piece[2], piece[5], piece[5] >= hi[2], a, b)
+    if not b > a:
+        return 0, 0, False
+    k0 = min(max(int(math.ceil((a - t0) / step - 0.5)), 0), n_full)
+    k1 = min(max(int(math.ceil((b - t0) / step - 0.5)), k0), n_full)
+    tm = 0.5 * ((t0 + n_full * step) + t1)  # the last segment's midpoint, as the loops compute it
+    return k0, k1, a <= tm and (tm < b or b >= t1)
+
+
 # -- classification ---------------------------------------------------------------------
 @inline_kernel
 def table_position(v, p):
@@ -475,13 +511,15 @@ def _finish_impl(marker, state):
 
 
 @kernel
-def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step):
+def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, k0, k1,
+              last):
     """The sampling and compositing loop of ``_march`` for a mip-map ``sampler``
     (``_sample``; rays with a level of detail), compiled once per ``marker`` and
     sampler type. The plain sampler has its own loop, ``_march_plain``.
 
     Full segments take their opacity from the table; the last, shorter one from the
-    extinction ``sigma``.
+    extinction ``sigma``. Only segments ``k0 <= k < k1`` and, if ``last``, the last one
+    are sampled (``piece_segments``).
     """
     size = 1 << p.block_shift
     n_table = table.shape[0] // 4
@@ -495,9 +533,9 @@ def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, 
     depth = math.inf
     samples = 0
     stopped = False
-    k = 0
+    k = k0
     n_full = n_seg - 1
-    while k < n_full:
+    while k < k1:
         tm = t0 + (k + 0.5) * step
         radius, ib, jb, kb, v = _sample(sampler, bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
         if radius != 0:
@@ -517,7 +555,7 @@ def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, 
         if alpha >= p.alpha_stop:
             stopped = True
             break
-    if not stopped:
+    if last and not stopped:
         # the last segment ends exactly at the exit and is shorter than a step: its
         # opacity comes from the extinction column (the per-step one may have rounded to 1)
         ta = t0 + n_full * step
@@ -545,7 +583,8 @@ def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
 
 
 @fused_kernel
-def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch):
+def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1,
+                 last):
     """The sampling and compositing loop of ``_march`` for trilinear sampling of
     ``bricks``, compiled once per precision ``marker``.
 
@@ -573,7 +612,8 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
 
     ``offs`` holds the x, then y, then z offsets (``nx + ny + nz`` entries);
     ``scratch`` is float64 with ``2 * SCRATCH`` entries (values, then their ``k``),
-    one per lane of ``render_tiles`` (a lane runs on one thread at a time).
+    one per lane of ``render_tiles`` (a lane runs on one thread at a time). Segments
+    ``k0 <= k < k1`` and, if ``last``, the last one are sampled (``piece_segments``).
     """
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
     size = 1 << p.block_shift
@@ -595,16 +635,16 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
     depth = math.inf
     samples = 0
     stopped = False
-    k = 0
-    kf = 0.0  # k as a float, counted (no conversion per sample)
+    k = k0
+    kf = float(k0)  # k as a float, counted (no conversion per sample)
     n_full = n_seg - 1
     cap = scratch.shape[0] // 2
     chunk = 2
-    while k < n_full:
+    while k < k1:
         # phase 1: the next `chunk` values that are not NaN, with their segment indices
         # (k after the sample), leaping empty blocks
         j = 0
-        while j < chunk and k < n_full:
+        while j < chunk and k < k1:
             x = min(max(bx0 + kf * sx, 0.0), x_max)
             y = min(max(by0 + kf * sy, 0.0), y_max)
             z = min(max(bz0 + kf * sz, 0.0), z_max)
@@ -664,7 +704,7 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
         if stopped:
             break
         chunk = min(2 * chunk, cap)
-    if not stopped:
+    if last and not stopped:
         # the last segment ends exactly at the exit and is shorter than a step: its
         # opacity comes from the extinction column (the per-step one may have rounded to 1)
         ta = t0 + n_full * step
@@ -683,31 +723,31 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
 
 
 def _march_loop(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                step, scratch):
+                step, scratch, k0, k1, last):
     """``_march_plain`` for the plain sampler, ``_march_in`` for a mip-map sampler (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_march_loop, jit_options=_JIT)
 def _march_loop_impl(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                     step, scratch):
+                     step, scratch, k0, k1, last):
     if isinstance(sampler, numba.types.Integer):
         def plain(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                  step, scratch):
+                  step, scratch, k0, k1, last):
             return _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step,
-                                scratch)
+                                scratch, k0, k1, last)
         return plain
 
     def mipmapped(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                  step, scratch):
+                  step, scratch, k0, k1, last):
         return _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                         step)
+                         step, k0, k1, last)
     return mipmapped
 
 
 @kernel
-def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p, step, scratch,
-           t_far):
+def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, step,
+           scratch, t_far):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
@@ -731,6 +771,14 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
     The ray ``o + t d`` is in voxel coordinates (point ``(i, j, k)`` at ``(i, j, k)``)
     with ``t`` in world units: ``d`` is the world direction divided by the spacing.
 
+    ``[lo, hi]`` is the whole volume's box, where the lattice starts and ends; ``piece``
+    (9 values) the box this render owns, ``piece[0:3]`` to ``piece[3:6]``, and the
+    offset ``piece[6:9]`` of the first point of ``bricks`` in the whole volume: a piece
+    of a volume distributed over processes samples only the segments whose midpoints
+    it owns (``piece_segments``), in its own points, so that the pieces' partial images
+    composited in depth order are the whole render. A whole volume: ``piece`` is
+    ``lo, hi, 0``.
+
     Front to back, each sample adds ``w = (1 - A) a_i`` to the accumulated opacity
     ``A`` and ``w c_i`` to the colour. ``1 - a_i`` is never formed: in float32,
     1 - 1e-7 rounds to 1 - 1.19e-7, and multiplying transmittance by it loses 19% over
@@ -744,18 +792,24 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    k0, k1, last = piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, step, t_far)
+    if k1 <= k0 and not last:
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    ox -= piece[6]  # into the piece's own points (t is unchanged)
+    oy -= piece[7]
+    oz -= piece[8]
     nx = dims[0]
     ny = dims[1]
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
     if p.precision == F64:
         return _march_loop(0.0, sampler, F64, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                           step, scratch)
+                           step, scratch, k0, k1, last)
     if p.precision == F32:
         return _march_loop(np.float32(0.0), sampler, F32, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
-                           t0, t1, p, step, scratch)
+                           t0, t1, p, step, scratch, k0, k1, last)
     return _march_loop(0, sampler, p.precision, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                       step, scratch)
+                       step, scratch, k0, k1, last)
 
 
 def _marker_precision(marker, p):
@@ -775,24 +829,30 @@ def _marker_precision_impl(marker, p):
 
 
 @kernel
-def _march_typed(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, p,
-                 step, scratch, t_far):
+def _march_typed(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi,
+                 piece, p, step, scratch, t_far):
     """``_march`` for the one precision of ``marker`` (a float64, float32 or int64
     zero): only that compositing loop is compiled."""
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    k0, k1, last = piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, step, t_far)
+    if k1 <= k0 and not last:
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    ox -= piece[6]
+    oy -= piece[7]
+    oz -= piece[8]
     nx = dims[0]
     ny = dims[1]
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
     return _march_loop(marker, sampler, _marker_precision(marker, p), bricks, offs, table, sigma, leap, g, ox, oy, oz,
-                       dx, dy, dz, t0, t1, p, step, scratch)
+                       dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
 
 
 @fused_parallel_kernel
 def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, far, width, height,
-                 tile, tile_rows, lanes, lo, hi, p, out_rgba, out_depth, out_samples):
+                 tile, tile_rows, lanes, lo, hi, piece, p, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
     Rays come from ``cam`` (``Camera.kernel_array``, then the volume's origin and the
@@ -831,7 +891,8 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
                         dz = directions[pix, 2]
                     t_far = far[pix] if has_far else math.inf
                     r, g, b, a, dep, ns = _march_typed(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
-                                                       ox, oy, oz, dx, dy, dz, lo, hi, p, p.step, scratch, t_far)
+                                                       ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
+                                                       t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

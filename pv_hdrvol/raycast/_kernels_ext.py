@@ -27,8 +27,8 @@ import numpy as np
 from .._jit import fused_kernel, inline_kernel, kernel, parallel_kernel, uindex as _u
 from ._kernels import (
     BRICK_SHIFT, SCRATCH, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity,
-    _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, sigma_at, table_row,
-    trilinear as _trilinear,
+    _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, piece_segments, sigma_at,
+    table_row, trilinear as _trilinear,
 )
 from ._shading_kernels import SH_FADE, SH_INV_SPACING, SH_SAMPLED, SH_SPACING, fade_weight, light_factors
 
@@ -358,7 +358,7 @@ def _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, sl
 
 @fused_kernel
 def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes,
-                   tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e):
+                   tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last_owned):
     """Front-to-back compositing with gradient modulation, labels and mip sampling.
 
     Composite labels (and unlabelled renders) sample segment midpoints exactly as
@@ -367,6 +367,9 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
     ray leaves it, the segment is classified by that label's transfer function (its
     opacity over the unit distance) and composited as one sample: the two-level
     rendering of Hauser et al. (2001) as used by the Magic Volume Lens (Fig. 15).
+
+    Segments ``k0 <= k < k1`` and, if ``last_owned``, the last one are composited
+    (``_kernels.piece_segments``; a piece of a distributed volume has no labels).
     """
     step = p.step
     size = 1 << p.block_shift
@@ -384,12 +387,13 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
     seg_best = -math.inf
     seg_sign = 1.0
     seg_t = 0.0
-    k = 0
+    k = k0
+    k_stop = n_seg if last_owned else k1
     stopped = False
     # full segment k has its midpoint at (bx0, by0, bz0) + k (sx, sy, sz), as _kernels._march_plain
     bx0, by0, bz0, sx, sy, sz = midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step)
     ex, ey, ez = _eye(shading, dx, dy, dz) if e.shade else (0.0, 0.0, 1.0)
-    while k < n_seg and not stopped:
+    while k < k_stop and not stopped:
         ta = t0 + k * step
         last = k == n_seg - 1
         # the same arithmetic as _kernels._march_plain, so a composite ray gives the same bits
@@ -471,7 +475,7 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
             depth = tm
         if alpha >= p.alpha_stop:
             stopped = True
-    if e.labelled and e.lattice and not stopped:
+    if e.labelled and e.lattice and last_owned and not stopped:
         # the exit point ends the lattice, then the open segment
         xa = ox + t1 * dx
         ya = oy + t1 * dy
@@ -504,25 +508,32 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
 
 @kernel
 def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas, axes,
-               ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_far):
-    """Clip the ray and run ``_composite_ext`` in the render's precision."""
+               ox, oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_far):
+    """Clip the ray, keep the segments of ``piece`` (``_kernels._march``) and run
+    ``_composite_ext`` in the render's precision."""
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    k0, k1, last = piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, p.step, t_far)
+    if k1 <= k0 and not last:
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+    ox -= piece[6]
+    oy -= piece[7]
+    oz -= piece[8]
     if p.precision == F64:
         return _composite_ext(0.0, F64, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots,
-                              modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+                              modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last)
     if p.precision == F32:
         return _composite_ext(np.float32(0.0), F32, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights,
-                              slots, modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+                              slots, modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last)
     return _composite_ext(0, p.precision, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots,
-                          modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e)
+                          modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last)
 
 
 @parallel_kernel
 def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, gvec, shading, lights, slots, modes,
                tables, sigmas, axes, sigma0, level_tables, level_steps, origins, directions, far, width, height, tile,
-               tile_rows, lanes, lo, hi, p, e, out_rgba, out_depth, out_samples):
+               tile_rows, lanes, lo, hi, piece, p, e, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
     level of detail 0) goes through ``_kernels._march`` with slot 0's table, so it is
     bit-identical to a plain render; a ray with a level of detail (and nothing else)
@@ -553,7 +564,7 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
                         r, gg, b, a, dep, ns = _march(0, bricks, offs, table0, sigma0, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p, p.step, scratch, t_far)
+                                                      lo, hi, piece, p, p.step, scratch, t_far)
                     elif plain_ok:
                         # the plain loop, sampling two mip levels
                         r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, offs,
@@ -561,12 +572,12 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
                                                       sigma0, leap_lod[level],
                                                       grids, dims, origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, p, level_steps[level], scratch, t_far)
+                                                      lo, hi, piece, p, level_steps[level], scratch, t_far)
                     else:
                         r, gg, b, a, dep, ns = _march_ext(
                             bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, gvec, shading,
                             lights, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                            directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e, t_far)
+                            directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, piece, p, e, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
                     out_rgba[pix, 2] = b

@@ -578,7 +578,7 @@ class GridPlan:
         return self._prepared
 
     def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, cull=None, window=None,
-                progress=None, progress_bar=None, chunk_seconds=None, far=None):
+                progress=None, progress_bar=None, chunk_seconds=None, far=None, piece=None):
         """Render the plan: ``camera``, ``size``, ``lens``, ``block_mask``, ``progress`` and
         ``progress_bar`` as :func:`render_volume`. Returns an :class:`~pv_hdrvol.HDRImage`.
 
@@ -595,9 +595,22 @@ class GridPlan:
         ``size`` (a tile: sort-first parallel rendering, a region refined first); the
         result is that window, pixel for pixel the same as the full render's (a camera
         makes only the window's rays; given rays are cut).
+
+        ``piece``: a :class:`VolumePiece` -- the plan's volume is one piece of a whole
+        volume spread over processes, and this render is that piece's part of the whole
+        render: samples on the whole volume's lattice whose midpoints lie in the owned
+        box, composited from transparent. The pieces' images composited in depth order
+        (:func:`pv_hdrvol.parallel.pieces.composite_pieces`) are the whole render to
+        rounding; the default camera frames the whole volume. Composite blending, no
+        labels, no culling, no level-of-detail lens.
         """
         tf, opts, table, sigma = self.tf, self.options, self.table, self.sigma
-        camera = as_camera(camera, self.source.bounds)
+        if piece is not None:
+            if self.labels is not None or cull is not None or block_mask is not None:
+                raise ValueError("a piece of a distributed volume renders without labels, cull= and block_mask=")
+            ghosts = 1 if (opts.shade or opts.gradient_opacity is not None) else 0
+            piece_box, whole_hi, whole_origin = _check_piece(piece, self.source, opts, ghosts)
+        camera = as_camera(camera, self.source.bounds if piece is None else piece.bounds(self.source.spacing))
         if lens is not None:
             if not callable(getattr(lens, "rays", None)):
                 raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
@@ -619,6 +632,8 @@ class GridPlan:
             rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
             width, height = rays.width, rays.height
         lod = _check_lod(rays) if rays is not None else None
+        if piece is not None and lod is not None:
+            raise ValueError("a piece of a distributed volume renders without a level-of-detail (sampling-rate) lens")
         prec = opts.precision
         parts = render_bytes(self.source, tf, opts, width, height, rays, lod, self.labels)
         if self._prepared is not None:
@@ -626,17 +641,20 @@ class GridPlan:
         check_memory(parts, _memory_advice(self.source, prec, width, height))
         volume, blocks, params, styles, bricks, dims, grids, flat = self._prepare()
 
-        # rays in voxel coordinates with t still in world units (see _kernels._march)
+        # rays in voxel coordinates with t still in world units (see _kernels._march); a
+        # piece's rays are in the whole volume's points, as the whole render's
         inv_spacing = 1.0 / volume.spacing
+        ray_origin = volume.origin if piece is None else whole_origin
         if rays is None:
-            cam = np.concatenate([camera.kernel_array((width, height)), volume.origin, inv_spacing])
+            cam = np.concatenate([camera.kernel_array((width, height)), ray_origin, inv_spacing])
             origins = directions = np.empty((0, 3))
         else:
             cam = np.empty(0)
-            origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
+            origins = np.ascontiguousarray((rays.origins - ray_origin) * inv_spacing)
             directions = np.ascontiguousarray(rays.directions * inv_spacing)
         lo = np.zeros(3)
-        hi = np.array(volume.dims, dtype=np.float64) - 1.0
+        hi = np.array(volume.dims, dtype=np.float64) - 1.0 if piece is None else whole_hi
+        piece_box = np.concatenate([lo, hi, np.zeros(3)]) if piece is None else piece_box
         mask = None
         if block_mask is not None:
             mask = np.asarray(block_mask)
@@ -673,7 +691,8 @@ class GridPlan:
                                      default_tf=self.default_tf)
         if reason is not None and not visible and prec == "uint8":
             reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
-        warn_empty(reason)
+        if piece is None:  # a piece may well be empty where the whole is not
+            warn_empty(reason)
         lanes = _lanes()
 
         extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
@@ -681,7 +700,7 @@ class GridPlan:
         if extended and rays is None:
             # the extended kernels take rays as arrays
             rays = camera.rays((width, height))
-            origins = np.ascontiguousarray((rays.origins - volume.origin) * inv_spacing)
+            origins = np.ascontiguousarray((rays.origins - ray_origin) * inv_spacing)
             directions = np.ascontiguousarray(rays.directions * inv_spacing)
         value = np.full(height * width, np.nan) if opts.blending != "composite" else None
         if extended and not flat:
@@ -694,8 +713,8 @@ class GridPlan:
                 pass
             elif not extended:
                 K.render_tiles(_MARKERS[prec], bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
-                               dims, cam, origins, directions, far, width, height, _TILE, rows, lanes, lo, hi, params,
-                               rgba, depth, samples)
+                               dims, cam, origins, directions, far, width, height, _TILE, rows, lanes, lo, hi,
+                               piece_box, params, rgba, depth, samples)
             elif value is not None:
                 a = kernel_args
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
@@ -706,8 +725,8 @@ class GridPlan:
                 KX.render_ext(bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods,
                               a.gbricks, a.gvec, a.shading, a.lights, a.slots,
                               a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
-                              directions, far, width, height, _TILE, rows, lanes, lo, hi, params, a.e, rgba, depth,
-                              samples)
+                              directions, far, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
+                              depth, samples)
             return pixel_rows(tile_rows, height)
 
         _check_progress_bar(progress_bar)
@@ -735,6 +754,9 @@ class GridPlan:
         }
         if lens is not None:
             meta["lens"] = repr(lens)
+        if piece is not None:
+            meta["piece"] = {"offset": list(piece.offset), "owned_lo": list(piece.owned_lo),
+                             "owned_hi": list(piece.owned_hi), "whole_dims": list(piece.whole_dims)}
         if culling is not None:
             meta["culling"] = culling
         if opts.blending != "composite":
@@ -750,6 +772,86 @@ class GridPlan:
         if value is not None:
             value = value.reshape(height, width)
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+
+
+class VolumePiece(NamedTuple):
+    """Where a volume's points lie in a whole volume spread over processes, and the box
+    of it this process renders (``GridPlan.execute(piece=...)``).
+
+    All in points of the whole volume, x, y, z: ``whole_dims`` its points per axis,
+    ``offset`` the index of the piece's first point, ``owned_lo``/``owned_hi`` the owned
+    box (integers). The owned boxes of the pieces tile the whole box ``[0, dims - 1]``,
+    sharing faces (VTK's piece extents without ghosts); a piece holds its owned box plus
+    the ghost points its render needs: none for trilinear samples, one layer for
+    shading and gradient opacity (central differences). ``whole_origin`` is the world
+    position of the whole volume's first point, as the whole volume's ``origin``.
+
+    :func:`pv_hdrvol.parallel.pieces.split_volume` makes pieces of an array;
+    :meth:`from_extents` reads them from VTK extents.
+    """
+
+    whole_origin: tuple
+    whole_dims: tuple
+    offset: tuple
+    owned_lo: tuple
+    owned_hi: tuple
+
+    @classmethod
+    def from_extents(cls, origin, spacing, whole_extent, extent, owned_extent):
+        """From a ``vtkImageData``'s ``GetOrigin()``/``GetSpacing()``, the pipeline's
+        whole extent, the piece's data extent (with ghosts) and its owned extent
+        (without): each ``(x0, x1, y0, y1, z0, z1)``."""
+        we, de, oe = (np.asarray(e, dtype=np.int64).reshape(3, 2) for e in (whole_extent, extent, owned_extent))
+        # the whole volume's first point as a whole image's GridVolume places it (data/grid.py)
+        first = np.asarray(origin, dtype=np.float64) + we[:, 0].astype(np.float64) * np.asarray(spacing, np.float64)
+        return cls(tuple(first.tolist()), tuple((we[:, 1] - we[:, 0] + 1).tolist()), tuple((de[:, 0] - we[:, 0]).tolist()),
+                   tuple((oe[:, 0] - we[:, 0]).tolist()), tuple((oe[:, 1] - we[:, 0]).tolist()))
+
+    def bounds(self, spacing):
+        """The whole volume's ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
+        lo = np.asarray(self.whole_origin, dtype=np.float64)
+        hi = lo + (np.asarray(self.whole_dims) - 1) * np.asarray(spacing, dtype=np.float64)
+        return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
+
+    def world_box(self, spacing):
+        """``(lo, hi)``: the owned box in world coordinates."""
+        o = np.asarray(self.whole_origin, dtype=np.float64)
+        sp = np.asarray(spacing, dtype=np.float64)
+        return o + np.asarray(self.owned_lo) * sp, o + np.asarray(self.owned_hi) * sp
+
+
+def _check_piece(piece, volume, opts, ghosts):
+    """``piece`` validated against the piece's ``volume``; ``ghosts``: the layer of
+    points beyond the owned box the options read (1 for central differences)."""
+    if not isinstance(piece, VolumePiece):
+        raise TypeError(f"piece must be a VolumePiece; got {type(piece).__name__}")
+    try:
+        whole = np.array(piece.whole_dims, dtype=np.int64).reshape(3)
+        offset = np.array(piece.offset, dtype=np.int64).reshape(3)
+        lo = np.array(piece.owned_lo, dtype=np.int64).reshape(3)
+        hi = np.array(piece.owned_hi, dtype=np.int64).reshape(3)
+        origin = np.array(piece.whole_origin, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ValueError(f"piece must hold three numbers per field; got {piece!r}") from None
+    dims = np.array(volume.dims, dtype=np.int64)
+    if (whole < 2).any() or (lo < 0).any() or (hi > whole - 1).any() or (hi <= lo).any():
+        raise ValueError(f"piece's owned box {tuple(lo.tolist())}..{tuple(hi.tolist())} must be a box of at least one "
+                         f"cell per axis inside the whole volume's points 0..{tuple((whole - 1).tolist())}")
+    need_lo = np.where(lo > 0, lo - ghosts, lo)
+    need_hi = np.where(hi < whole - 1, hi + ghosts, hi)
+    if (offset > need_lo).any() or (offset + dims - 1 < need_hi).any():
+        raise ValueError(f"the piece's points {tuple(offset.tolist())}..{tuple((offset + dims - 1).tolist())} must "
+                         f"cover its owned box {tuple(lo.tolist())}..{tuple(hi.tolist())} with {ghosts} ghost "
+                         f"layer(s) inside the volume ({'shading and gradient opacity read' if ghosts else 'samples read'} "
+                         f"them)")
+    expected = origin + offset * volume.spacing
+    if not np.allclose(volume.origin, expected, rtol=0.0, atol=1e-6 * float(volume.spacing.min())):
+        raise ValueError(f"the piece's origin {tuple(volume.origin.tolist())} is not the whole volume's origin plus "
+                         f"offset x spacing {tuple(expected.tolist())}")
+    if opts.blending != "composite":
+        raise ValueError(f"a piece of a distributed volume composites in depth order: blending='composite' only; got "
+                         f"{opts.blending!r}")
+    return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin
 
 
 def _check_far(far, width, height):

@@ -1,0 +1,249 @@
+"""Render an image volume where its pieces live: each process renders the piece it
+holds, and the partial images are composited sort-last in depth order.
+
+This is data-parallel rendering as ParaView distributes data (``pvbatch --mpi``: a
+reader gives each rank one extent of the image): no process holds the whole volume.
+
+1. **Pieces.** The whole volume's points are cut into boxes that share their faces
+   (:func:`split_boxes`, VTK's piece extents without ghosts). A process holds its box
+   plus the ghost points its render reads: none for trilinear samples, one layer for
+   shading and gradient opacity (:class:`~pv_hdrvol.raycast.grid.VolumePiece`).
+2. **Rendering.** Every piece samples the whole volume's ray lattice (the one a serial
+   render uses: it starts where the ray enters the whole box) and composites, from
+   transparent, the samples whose midpoints lie in its owned box
+   (``GridPlan.execute(piece=...)``). Every sample has exactly one owner.
+3. **Compositing.** The owned boxes are disjoint and convex, so along each ray they are
+   met one after another: the partial images are composited front to back in the
+   order of each pixel's entry into the boxes (:func:`composite_pieces`), a pure
+   function of the images and the boxes.
+
+The result equals the serial render to rounding (composited per piece instead of per
+sample; early termination is per piece, so it stops at ``1 - termination`` of each
+piece); the tests ask 1e-5. The depth image is the first crossing of the depth
+threshold within the piece where the composite crosses it: exact where that piece alone
+crosses it, otherwise the piece's own crossing or, failing that, where the ray enters it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._validate import as_int, as_size
+from ..data.grid import volume_from_array
+from ..image.hdr import HDRImage
+from ..rays.camera import Rays
+from ..raycast.grid import GridPlan, VolumePiece, as_volume
+from .comm import WORLD, _communicator
+
+
+def split_boxes(dims, n):
+    """``n`` boxes of points ``(lo, hi)`` (x, y, z, inclusive) that tile the points
+    ``0 .. dims - 1`` of a volume, sharing faces: the longest axis (in cells) is halved
+    again and again, ``n`` split as evenly as it goes (as VTK's extent translator in
+    block mode). Needs at least ``n`` cells along the split axes."""
+    dims = tuple(as_int("dims", d, low=2) for d in dims)
+    n = as_int("n", n, low=1)
+    cells = int(np.prod([d - 1 for d in dims]))
+    if n > cells:
+        raise ValueError(f"cannot cut {n} pieces of at least one cell from a volume of {cells} cells")
+
+    def cut(lo, hi, k):
+        if k == 1:
+            return [(tuple(lo), tuple(hi))]
+        axis = max(range(3), key=lambda a: (hi[a] - lo[a], a))  # ties: the later axis, as VTK
+        k1 = k // 2
+        mid = lo[axis] + (hi[axis] - lo[axis]) * k1 // k
+        if mid == lo[axis]:
+            mid += 1
+        left_hi, right_lo = list(hi), list(lo)
+        left_hi[axis] = right_lo[axis] = mid
+        return cut(lo, left_hi, k1) + cut(right_lo, hi, k - k1)
+
+    boxes = cut([0, 0, 0], [d - 1 for d in dims], n)
+    if any(h <= l for lo, hi in boxes for l, h in zip(lo, hi)):
+        raise ValueError(f"cannot cut {n} pieces of at least one cell per axis from a volume of {dims} points")
+    return boxes
+
+
+def split_volume(volume, n, ghosts=1):
+    """``n`` pieces of an image volume as a distributed run holds them: a list of
+    ``(GridVolume, VolumePiece)``, each the points of one :func:`split_boxes` box plus
+    ``ghosts`` layers around it (where the volume goes on). For tests and for
+    simulations that hand their own piece to :func:`render_pieces`."""
+    volume = as_volume(volume)
+    ghosts = as_int("ghosts", ghosts, low=0)
+    dims = np.array(volume.dims)
+    out = []
+    for lo, hi in split_boxes(volume.dims, n):
+        a = np.maximum(np.array(lo) - ghosts, 0)
+        b = np.minimum(np.array(hi) + ghosts, dims - 1)
+        values = volume.values[a[2]:b[2] + 1, a[1]:b[1] + 1, a[0]:b[0] + 1]
+        part = volume_from_array(values, volume.spacing, volume.origin + a * volume.spacing, name=volume.name)
+        out.append((part, VolumePiece(tuple(volume.origin.tolist()), tuple(volume.dims), tuple(a.tolist()),
+                                      tuple(lo), tuple(hi))))
+    return out
+
+
+def check_tiling(pieces):
+    """Raise ``ValueError`` unless the owned boxes of ``pieces`` (VolumePieces of one
+    volume) tile its whole box: same whole volume, no overlap, nothing missing."""
+    if not pieces:
+        raise ValueError("no pieces")
+    first = pieces[0]
+    for p in pieces[1:]:
+        if tuple(p.whole_dims) != tuple(first.whole_dims) or \
+                not np.array_equal(np.asarray(p.whole_origin, float), np.asarray(first.whole_origin, float)):
+            raise ValueError(f"the pieces are of different volumes: {first.whole_dims} points at "
+                             f"{tuple(first.whole_origin)} and {p.whole_dims} at {tuple(p.whole_origin)}")
+    lo = np.array([p.owned_lo for p in pieces], dtype=np.int64)
+    hi = np.array([p.owned_hi for p in pieces], dtype=np.int64)
+    whole = np.prod(np.array(first.whole_dims, dtype=np.int64) - 1)
+    if np.prod(hi - lo, axis=1).sum() != whole or (lo < 0).any() or (hi > np.array(first.whole_dims) - 1).any():
+        raise ValueError(f"the owned boxes of the {len(pieces)} pieces do not tile the whole volume of "
+                         f"{first.whole_dims} points: {[(tuple(a), tuple(b)) for a, b in zip(lo.tolist(), hi.tolist())]}")
+    for i in range(len(pieces)):
+        inner = (np.minimum(hi[i], hi[i + 1:]) > np.maximum(lo[i], lo[i + 1:])).all(axis=1)
+        if inner.any():
+            j = i + 1 + int(np.argmax(inner))
+            raise ValueError(f"the owned boxes of pieces {i} and {j} overlap: {tuple(lo[i].tolist())}.."
+                             f"{tuple(hi[i].tolist())} and {tuple(lo[j].tolist())}..{tuple(hi[j].tolist())}")
+
+
+def box_entries(rays, boxes):
+    """(n_boxes, n_rays) distance along each ray where it enters each world box
+    ``(lo, hi)``; ``inf`` where it misses (or only touches) it."""
+    o = np.asarray(rays.origins, dtype=np.float64)
+    d = np.asarray(rays.directions, dtype=np.float64)
+    out = np.empty((len(boxes), o.shape[0]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        for i, (lo, hi) in enumerate(boxes):
+            ta = (np.asarray(lo)[None, :] - o) * inv
+            tb = (np.asarray(hi)[None, :] - o) * inv
+            near = np.where(d != 0, np.minimum(ta, tb), np.where((o >= lo) & (o <= hi), -np.inf, np.inf))
+            far = np.where(d != 0, np.maximum(ta, tb), np.where((o >= lo) & (o <= hi), np.inf, -np.inf))
+            t0 = np.maximum(near.max(axis=1), 0.0)
+            t1 = far.min(axis=1)
+            out[i] = np.where(t1 > t0, t0, np.inf)
+    return out
+
+
+def composite_pieces(images, boxes, rays, dtype=None):
+    """The whole render from the pieces' partial images.
+
+    ``images``: HDRImages of one size (each piece's ``GridPlan.execute(piece=...)``);
+    ``boxes``: each piece's owned box in world coordinates (``VolumePiece.world_box``);
+    ``rays``: the render's :class:`~pv_hdrvol.Rays` (``camera.rays(size)``). Per pixel,
+    front to back in the order the ray enters the boxes: ``C += (1 - A) c``,
+    ``A += (1 - A) a`` in float64, then ``dtype`` (default: the images'). Returns an
+    HDRImage with the first image's metadata.
+    """
+    if len(images) != len(boxes) or not images:
+        raise ValueError(f"composite_pieces needs one box per image; got {len(images)} images and {len(boxes)} boxes")
+    h, w = images[0].rgba.shape[:2]
+    if any(im.rgba.shape[:2] != (h, w) for im in images) or rays.width * rays.height != w * h:
+        raise ValueError("the partial images and the rays must all have one size")
+    n = w * h
+    entries = box_entries(rays, boxes)
+    order = np.argsort(entries, axis=0, kind="stable")
+    rgba = np.stack([np.asarray(im.rgba, dtype=np.float64).reshape(n, 4) for im in images])
+    depths = np.stack([np.asarray(im.depth, dtype=np.float64).reshape(n) for im in images])
+    pix = np.arange(n)
+    total = np.zeros((n, 4))
+    depth = np.full(n, np.inf)
+    threshold = images[0].metadata.get("depth_threshold", 0.5)
+    for j in range(len(images)):
+        k = order[j]
+        part = rgba[k, pix]
+        total += (1.0 - total[:, 3:4]) * part
+        crossed = (depth == np.inf) & (total[:, 3] >= threshold) & np.isfinite(entries[k, pix])
+        depth[crossed] = np.where(np.isfinite(depths[k, pix]), depths[k, pix], entries[k, pix])[crossed]
+    dtype = images[0].rgba.dtype if dtype is None else dtype
+    meta = dict(images[0].metadata)
+    meta.pop("piece", None)
+    meta["pieces"] = len(images)
+    meta["samples"] = int(sum(im.metadata.get("samples", 0) for im in images))
+    return HDRImage(total.astype(dtype).reshape(h, w, 4), depth.reshape(h, w), metadata=meta)
+
+
+def render_pieces(volume, piece, tf, camera, size=(512, 512), *, comm=WORLD, root=0, **options):
+    """Render a volume spread over the processes of ``comm``: each renders its own
+    piece, ``root`` composites (SPMD: every process calls it with its own piece).
+
+    Parameters
+    ----------
+    volume : GridVolume or 3-D array
+        This process's piece (its owned box and ghosts, as ``piece`` says).
+    piece : VolumePiece
+        Where ``volume`` lies in the whole volume and the box it owns; the owned boxes
+        of all processes must tile the whole volume (checked on every process).
+    tf : TransferFunction
+        Required: the default transfer function reads every value of the whole volume.
+    camera : Camera, Rays or view name
+        A view name frames the whole volume.
+    size, **options
+        As :func:`pv_hdrvol.render` (composite blending; no labels or culling).
+    comm : mpi4py communicator, ``"world"`` (default) or None (serial: one piece)
+    root : int or None
+        The process that gets the image; ``None``: every process does.
+
+    Returns
+    -------
+    HDRImage or None
+        The whole render on ``root`` (to rounding the serial render of the whole
+        volume, see the module's notes); ``None`` elsewhere.
+    """
+    from ..data.transfer import TransferFunction
+    from ..rays.camera import as_camera
+
+    comm = _communicator(comm)
+    image = rays = error = None
+    try:
+        if not isinstance(tf, TransferFunction):
+            raise TypeError(f"render_pieces needs tf, a TransferFunction (the default transfer function reads every "
+                            f"value of the whole volume, which no process holds); got {type(tf).__name__}")
+        if not isinstance(piece, VolumePiece):
+            raise TypeError(f"piece must be a VolumePiece; got {type(piece).__name__}")
+        volume = as_volume(volume)
+        camera = as_camera(camera, piece.bounds(volume.spacing))
+        rays = camera if isinstance(camera, Rays) else camera.rays(as_size(size))
+        image = GridPlan(volume, tf, **options).execute(camera, size, piece=piece, progress_bar=False)
+    except Exception as e:  # every process learns of it in gather_pieces; none waits forever
+        error = e
+    return gather_pieces(image, piece, None if error else volume.spacing, rays, comm=comm, root=root, error=error)
+
+
+def gather_pieces(image, piece, spacing, rays, *, comm=WORLD, root=0, error=None):
+    """Composite every process's partial image on ``root`` (SPMD; the second half of
+    :func:`render_pieces`, for callers that render their piece themselves).
+
+    ``image``: this process's ``GridPlan.execute(piece=piece)`` (``None`` for a process
+    without a piece: it adds nothing); ``spacing``: the volume's; ``rays``: the
+    render's. ``error``: the exception this process met instead of rendering. Every
+    process first learns whether any failed, and then all raise (the failing ones their
+    own error, the others a ``RuntimeError`` naming it), so that none waits forever for
+    an image that will not come; so do all when the owned boxes do not tile the volume.
+    Returns the composited HDRImage on ``root`` (every process for ``root=None``), else
+    ``None``.
+    """
+    comm = _communicator(comm)
+    report = None if error is None else f"{type(error).__name__}: {error}"
+    status = comm.allgather((report, piece if image is not None else None))
+    failed = [(rank, text) for rank, (text, _) in enumerate(status) if text is not None]
+    if failed:
+        if error is not None:
+            raise error
+        raise RuntimeError(f"process {failed[0][0]} could not render its piece: {failed[0][1]}")
+    check_tiling([p for _, p in status if p is not None])
+    part = None if image is None else (image, piece.world_box(spacing))
+    gathered = comm.gather(part, root=0 if root is None else root)
+    out = None
+    if gathered is not None and (root is None or comm.rank == root):
+        parts = [g for g in gathered if g is not None]
+        out = composite_pieces([g[0] for g in parts], [g[1] for g in parts], rays)
+    if root is None:
+        out = comm.bcast(out, root=0)
+    return out
+
+
+__all__ = ["box_entries", "check_tiling", "composite_pieces", "gather_pieces", "render_pieces", "split_boxes",
+           "split_volume"]

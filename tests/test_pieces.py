@@ -1,0 +1,190 @@
+"""Rendering an image volume where its pieces live (pv_hdrvol.parallel.pieces): every
+sample of the whole render has exactly one owner, the pieces' images composited in
+depth order are the whole render, and processes that fail say so to the others."""
+import numpy as np
+import pytest
+
+import pv_hdrvol as hv
+from pv_hdrvol.parallel.pieces import (check_tiling, composite_pieces, render_pieces, split_boxes,
+                                       split_volume)
+from pv_hdrvol.raycast.grid import GridPlan, VolumePiece, resolve_transfer_function
+from thread_comm import run_spmd
+
+pytestmark = pytest.mark.core
+
+SIZE = (33, 29)
+
+
+def _volume(spacing=(1.0, 0.5, 1.25)):
+    z, y, x = np.mgrid[0:12, 0:18, 0:23].astype(float)
+    blob = np.exp(-((x - 12) ** 2 + (y - 8) ** 2 + (z - 6) ** 2) / 40.0)
+    values = blob + 0.2 * np.random.default_rng(3).random(blob.shape)
+    return hv.volume_from_array(values, spacing=spacing)
+
+
+def _render_in_pieces(volume, tf, camera, n, ghosts=1, **options):
+    parts = split_volume(volume, n, ghosts)
+    images = [GridPlan(p, tf, **options).execute(camera, SIZE, piece=pc, progress_bar=False) for p, pc in parts]
+    return composite_pieces(images, [pc.world_box(volume.spacing) for _, pc in parts], camera.rays(SIZE)), images
+
+
+@pytest.mark.parametrize("dims, n", [((5, 6, 7), 1), ((5, 6, 7), 2), ((5, 6, 7), 3), ((5, 6, 7), 7),
+                                     ((64, 64, 93), 8), ((2, 2, 9), 8), ((256, 256, 128), 3)])
+def test_split_boxes_tile_the_volume(dims, n):
+    boxes = split_boxes(dims, n)
+    assert len(boxes) == n
+    check_tiling([VolumePiece((0.0, 0.0, 0.0), dims, (0, 0, 0), lo, hi) for lo, hi in boxes])
+    assert all(h > l for lo, hi in boxes for l, h in zip(lo, hi))
+
+
+def test_split_boxes_are_vtks_block_split_for_three_pieces():
+    # the extent translator's pieces of engine's whole extent (as ParaView reads it with 3 ranks)
+    assert split_boxes((256, 256, 128), 3) == [((0, 0, 0), (255, 85, 127)), ((0, 85, 0), (127, 255, 127)),
+                                                ((127, 85, 0), (255, 255, 127))]
+
+
+def test_check_tiling_names_overlaps_and_gaps():
+    whole = ((0.0, 0.0, 0.0), (5, 5, 5), (0, 0, 0))
+    with pytest.raises(ValueError, match=r"the owned boxes of pieces 0 and 1 overlap: \(0, 0, 0\)..\(4, 4, 2\) and "
+                                         r"\(0, 0, 1\)..\(4, 4, 3\)"):
+        check_tiling([VolumePiece(*whole, (0, 0, 0), (4, 4, 2)), VolumePiece(*whole, (0, 0, 1), (4, 4, 3))])
+    with pytest.raises(ValueError, match="do not tile the whole volume"):
+        check_tiling([VolumePiece(*whole, (0, 0, 0), (4, 4, 2))])
+
+
+def test_every_sample_has_one_owner_also_for_rays_in_the_shared_planes():
+    """Without empty-space skipping and early termination a ray's sample count is fixed:
+    the pieces' counts add up to the whole render's exactly. The parallel camera looks
+    along z with a pixel column and row in the planes where the pieces meet (x = 11,
+    y = 4): those rays lie in two pieces' closed boxes, and each of their samples must
+    still be taken once."""
+    volume = _volume()
+    tf = resolve_transfer_function(volume)
+    boxes = split_boxes(volume.dims, 4)
+    assert sorted({lo[0] for lo, _ in boxes}) == [0, 11] and sorted({lo[1] for lo, _ in boxes}) == [0, 8]
+    cx, cy = 11.0 * volume.spacing[0], 8.0 * volume.spacing[1]
+    camera = hv.Camera(position=(cx, cy, 60.0), focal_point=(cx, cy, 10.0), parallel_projection=True,
+                       parallel_scale=14.5 * volume.spacing[1] * 2)
+    rays = camera.rays(SIZE)
+    centre = rays.origins.reshape(SIZE[1], SIZE[0], 3)[SIZE[1] // 2, SIZE[0] // 2]
+    assert centre[0] == cx and centre[1] == cy  # the middle rays lie in the planes
+    options = dict(precision="float64", skip_empty=False, termination=0.0)
+    whole = GridPlan(volume, tf, **options).execute(camera, SIZE, progress_bar=False)
+    for n in (2, 4, 8):
+        image, parts = _render_in_pieces(volume, tf, camera, n, **options)
+        assert sum(p.metadata["samples"] for p in parts) == whole.metadata["samples"], n
+        np.testing.assert_allclose(image.rgba, whole.rgba, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("options, atol", [
+    (dict(precision="float64"), 1e-12),
+    (dict(precision="float32"), 1e-6),
+    (dict(precision="float64", shade=True), 1e-12),
+    (dict(precision="float32", shade=True, gradient_opacity=(0.0, 0.05)), 1e-6),
+])
+def test_pieces_composited_in_depth_order_are_the_whole_render(options, atol):
+    volume = _volume()
+    tf = resolve_transfer_function(volume)
+    camera = hv.Camera.fit(volume.bounds, "iso")  # perspective: the depth order differs per pixel
+    whole = GridPlan(volume, tf, **options).execute(camera, SIZE, progress_bar=False)
+    assert whole.rgba[..., 3].max() > 0.3
+    for n in (2, 3, 8):
+        image, _ = _render_in_pieces(volume, tf, camera, n, **options)
+        assert image.rgba.dtype == whole.rgba.dtype
+        np.testing.assert_allclose(image.rgba, whole.rgba, rtol=0, atol=atol, err_msg=f"{n} pieces")
+        hit = np.isfinite(whole.depth)
+        assert np.array_equal(np.isfinite(image.depth), hit)
+        # the depth where the first piece with opacity crosses the threshold alone: exact
+        assert np.mean(image.depth[hit] == whole.depth[hit]) > 0.7
+
+
+def test_opaque_geometry_stops_every_piece_where_it_stops_the_whole():
+    volume = _volume()
+    tf = resolve_transfer_function(volume)
+    camera = hv.Camera.fit(volume.bounds, "xy")
+    far = np.full((SIZE[1], SIZE[0]), np.inf)
+    far[:, : SIZE[0] // 2] = np.linalg.norm(np.subtract(camera.position, camera.focal_point))  # mid-volume
+    parts = split_volume(volume, 3, 0)
+    images = [GridPlan(p, tf, precision="float64").execute(camera, SIZE, piece=pc, far=far, progress_bar=False)
+              for p, pc in parts]
+    image = composite_pieces(images, [pc.world_box(volume.spacing) for _, pc in parts], camera.rays(SIZE))
+    whole = GridPlan(volume, tf, precision="float64").execute(camera, SIZE, far=far, progress_bar=False)
+    np.testing.assert_allclose(image.rgba, whole.rgba, rtol=0, atol=1e-12)
+    unstopped = GridPlan(volume, tf, precision="float64").execute(camera, SIZE, progress_bar=False)
+    assert (unstopped.rgba[:, : SIZE[0] // 2, 3] - whole.rgba[:, : SIZE[0] // 2, 3]).max() > 0.1
+
+
+def test_faint_sixteen_decade_data_in_eight_float32_pieces():
+    """Rule 2: values over 16 decades on a log axis, opacities near 1e-7 per sample: the
+    float32 pieces keep the whole float64 render's faint alpha to 1e-5 relative."""
+    z, y, x = np.mgrid[0:24, 0:24, 0:24].astype(float)
+    values = 10.0 ** (-8 + 16 * (x + y + z) / 69.0)
+    volume = hv.volume_from_array(values)
+    tf = hv.TransferFunction.ramp(1e-8, 1e8, scale="log", cmap="gray", opacity=(0.1, 1))
+    options = dict(global_alpha=1e-7, termination=0.0)
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    exact = GridPlan(volume, tf, precision="float64", **options).execute(camera, SIZE, progress_bar=False)
+    image, _ = _render_in_pieces(volume, tf, camera, 8, ghosts=0, precision="float32", **options)
+    alpha, ref = image.rgba[..., 3].astype(float), exact.rgba[..., 3]
+    assert ref[ref > 0].min() < 1e-8 and ref.max() < 1e-4  # faint everywhere
+    np.testing.assert_allclose(alpha[ref > 0], ref[ref > 0], rtol=1e-5)
+    assert np.array_equal(alpha > 0, ref > 0)
+
+
+def test_one_piece_without_mpi_is_the_plain_render_bit_for_bit():
+    volume = _volume()
+    tf = resolve_transfer_function(volume)
+    (data, piece), = split_volume(volume, 1)
+    image = render_pieces(data, piece, tf, "iso", SIZE, comm=None)
+    expected = hv.render(volume, tf, "iso", SIZE, progress_bar=False)
+    np.testing.assert_array_equal(image.rgba, expected.rgba)
+    np.testing.assert_array_equal(image.depth, expected.depth)
+
+
+def test_processes_render_their_pieces_and_root_composites():
+    volume = _volume()
+    tf = resolve_transfer_function(volume)
+    parts = split_volume(volume, 3, ghosts=1)
+    expected = hv.render(volume, tf, "iso", SIZE, progress_bar=False, shade=True)
+    results, errors = run_spmd(3, lambda comm: render_pieces(*parts[comm.rank], tf, "iso", SIZE, comm=comm,
+                                                             shade=True))
+    assert errors == [None] * 3 and results[1] is None and results[2] is None
+    np.testing.assert_allclose(results[0].rgba, expected.rgba, rtol=0, atol=1e-6)
+    assert results[0].metadata["pieces"] == 3
+    results, errors = run_spmd(3, lambda comm: render_pieces(*parts[comm.rank], tf, "iso", SIZE, comm=comm, root=None))
+    assert errors == [None] * 3
+    assert all(np.array_equal(r.rgba, results[0].rgba) for r in results)
+
+
+def test_a_process_that_fails_stops_all_of_them_with_its_reason():
+    """Process 1 holds no ghost layer but shades: it raises its ValueError, the others a
+    RuntimeError naming it, and nobody waits for an image that will not come."""
+    volume = _volume()
+    tf = resolve_transfer_function(volume)
+    with_ghosts, without = split_volume(volume, 3, ghosts=1), split_volume(volume, 3, ghosts=0)
+    parts = [with_ghosts[0], without[1], with_ghosts[2]]
+    results, errors = run_spmd(3, lambda comm: render_pieces(*parts[comm.rank], tf, "iso", SIZE, comm=comm,
+                                                             shade=True))
+    lo, hi = parts[1][1].owned_lo, parts[1][1].owned_hi
+    message = (f"the piece's points {lo}..{hi} must cover its owned box {lo}..{hi} with 1 ghost layer(s) inside "
+               f"the volume (shading and gradient opacity read them)")
+    assert isinstance(errors[1], ValueError) and str(errors[1]) == message
+    for rank in (0, 2):
+        assert isinstance(errors[rank], RuntimeError)
+        assert str(errors[rank]) == f"process 1 could not render its piece: ValueError: {message}"
+
+
+def test_what_a_piece_cannot_render_is_refused_by_name():
+    volume = _volume()
+    tf = resolve_transfer_function(volume)
+    data, piece = split_volume(volume, 2)[0]
+    plan = GridPlan(data, tf, blending="maximum")
+    with pytest.raises(ValueError, match=r"blending='composite' only; got 'maximum'"):
+        plan.execute("iso", SIZE, piece=piece)
+    with pytest.raises(TypeError, match="piece must be a VolumePiece; got tuple"):
+        GridPlan(data, tf).execute("iso", SIZE, piece=tuple(piece))
+    with pytest.raises(TypeError, match="render_pieces needs tf, a TransferFunction"):
+        render_pieces(data, piece, None, "iso", SIZE, comm=None)
+    moved = hv.volume_from_array(data.values, spacing=data.spacing, origin=data.origin + 0.5)
+    with pytest.raises(ValueError, match="is not the whole volume's origin plus offset x spacing"):
+        GridPlan(moved, tf).execute("iso", SIZE, piece=piece)

@@ -695,6 +695,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                 self.UpdateProgress(fraction)
                 return not self._should_abort()
 
+            first = _first_use(False, self._options.precision)
+            if first:
+                _display_text(f"pv_hdrvol: first {first} render in this process (its piece): compiling the ray "
+                              f"caster, or loading it from numba's cache ({_numba_cache_dir()})")
             image = plan.execute(camera, self._size, piece=piece, progress=progress, progress_bar=False)
         except Exception as e:  # every process learns of it in gather_pieces; none waits forever
             error = e

@@ -451,6 +451,21 @@ class HDRImageWriter(_ReportingAlgorithm):
         """``"float32"`` or ``"float16"``."""
         return self._pixel_type
 
+    def RequestUpdateExtent(self, request, inInfo, outInfo):
+        # A writer has no output to carry a piece request: under MPI each process asks
+        # for its own piece, as VTK's parallel writers do, so that HDR Volume Render
+        # renders the pieces where they live and only piece 0 holds (and writes) the
+        # image. Left at "piece 0 of 1", every process rendered the whole volume and
+        # wrote the same file.
+        from vtkmodules.vtkParallelCore import vtkMultiProcessController
+
+        controller = vtkMultiProcessController.GetGlobalController()
+        if controller is not None and controller.GetNumberOfProcesses() > 1:
+            info = inInfo[0].GetInformationObject(0)
+            info.Set(_SDDP.UPDATE_PIECE_NUMBER(), controller.GetLocalProcessId())
+            info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), controller.GetNumberOfProcesses())
+        return 1
+
     def Write(self):
         """Update the input and write the file; 1 on success, 0 on failure (as VTK writers)."""
         self._wrote = False

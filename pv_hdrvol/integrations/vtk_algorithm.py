@@ -198,6 +198,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._labels = None
         self._label_styles = None
         self._comm = None
+        self._last_piece = None
+        self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
         # by the input object, which ParaView hands over as a new shallow copy each time
         self._volumes = VolumeCache(dataset_mtime=False)
@@ -540,6 +542,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         # other pieces leave the request as it is and output an empty image.
         info = inInfo[0].GetInformationObject(0)
         plan = self._distribution(inInfo, outInfo)
+        if plan is not None and plan.whole is None:
+            return 1  # a mesh: each process takes the piece its reader gives
         if plan is not None:
             # the extent itself, ghost points included, as "piece 0 of 1": XML image
             # readers cut their own pieces from the piece number and a ghost level, with
@@ -580,8 +584,11 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         info = outInfo.GetInformationObject(0)
         n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
         in_info = inInfo[0].GetInformationObject(0)
-        if n < 2 or not self.DISTRIBUTED or not in_info.Has(_SDDP.WHOLE_EXTENT()) or self._lens is not None or self._labels is not None \
-                or self._cull is not None or self._scalars_to_render()[1] == "cell":
+        structured = in_info.Has(_SDDP.WHOLE_EXTENT())
+        data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
+        mesh = not structured and data is not None and data.GetClassName() == "vtkUnstructuredGrid"
+        if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
+                or self._labels is not None or self._cull is not None or self._scalars_to_render()[1] == "cell":
             return None
         try:
             if self._transfer_function() is None:  # the default reads every value of the whole volume
@@ -592,6 +599,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         piece = _output_piece(outInfo)
         if comm is None or comm.size != n or comm.rank != piece:
             return None
+        if mesh:  # the pieces the reader gives; cut into boxes and exchanged in _execute_mesh_piece
+            if not isinstance(comm, ControllerComm):
+                return None  # vtkRedistributeDataSetFilter needs VTK's processes
+            return _Distribution(comm, None, None, None, 0)
         whole = tuple(in_info.Get(_SDDP.WHOLE_EXTENT()))
         ghosts = 1 if (self._options.shade or self._options.gradient_opacity is not None) else 0
         return _Distribution(comm, whole, _piece_extent(whole, piece, n, 0), _piece_extent(whole, piece, n, ghosts),
@@ -601,6 +612,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         inp = vtkDataObject.GetData(inInfo[0])
         out = vtkImageData.GetData(outInfo)
         distribution = self._distribution(inInfo, outInfo)
+        if distribution is not None and distribution.whole is None:
+            return self._execute_mesh_piece(inp, out, distribution)
         if distribution is not None:
             return self._execute_piece(inp, out, distribution)
         if _output_piece(outInfo) != 0:  # piece 0 renders the whole image (RequestUpdateExtent)
@@ -667,6 +680,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
 
         image = piece = spacing = rays = error = None
         owned = distribution.owned
+        tf = self._shared_transfer_function(distribution.comm)
         try:
             if owned[1] <= owned[0] or owned[3] <= owned[2] or owned[5] <= owned[4]:
                 raise ValueError(f"the image of extent {distribution.whole} has too few cells for "
@@ -689,7 +703,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera, bounds)
             self._last_camera = camera
             rays = camera.rays(self._size)
-            plan = self._plan_for(inp, "vtkImageData", scalars, preference, self._transfer_function())
+            plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf)
 
             def progress(fraction):
                 self.UpdateProgress(fraction)
@@ -702,12 +716,129 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             image = plan.execute(camera, self._size, piece=piece, progress=progress, progress_bar=False)
         except Exception as e:  # every process learns of it in gather_pieces; none waits forever
             error = e
+        self._last_piece = inp
         whole = gather_pieces(image, piece, spacing, rays, comm=distribution.comm, root=0, error=error)
         if whole is None:
             out.Initialize()
         else:
             out.ShallowCopy(whole.to_vtk())
         return 1
+
+    def _shared_transfer_function(self, comm):
+        """Piece 0's transfer function, on every process (collective). In a symmetric
+        batch run each process has its own colour map, which ParaView rescales to the
+        data it sees: a process that holds no data kept [0, 1] and rendered its piece
+        with it (seen with 2 ranks). Piece 0's is the one a script or the GUI shows. The
+        same function received again is the same object, so plans are kept."""
+        local = None
+        if comm.rank == 0:
+            try:
+                local = self._transfer_function()
+            except (TypeError, ValueError) as e:  # every process raises it
+                local = e
+        received = comm.bcast(None if local is None else (local if isinstance(local, Exception)
+                                                          else local.to_dict()), root=0)
+        if isinstance(received, Exception):
+            raise received
+        if self._shared_tf is None or self._shared_tf[0] != received:
+            self._shared_tf = (received, TransferFunction.from_dict(received))
+        return self._shared_tf[1]
+
+    def _execute_mesh_piece(self, inp, out, distribution):
+        """A tetrahedral mesh spread over processes: cut its bounds into one box per
+        process (k-d, at quantiles of the cell centres: about equal cells each), move to
+        each process every cell that meets its box (``vtkRedistributeDataSetFilter``
+        with these cuts; cells on a cut go to both sides), render the span of each ray
+        in the box (``TetPlan.execute(piece=...)``), and composite on piece 0."""
+        import numpy as np
+
+        from ..parallel.pieces import gather_boxes, split_bounds
+        from ..raycast.tets import MeshPiece, TetPlan
+
+        comm = distribution.comm
+        scalars, preference = self._scalars_to_render()
+        report = None
+        summary = None
+        try:
+            kind = inp.GetClassName() if inp is not None else None
+            if kind != "vtkUnstructuredGrid":
+                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkUnstructuredGrid; process {comm.rank} "
+                                 f"got {'nothing' if inp is None else kind}")
+            if scalars is None and inp.GetNumberOfCells():
+                active = inp.GetPointData().GetScalars()
+                scalars = active.GetName() if active is not None else None
+            summary = _mesh_summary(inp, scalars)
+        except Exception as e:  # said to every process before the collective redistribution
+            report = f"{type(e).__name__}: {e}"
+        everyone = comm.allgather((report, summary))
+        failed = [(rank, text) for rank, (text, _) in enumerate(everyone) if text is not None]
+        if failed:
+            raise RuntimeError(f"process {failed[0][0]} could not render its piece: {failed[0][1]}") \
+                if report is None else ValueError(report)
+        held = [s for _, s in everyone if s["cells"]]
+        if not held:
+            raise ValueError("HDRVolumeRenderer needs a non-empty vtkUnstructuredGrid: no process holds a cell")
+        names = [s["scalars"] for s in held if s["scalars"]]
+        scalars = scalars if scalars is not None else (names[0] if names else None)
+        lo = np.min([s["bounds"][0::2] for s in held], axis=0)
+        hi = np.max([s["bounds"][1::2] for s in held], axis=0)
+        bounds = tuple(float(v) for pair in zip(lo, hi) for v in pair)
+        boxes = split_bounds(bounds, comm.size, np.concatenate([s["centres"] for s in held]))
+        tf = self._shared_transfer_function(comm)
+        part = _redistribute(inp, boxes, comm)
+        mine = MeshPiece(tuple(boxes[comm.rank][0]), tuple(boxes[comm.rank][1]), tuple(lo), tuple(hi))
+        # the whole mesh's distinct points, each counted by the one box that owns it
+        points = sum(comm.allgather(_points_owned(part, mine)))
+
+        image = piece = rays = error = None
+        try:
+            piece = mine
+            camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
+                               piece.bounds())
+            self._last_camera = camera
+            rays = camera.rays(self._size)
+            options = self._options
+            if options.opacity_unit_distance is None:
+                # the whole mesh's (TetMesh.default_unit_distance), not this piece's
+                diagonal = float(np.linalg.norm(hi - lo))
+                options = dataclasses.replace(options, opacity_unit_distance=diagonal / points ** (1.0 / 3.0)
+                                              if diagonal > 0 else 1.0)
+            if part.GetNumberOfCells():
+                data = self._volumes.get(part, scalars, preference)
+                key = (data, tf, options)  # kept while the piece, the function and the options are unchanged
+                if self._plan is None or self._plan[0][:2] != (data, tf) or self._plan[0][2] != options:
+                    self._plan = None
+                    self._plan = (key, TetPlan(data, tf, options))
+                plan = self._plan[1]
+
+                def progress(fraction):
+                    self.UpdateProgress(fraction)
+                    return not self._should_abort()
+
+                image = plan.execute(camera, self._size, piece=piece, progress=progress, progress_bar=False)
+            else:  # nothing of the mesh in this box
+                from ..image.hdr import HDRImage
+
+                w, h = self._size
+                dtype = np.float64 if options.precision == "float64" else np.float32
+                image = HDRImage(np.zeros((h, w, 4), dtype=dtype), np.full((h, w), np.inf))
+        except Exception as e:  # every process learns of it in gather_boxes; none waits forever
+            error = e
+        whole = gather_boxes(image, None if piece is None else piece.world_box(), rays, comm=comm, root=0,
+                             error=error)
+        if whole is None:
+            out.Initialize()
+        else:
+            whole.metadata["cells_per_process"] = [s["cells"] for _, s in everyone]
+            out.ShallowCopy(whole.to_vtk())
+        self._last_piece = part
+        return 1
+
+    def GetLastPiece(self):
+        """The data this process rendered last when the input was spread over processes
+        (its extent of an image, with ghosts; its cells of a mesh after they were moved
+        to its box), else ``None``: what each process holds (``GetActualMemorySize()``)."""
+        return self._last_piece
 
     def _plan_for(self, inp, kind, scalars, preference, tf):
         """The :class:`GridPlan` or :class:`TetPlan` of this input, transfer function and
@@ -876,6 +1007,71 @@ class _Distribution(NamedTuple):
     ghosts: int
 
 
+def _mesh_summary(mesh, scalars, sample=4096):
+    """What the processes tell each other about their pieces of a mesh before it is cut
+    into boxes: counts, bounds, the scalars' name and a strided sample of cell centres."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkFiltersCore import vtkCellCenters
+
+    n = mesh.GetNumberOfCells()
+    centres = np.empty((0, 3))
+    points, bounds = 0, None
+    if n:
+        finder = vtkCellCenters()
+        finder.SetInputData(mesh)
+        finder.VertexCellsOff()
+        finder.Update()
+        centres = vtk_to_numpy(finder.GetOutput().GetPoints().GetData())[:: max(1, n // sample)].astype(float)
+        used = _used_points(mesh)  # the bounds a TetMesh of the whole mesh has
+        bounds = tuple(float(v) for pair in zip(used.min(axis=0), used.max(axis=0)) for v in pair)
+    return {"cells": n, "bounds": bounds, "scalars": scalars, "centres": centres}
+
+
+def _used_points(mesh):
+    """The distinct points (``(m, 3)`` float64) the cells of ``mesh`` use, as a TetMesh
+    keeps them."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    if not mesh.GetNumberOfCells():
+        return np.empty((0, 3))
+    xyz = vtk_to_numpy(mesh.GetPoints().GetData()).astype(np.float64)
+    return np.unique(xyz[np.unique(vtk_to_numpy(mesh.GetCells().GetConnectivityArray()))], axis=0)
+
+
+def _points_owned(mesh, piece):
+    """How many distinct points of ``mesh`` lie in ``piece``'s box (half open: a point on
+    a face two boxes share belongs to the box above it), so that the counts of all
+    processes add up to the whole mesh's distinct points (its default unit distance)."""
+    import numpy as np
+
+    used = _used_points(mesh)
+    lo, hi = piece.world_box()
+    inside = (used >= lo) & ((used < hi) | (piece.closed() & (used <= hi)))
+    return int(np.count_nonzero(inside.all(axis=1)))
+
+
+def _redistribute(mesh, boxes, comm):
+    """This process's cells of ``mesh`` after moving every cell to each process whose box
+    it meets (``boxes[rank]``; collective). Box ``i`` goes to process ``i``."""
+    from vtkmodules.vtkCommonDataModel import vtkUnstructuredGrid
+    from vtkmodules.vtkFiltersParallelDIY2 import vtkRedistributeDataSetFilter
+
+    d3 = vtkRedistributeDataSetFilter()
+    d3.SetController(comm.controller)
+    d3.SetInputData(mesh)
+    d3.SetBoundaryModeToAssignToAllIntersectingRegions()
+    d3.UseExplicitCutsOn()
+    d3.ExpandExplicitCutsOff()
+    for lo, hi in boxes:
+        d3.AddExplicitCut([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]])
+    d3.Update()
+    part = vtkUnstructuredGrid()
+    part.ShallowCopy(d3.GetOutputDataObject(0))
+    return part
+
+
 def _piece_extent(whole, piece, n, ghosts):
     """VTK's extent of ``piece`` of ``n`` of the ``whole`` extent (the extent
     translator's block split, which readers and the pipeline use) with ``ghosts``
@@ -899,7 +1095,7 @@ class ControllerComm(PointToPointComm):
     TAG = 87113
 
     def __init__(self, controller):
-        self._controller = controller
+        self.controller = controller
         self.rank = controller.GetLocalProcessId()
         self.size = controller.GetNumberOfProcesses()
 
@@ -919,7 +1115,7 @@ class ControllerComm(PointToPointComm):
         from vtkmodules.vtkCommonCore import VTK_UNSIGNED_CHAR
 
         payload = np.frombuffer(pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL), dtype=np.uint8)
-        self._controller.Send(numpy_to_vtk(payload, deep=1, array_type=VTK_UNSIGNED_CHAR), dest, self.TAG)
+        self.controller.Send(numpy_to_vtk(payload, deep=1, array_type=VTK_UNSIGNED_CHAR), dest, self.TAG)
 
     def _receive(self, source):
         import pickle
@@ -928,7 +1124,7 @@ class ControllerComm(PointToPointComm):
         from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
         payload = vtkUnsignedCharArray()
-        self._controller.Receive(payload, source, self.TAG)
+        self.controller.Receive(payload, source, self.TAG)
         return pickle.loads(vtk_to_numpy(payload).tobytes())
 
 

@@ -30,7 +30,7 @@ import numpy as np
 from .._validate import as_int, as_size
 from ..data.grid import volume_from_array
 from ..image.hdr import HDRImage
-from ..rays.camera import Rays
+from ..rays.camera import Rays, ray_box_spans
 from ..raycast.grid import GridPlan, VolumePiece, as_volume
 from .comm import WORLD, _communicator
 
@@ -62,6 +62,35 @@ def split_boxes(dims, n):
     if any(h <= l for lo, hi in boxes for l, h in zip(lo, hi)):
         raise ValueError(f"cannot cut {n} pieces of at least one cell per axis from a volume of {dims} points")
     return boxes
+
+
+def split_bounds(bounds, n, samples=None):
+    """``n`` world boxes ``(lo, hi)`` that tile ``bounds = (xmin, xmax, ..., zmax)``,
+    sharing faces: the longest side is cut again and again (a k-d split), each cut at the
+    quantile of ``samples`` (points, ``(m, 3)``: cell centres, so that the boxes hold
+    about equal work) that splits the pieces ``k // 2 : k - k // 2``, or in proportion
+    without samples. The same arguments give the same boxes on every process."""
+    b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
+    n = as_int("n", n, low=1)
+    if not np.isfinite(b).all() or (b[:, 1] < b[:, 0]).any():
+        raise ValueError(f"bounds must be finite (xmin, xmax, ymin, ymax, zmin, zmax); got {tuple(b.reshape(-1))}")
+    pts = np.empty((0, 3)) if samples is None else np.asarray(samples, dtype=np.float64).reshape(-1, 3)
+
+    def cut(lo, hi, k, inside):
+        if k == 1:
+            return [(lo, hi)]
+        axis = max(range(3), key=lambda a: (hi[a] - lo[a], a))
+        k1 = k // 2
+        mid = lo[axis] + (hi[axis] - lo[axis]) * k1 / k
+        if len(inside) >= k:
+            mid = float(np.quantile(inside[:, axis], k1 / k))
+        mid = min(max(mid, lo[axis]), hi[axis])
+        left_hi, right_lo = hi.copy(), lo.copy()
+        left_hi[axis] = right_lo[axis] = mid
+        below = inside[:, axis] < mid
+        return cut(lo, left_hi, k1, inside[below]) + cut(right_lo, hi, k - k1, inside[~below])
+
+    return cut(b[:, 0].copy(), b[:, 1].copy(), n, pts)
 
 
 def split_volume(volume, n, ghosts=1):
@@ -110,21 +139,8 @@ def check_tiling(pieces):
 
 def box_entries(rays, boxes):
     """(n_boxes, n_rays) distance along each ray where it enters each world box
-    ``(lo, hi)``; ``inf`` where it misses (or only touches) it."""
-    o = np.asarray(rays.origins, dtype=np.float64)
-    d = np.asarray(rays.directions, dtype=np.float64)
-    out = np.empty((len(boxes), o.shape[0]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / d
-        for i, (lo, hi) in enumerate(boxes):
-            ta = (np.asarray(lo)[None, :] - o) * inv
-            tb = (np.asarray(hi)[None, :] - o) * inv
-            near = np.where(d != 0, np.minimum(ta, tb), np.where((o >= lo) & (o <= hi), -np.inf, np.inf))
-            far = np.where(d != 0, np.maximum(ta, tb), np.where((o >= lo) & (o <= hi), np.inf, -np.inf))
-            t0 = np.maximum(near.max(axis=1), 0.0)
-            t1 = far.min(axis=1)
-            out[i] = np.where(t1 > t0, t0, np.inf)
-    return out
+    ``(lo, hi)``; ``inf`` where it misses (or only touches) it (``ray_box_spans``)."""
+    return np.stack([ray_box_spans(rays, lo, hi)[0] for lo, hi in boxes])
 
 
 def composite_pieces(images, boxes, rays, dtype=None):
@@ -216,34 +232,41 @@ def gather_pieces(image, piece, spacing, rays, *, comm=WORLD, root=0, error=None
     """Composite every process's partial image on ``root`` (SPMD; the second half of
     :func:`render_pieces`, for callers that render their piece themselves).
 
-    ``image``: this process's ``GridPlan.execute(piece=piece)`` (``None`` for a process
-    without a piece: it adds nothing); ``spacing``: the volume's; ``rays``: the
-    render's. ``error``: the exception this process met instead of rendering. Every
-    process first learns whether any failed, and then all raise (the failing ones their
-    own error, the others a ``RuntimeError`` naming it), so that none waits forever for
-    an image that will not come; so do all when the owned boxes do not tile the volume.
-    Returns the composited HDRImage on ``root`` (every process for ``root=None``), else
-    ``None``.
+    ``image``: this process's ``GridPlan.execute(piece=piece)``; ``spacing``: the
+    volume's; ``rays``: the render's. ``error``: the exception this process met instead
+    of rendering. Every process first learns whether any failed, and then all raise
+    (the failing ones their own error, the others a ``RuntimeError`` naming it), so that
+    none waits forever for an image that will not come; so do all when the owned boxes
+    do not tile the volume. Returns the composited HDRImage on ``root`` (every process
+    for ``root=None``), else ``None``.
     """
+    box = None if error is not None else piece.world_box(spacing)
+    return gather_boxes(image, box, rays, comm=comm, root=root, error=error, check=check_tiling, piece=piece)
+
+
+def gather_boxes(image, box, rays, *, comm=WORLD, root=0, error=None, check=None, piece=None):
+    """:func:`gather_pieces` for any pieces that own disjoint world boxes (``box =
+    (lo, hi)``; a tetrahedral mesh's :class:`~pv_hdrvol.raycast.tets.MeshPiece`);
+    ``check``, when given, is called on every process with the list of all ``piece``
+    values and raises if they do not fit together."""
     comm = _communicator(comm)
     report = None if error is None else f"{type(error).__name__}: {error}"
-    status = comm.allgather((report, piece if image is not None else None))
+    status = comm.allgather((report, piece))
     failed = [(rank, text) for rank, (text, _) in enumerate(status) if text is not None]
     if failed:
         if error is not None:
             raise error
         raise RuntimeError(f"process {failed[0][0]} could not render its piece: {failed[0][1]}")
-    check_tiling([p for _, p in status if p is not None])
-    part = None if image is None else (image, piece.world_box(spacing))
-    gathered = comm.gather(part, root=0 if root is None else root)
+    if check is not None:
+        check([p for _, p in status])
+    gathered = comm.gather((image, box), root=0 if root is None else root)
     out = None
     if gathered is not None and (root is None or comm.rank == root):
-        parts = [g for g in gathered if g is not None]
-        out = composite_pieces([g[0] for g in parts], [g[1] for g in parts], rays)
+        out = composite_pieces([g[0] for g in gathered], [g[1] for g in gathered], rays)
     if root is None:
         out = comm.bcast(out, root=0)
     return out
 
 
-__all__ = ["box_entries", "check_tiling", "composite_pieces", "gather_pieces", "render_pieces", "split_boxes",
-           "split_volume"]
+__all__ = ["box_entries", "check_tiling", "composite_pieces", "gather_boxes", "gather_pieces", "render_pieces",
+           "split_boxes", "split_bounds", "split_volume"]

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from ..data.transfer import SCALE_CODES, _scale_inverse
 from ..image.hdr import HDRImage
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
-from ..rays.camera import Camera, as_camera
+from ..rays.camera import Camera, as_camera, ray_box_spans
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
@@ -150,28 +151,43 @@ class TetPlan:
                                                  visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
 
     def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, chunk_seconds=None,
-                far=None):
+                far=None, piece=None):
         """Render the plan for ``camera`` and ``size`` (as :func:`render_tets`); an
         :class:`~pv_hdrvol.HDRImage`. ``chunk_seconds`` and ``far``: as
-        :meth:`~pv_hdrvol.raycast.grid.GridPlan.execute`."""
+        :meth:`~pv_hdrvol.raycast.grid.GridPlan.execute`.
+
+        ``piece``: a :class:`MeshPiece` -- the plan's mesh holds every cell of a mesh
+        spread over processes that meets the box this process owns, and this render
+        composites only the span of each ray inside that box (segments are cut at its
+        faces: the field is linear in a cell). The pieces' images composited in depth
+        order (:func:`pv_hdrvol.parallel.pieces.composite_pieces`) are the whole
+        render to rounding; the default camera frames the whole mesh."""
         return self.execute_with_view(camera, size, progress=progress, progress_bar=progress_bar,
-                                      chunk_seconds=chunk_seconds, far=far)[0]
+                                      chunk_seconds=chunk_seconds, far=far, piece=piece)[0]
 
     def execute_with_view(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, view=None,
-                          chunk_seconds=None, far=None):
+                          chunk_seconds=None, far=None, piece=None):
         """:meth:`execute`, and the boundary's ``_view`` for this camera (reused when
         ``view`` was made for it): ``(image, view)``."""
         mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
-        camera = as_camera(camera, mesh.bounds)
+        if piece is not None and not isinstance(piece, MeshPiece):
+            raise TypeError(f"piece must be a MeshPiece; got {type(piece).__name__}")
+        camera = as_camera(camera, mesh.bounds if piece is None else piece.bounds())
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a Camera, a view name or a PyVista/VTK camera (not Rays: a tetrahedral "
                             f"render makes its own rays); got {type(camera).__name__}")
         _check_progress_bar(progress_bar)
         width, height = as_size(size)
         far = _check_far(far, width, height)
+        near = np.empty(0)
+        if piece is not None:  # the span of each ray in the owned box
+            lo, hi = piece.world_box()
+            near, box_far = ray_box_spans(camera.rays((width, height)), lo, hi, piece.closed())
+            far = box_far if not far.size else np.minimum(far, box_far)
         prec = opts.precision
         check_memory(render_bytes(mesh, prec, width, height), _MEMORY_ADVICE.format(width=width, height=height))
-        warn_empty(self._empty_reason)
+        if piece is None:  # a piece may well be empty where the whole is not
+            warn_empty(self._empty_reason)
 
         # rays are made in the kernels, in the mesh's normalised frame; t scales back by mesh.scale
         cam = camera_array(camera, mesh, width, height)
@@ -203,7 +219,7 @@ class TetPlan:
             TK.render_tiles(_MARKERS[opts.precision], mesh.points, cells_i, cells_f, active,
                             mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
                             hits.offsets,
-                            hits.t, hits.face, hits.entering, cam, far, width, height, _TILE, rows, lanes,
+                            hits.t, hits.face, hits.entering, cam, near, far, width, height, _TILE, rows, lanes,
                             params, rgba, depth, cells, pieces, guard)
             return pixel_rows(tile_rows, height)
 
@@ -232,7 +248,35 @@ class TetPlan:
         }
         if opts.shade:
             meta["shading"] = shading_metadata(opts)
+        if piece is not None:
+            meta["piece"] = {"owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi)}
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view
+
+
+class MeshPiece(NamedTuple):
+    """The box of a tetrahedral mesh spread over processes that one process renders
+    (``TetPlan.execute(piece=...)``), in world coordinates: ``owned_lo``/``owned_hi``
+    its box, ``whole_lo``/``whole_hi`` the box of all of them (the mesh's bounds or
+    more). The owned boxes share faces and do not overlap (a k-d split, as VTK's
+    ``vtkRedistributeDataSetFilter`` cuts); a ray in a face two boxes share belongs to
+    the box above it, one on the whole box's far faces to the box below."""
+
+    owned_lo: tuple
+    owned_hi: tuple
+    whole_lo: tuple
+    whole_hi: tuple
+
+    def bounds(self):
+        """The whole box as ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
+        return tuple(float(v) for pair in zip(self.whole_lo, self.whole_hi) for v in pair)
+
+    def world_box(self):
+        """``(lo, hi)``: the owned box."""
+        return np.asarray(self.owned_lo, dtype=np.float64), np.asarray(self.owned_hi, dtype=np.float64)
+
+    def closed(self):
+        """Per axis, whether the owned box reaches the whole box's far face."""
+        return np.asarray(self.owned_hi, dtype=np.float64) >= np.asarray(self.whole_hi, dtype=np.float64)
 
 
 def _table(tf, prec, global_alpha, unit):

@@ -10,6 +10,27 @@ import numpy as np
 from .._validate import as_choice, as_int, as_real, as_size, as_vector
 
 
+def ray_box_spans(rays, lo, hi, closed=(True, True, True)):
+    """``(near, far)``: per ray, the world distances where it enters and leaves the box
+    ``[lo, hi]`` (``near = inf`` where it misses it or only touches it). A ray parallel
+    to an axis lies in the box for ``lo <= o < hi`` on that axis, ``<= hi`` where
+    ``closed``: boxes that share a face then never both hold a ray in it."""
+    o = np.asarray(rays.origins, dtype=np.float64)
+    d = np.asarray(rays.directions, dtype=np.float64)
+    lo = np.asarray(lo, dtype=np.float64)
+    hi = np.asarray(hi, dtype=np.float64)
+    moving = d != 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ta = (lo - o) / d
+        tb = (hi - o) / d
+    inside = (o >= lo) & ((o < hi) | (np.asarray(closed) & (o <= hi)))
+    enter = np.where(moving, np.minimum(ta, tb), np.where(inside, -np.inf, np.inf))
+    leave = np.where(moving, np.maximum(ta, tb), np.where(inside, np.inf, -np.inf))
+    near = np.maximum(enter.max(axis=1), 0.0)
+    far = leave.min(axis=1)
+    return np.where(far > near, near, np.inf), far
+
+
 def check_window(window, width, height):
     """``(col, row, w, h)`` as ints after checking it is a rectangle inside a ``width x
     height`` image."""

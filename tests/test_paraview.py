@@ -78,10 +78,11 @@ def test_plugin_checks_pass_in_pvbatch(shared_data):
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
     """``mpiexec -n 2|3 pvbatch --mpi --symmetric`` (tests/paraview/mpi_render.py): with
-    the array's colour map each rank reads and renders its piece of the image, rank 0
-    composites the whole image (hv.render's to 1e-5); without it, and for a mesh, rank 0
-    renders the whole volume alone (hv.render's bit for bit); the others output empty
-    images."""
+    the array's colour map each rank reads and renders its piece of the image, or the
+    cells of its box of a tetrahedral mesh (read on rank 0, or spread by
+    RedistributeDataSet), and rank 0 composites the whole image (hv.render's to 1e-5);
+    without a colour map rank 0 renders the whole dataset alone (hv.render's bit for
+    bit); the others output empty images."""
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     # Debian's mpiexec (Open MPI, which ParaView is built with), not the MPICH one of the
@@ -105,6 +106,9 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
              "rank 0: the array's colour map, within 1e-5 of hv.render with it; render.exr written",
              "rank 1: the array's colour map; no image, nothing written"]
     lines += [f"rank {r}: read its piece (" for r in range(1, ranks)]
+    lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
+              for how in ("the reader", "RedistributeDataSet")]
+    lines += [f"the whole image of {ranks} boxes, within"]
     for line in lines:
         assert line in done.stdout, line
     assert sorted(os.listdir(tmp_path)) == ["render.exr"]

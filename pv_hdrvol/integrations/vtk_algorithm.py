@@ -783,7 +783,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         lo = np.min([s["bounds"][0::2] for s in held], axis=0)
         hi = np.max([s["bounds"][1::2] for s in held], axis=0)
         bounds = tuple(float(v) for pair in zip(lo, hi) for v in pair)
-        boxes = split_bounds(bounds, comm.size, np.concatenate([s["centres"] for s in held]))
+        # each process's sample stands for its cells: a k-d split of equal cells
+        boxes = split_bounds(bounds, comm.size, np.concatenate([s["centres"] for s in held]),
+                             np.concatenate([np.full(len(s["centres"]), s["cells"] / len(s["centres"])) for s in held]))
         tf = self._shared_transfer_function(comm)
         part = _redistribute(inp, boxes, comm)
         mine = MeshPiece(tuple(boxes[comm.rank][0]), tuple(boxes[comm.rank][1]), tuple(lo), tuple(hi))

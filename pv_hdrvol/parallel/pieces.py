@@ -64,33 +64,40 @@ def split_boxes(dims, n):
     return boxes
 
 
-def split_bounds(bounds, n, samples=None):
+def split_bounds(bounds, n, samples=None, weights=None):
     """``n`` world boxes ``(lo, hi)`` that tile ``bounds = (xmin, xmax, ..., zmax)``,
     sharing faces: the longest side is cut again and again (a k-d split), each cut at the
     quantile of ``samples`` (points, ``(m, 3)``: cell centres, so that the boxes hold
-    about equal work) that splits the pieces ``k // 2 : k - k // 2``, or in proportion
-    without samples. The same arguments give the same boxes on every process."""
+    about equal work; each standing for ``weights`` cells, default 1) that splits the
+    pieces ``k // 2 : k - k // 2``, or in proportion without samples. The same arguments
+    give the same boxes on every process."""
     b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
     n = as_int("n", n, low=1)
     if not np.isfinite(b).all() or (b[:, 1] < b[:, 0]).any():
         raise ValueError(f"bounds must be finite (xmin, xmax, ymin, ymax, zmin, zmax); got {tuple(b.reshape(-1))}")
     pts = np.empty((0, 3)) if samples is None else np.asarray(samples, dtype=np.float64).reshape(-1, 3)
+    w = np.ones(len(pts)) if weights is None else np.broadcast_to(np.asarray(weights, dtype=np.float64), len(pts))
 
-    def cut(lo, hi, k, inside):
+    def cut(lo, hi, k, inside, w):
         if k == 1:
             return [(lo, hi)]
         axis = max(range(3), key=lambda a: (hi[a] - lo[a], a))
         k1 = k // 2
         mid = lo[axis] + (hi[axis] - lo[axis]) * k1 / k
-        if len(inside) >= k:
-            mid = float(np.quantile(inside[:, axis], k1 / k))
+        if len(inside) >= k:  # the weighted quantile k1 / k, between two distinct sample values
+            order = np.argsort(inside[:, axis], kind="stable")
+            values = inside[order, axis]
+            cumulative = np.cumsum(w[order])
+            i = min(int(np.searchsorted(cumulative, cumulative[-1] * k1 / k)), len(values) - 1)
+            j = int(np.searchsorted(values, values[i], side="right"))
+            mid = float(0.5 * (values[i] + values[j])) if j < len(values) else float(values[i])
         mid = min(max(mid, lo[axis]), hi[axis])
         left_hi, right_lo = hi.copy(), lo.copy()
         left_hi[axis] = right_lo[axis] = mid
         below = inside[:, axis] < mid
-        return cut(lo, left_hi, k1, inside[below]) + cut(right_lo, hi, k - k1, inside[~below])
+        return cut(lo, left_hi, k1, inside[below], w[below]) + cut(right_lo, hi, k - k1, inside[~below], w[~below])
 
-    return cut(b[:, 0].copy(), b[:, 1].copy(), n, pts)
+    return cut(b[:, 0].copy(), b[:, 1].copy(), n, pts, w)
 
 
 def split_volume(volume, n, ghosts=1):

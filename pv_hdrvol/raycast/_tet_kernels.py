@@ -395,14 +395,15 @@ def _consistency(x, y, z):
 
 @kernel
 def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-              hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, t_near, t_far):
+              hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, own0, own1, t_far):
     """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``.
 
     The ray stops at ``t_far`` (the mesh's normalised frame; ``inf``: no limit), inside
     a cell with the scalar interpolated there (it is linear along the ray in a cell).
-    Before ``t_near`` (``-inf``: none) it walks the cells without compositing, and the cell
-    that holds ``t_near`` is composited from there: a piece of a distributed mesh
-    renders only the span of the ray in the box it owns.
+    Only the cell segments whose midpoints lie in ``[own0, own1)`` are composited
+    (``-inf, inf``: all): a piece of a distributed mesh renders the segments whose
+    midpoints lie in the box it owns, each whole, with the arithmetic of the whole
+    mesh's render; the walk ends once a segment starts at or past ``own1``.
 
     With ``p.shade``, each cell is lit by its gradient ``grads[cell]`` (world units)
     from the eye along the ray (``_shading_kernels``); else ``grads``, ``shading``,
@@ -495,15 +496,16 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
             if not t_out > t_in:  # NaN (ray in the face's plane) or rounding: no length
                 t_out = t_in
             clipped = t_out > t_far
-            if active[cell] and min(t_out, t_far) > max(t_in, t_near):
+            if t_in >= own1:  # every segment from here on is another piece's
+                done = True
+                break
+            t_mid = 0.5 * (t_in + min(t_out, t_far))
+            if active[cell] and min(t_out, t_far) > t_in and t_mid >= own0 and t_mid < own1:
                 s_out = (ua * cells_f[cell, value_col + ia] + ub * cells_f[cell, value_col + ib]
                          + uc * cells_f[cell, value_col + ic])
                 if clipped:
                     s_out = s_in + (s_out - s_in) * ((t_far - t_in) / (t_out - t_in))
                     t_out = t_far
-                if t_in < t_near:  # the owned span starts inside this cell
-                    s_in = s_in + (s_out - s_in) * ((t_near - t_in) / (t_out - t_in))
-                    t_in = t_near
                 same = s_in == s_prev
                 x_in = x_prev if same else _tpos(s_in, n_table, p)
                 x_out = _tpos(s_out, n_table, p)
@@ -542,24 +544,25 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
 
 @kernel
 def _march(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights, hit_t,
-           hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, t_near, t_far):
+           hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, own0, own1, t_far):
     """One ray in the precision of ``marker`` (a float64, float32 or int64 zero: see
     ``_kernels._marker_precision``): only that compositing loop is compiled."""
     return _march_in(marker, _marker_precision(marker, p), points, cells_i, cells_f, active, btri, bcell, bface,
                      table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
-                     t_near, t_far)
+                     own0, own1, t_far)
 
 
 @parallel_kernel
 def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-                 hit_offsets, hit_t, hit_face, hit_enter, cam, near, far, width, height, tile, tile_rows, lanes,
+                 hit_offsets, hit_t, hit_face, hit_enter, cam, own, far, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
     ``_kernels.render_tiles``: one lane of interleaved tiles per thread). ``far``: as
-    there (world distances; empty: no limit); ``near``: where each ray starts to
-    composite (world distances; empty: at once)."""
+    there (world distances; empty: no limit); ``own`` (pixels x 2, world distances;
+    empty: everything) the span of each ray whose segments this render composites
+    (``_march_in``); a pixel whose span is empty is skipped."""
     has_far = far.shape[0] > 0
-    has_near = near.shape[0] > 0
+    has_own = own.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
@@ -571,13 +574,14 @@ def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, t
                     pix = row * width + col
                     lo = hit_offsets[pix]
                     hi = hit_offsets[pix + 1]
-                    if hi == lo or (has_near and not near[pix] < math.inf):
+                    if hi == lo or (has_own and not own[pix, 1] > own[pix, 0]):
                         continue
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
                         marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
                         hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
-                        near[pix] / p.length_scale if has_near else -math.inf,
+                        own[pix, 0] / p.length_scale if has_own else -math.inf,
+                        own[pix, 1] / p.length_scale if has_own else math.inf,
                         far[pix] / p.length_scale if has_far else math.inf)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g

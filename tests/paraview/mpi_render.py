@@ -30,6 +30,8 @@ def main():
     assert size > 1, "run under mpiexec -n 2 (or more) pvbatch --mpi --symmetric"
     simple.LoadPlugin(os.path.join(ROOT, "paraview_plugin", "pv_hdrvol_plugin.py"), ns=vars(simple))
     where_the_data_lives(rank, size)
+    for redistribute in (False, True):
+        mesh_where_it_lives(rank, size, redistribute)
     for name, array, whole_reader in CASES:
         reader = simple.OpenDataFile(os.path.join(DATA, name))
         reader.UpdatePipeline()
@@ -96,6 +98,48 @@ def where_the_data_lives(rank, size):
           f"image of {size} pieces, within {difference:.1e} of hv.render", flush=True)
     simple.Delete(render)
     simple.Delete(reader)
+
+
+def mesh_where_it_lives(rank, size, redistribute):
+    """The Blunt Fin's tetrahedra with their colour map, read on rank 0 (a one-piece file)
+    or spread by RedistributeDataSet: the filter cuts the bounds into one box per rank,
+    moves every cell to each box it meets, each rank renders the segments in its box,
+    rank 0 composites."""
+    from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+    name, array, whole_reader = CASES[1]
+    reader = simple.OpenDataFile(os.path.join(DATA, name))
+    source = simple.RedistributeDataSet(Input=reader) if redistribute else reader
+    render = simple.HDRVolumeRender(Input=source, ImageSize=[48, 40], Camera="iso")
+    render.Scalars = ["POINTS", array]
+    lut, opacity = simple.GetColorTransferFunction(array), simple.GetOpacityTransferFunction(array)
+    render.UpdatePipeline()
+    given = source.GetClientSideObject().GetOutputDataObject(0)
+    rendered = render.GetClientSideObject().GetLastPiece()
+    cells = rendered.GetNumberOfCells()
+    how = "RedistributeDataSet" if redistribute else "the reader"
+    out = render.GetClientSideObject().GetOutputDataObject(0)
+    total = 187395
+    assert cells < 1.25 * total / size, (rank, cells)  # its box's cells and those that cross a cut
+    line = (f"{name} from {how}: given {given.GetNumberOfCells()} cells, rendered {cells} "
+            f"({rendered.GetActualMemorySize()} kB)")
+    if rank != 0:
+        assert out.GetNumberOfPoints() == 0
+        print(f"rank {rank}: {line}", flush=True)
+        simple.Delete(render)
+        return
+    whole = whole_reader()
+    whole.SetFileName(os.path.join(DATA, name))
+    whole.Update()
+    tf = transfer_function_from_vtk(lut.GetClientSideObject(), opacity.GetClientSideObject())
+    expected = hv.render(whole.GetOutput(), tf, "iso", (48, 40), scalars=array, progress_bar=False)
+    got = hv.HDRImage.from_pyvista(out)
+    assert expected.rgba[..., 3].max() > 0.5
+    difference = float(np.abs(got.rgba.astype(np.float64) - expected.rgba).max())
+    assert difference <= 1e-5, difference
+    print(f"rank 0: {line}; the whole image of {size} boxes, within {difference:.1e} of hv.render "
+          f"(whole mesh {whole.GetOutput().GetActualMemorySize()} kB)", flush=True)
+    simple.Delete(render)
 
 
 def color_map_editor(rank, size):

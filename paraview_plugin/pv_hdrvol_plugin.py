@@ -929,6 +929,23 @@ if HDRVolumeRenderer is not None:
         def SetPixelType(self, value):
             super().SetPixelType(value)
 
+    # ParaView 5.11's own PNG writer is not parallel, so under MPI SaveData("x.png") found
+    # no writer; this one writes the shown (tone-mapped) colours from rank 0
+    @smproxy.writer(extensions="png", file_description="PNG of the shown tone map (pv_hdrvol)",
+                    support_reload=False, supports_parallel="1")
+    @smproperty.input(name="Input", port_index=0)
+    @smdomain.datatype(dataTypes=["vtkImageData"], composite_data_supported=False)
+    class HDRPngWriter(vtk_image.HDRImageWriter):
+        """The ``tonemapped`` colours of a 2-D image (HDR Volume Render's Display Tone
+        Map, HDR Tone Map's output) as an 8-bit PNG; without them, the default display
+        mapping of ``rgba``."""
+
+        @smproperty.stringvector(name="FileName", panel_visibility="never")
+        @smdomain.filelist()
+        def SetFileName(self, name):
+            if name and name != "None":  # ParaView 5.11 pushes "None" while it makes the proxy
+                super().SetFileName(name)
+
     @smproxy.writer(extensions="hdr", file_description="Radiance HDR image (pv_hdrvol)", support_reload=False,
                     supports_parallel="1")
     @smproperty.input(name="Input", port_index=0)

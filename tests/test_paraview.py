@@ -103,7 +103,7 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
              "rank 0: structured/engine_256x256x128_uint8.vti: a piece of",
              "rank 0: unstructured/bluntfin_187395tets.vtu: a piece of",
              f"the whole image of {ranks} pieces, within",
-             "rank 0: the array's colour map, within 1e-5 of hv.render with it; render.exr written",
+             "rank 0: the array's colour map, within 1e-5 of hv.render with it; render.exr and render.png written",
              "rank 1: the array's colour map; no image, nothing written"]
     lines += [f"rank {r}: read its piece (" for r in range(1, ranks)]
     lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
@@ -111,7 +111,7 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
     lines += [f"the whole image of {ranks} boxes, within"]
     for line in lines:
         assert line in done.stdout, line
-    assert sorted(os.listdir(tmp_path)) == ["render.exr"]
+    assert sorted(os.listdir(tmp_path)) == ["render.exr", "render.png"]
     for bad in ("Traceback", "outside the whole extent", "is not set (no colour map"):
         assert bad not in done.stdout, f"{bad!r} in the output:\n{done.stdout[-3000:]}"
 

@@ -421,6 +421,30 @@ def test_writer_writes_what_save_writes(volume_render, tmp_path, ext):
         assert hv.load(ours).metadata == hv.HDRImage.from_pyvista(image.to_vtk()).metadata
 
 
+def test_writer_png_writes_the_tonemapped_colours_the_input_carries(volume_render, tmp_path):
+    """What the view shows (HDR Tone Map's or the ParaView filter's 'tonemapped' array),
+    not the default display mapping (Drago's operator differs from it)."""
+    _, image = volume_render
+    mapper = HDRToneMapper()
+    mapper.SetInputDataObject(image.to_vtk())
+    mapper.SetOperator("drago")
+    path = tmp_path / "shown.png"
+    writer = HDRImageWriter()
+    writer.SetInputConnection(mapper.GetOutputPort())
+    writer.SetFileName(path)
+    assert writer.Write() == 1
+    from vtkmodules.vtkIOImage import vtkPNGReader
+
+    reader = vtkPNGReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    shown = vtk_to_numpy(mapper.GetOutput().GetPointData().GetArray("tonemapped"))
+    np.testing.assert_array_equal(vtk_to_numpy(reader.GetOutput().GetPointData().GetScalars()), shown)
+    default = tmp_path / "default.png"
+    image.save(default)
+    assert path.read_bytes() != default.read_bytes()
+
+
 def test_writer_errors(volume_render, tmp_path):
     source = volume_render[1].to_vtk()
     mtime = source.GetMTime()

@@ -23,6 +23,7 @@ import os
 
 import numpy as np
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+from vtkmodules.vtkCommonCore import VTK_UNSIGNED_CHAR
 from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkDataSet, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm, vtkStreamingDemandDrivenPipeline
 
@@ -403,7 +404,9 @@ class HDRImageWriter(_ReportingAlgorithm):
     the format (see :meth:`HDRImage.save <pv_hdrvol.HDRImage.save>`: ``.exr`` keeps
     everything, float32 bit for bit, with the metadata in its header; ``.hdr`` keeps
     RGB over black in 8-bit mantissas and the metadata; ``.npy`` keeps RGBA and depth
-    in RGBA's type, no metadata; ``.png`` the default 8-bit display mapping).
+    in RGBA's type, no metadata; ``.png`` the input's ``"tonemapped"`` colours where it
+    has them -- what ParaView shows, :class:`HDRToneMapper`'s or HDR Volume Render's
+    Display Tone Map --, else the default 8-bit display mapping).
 
     Examples
     --------
@@ -478,9 +481,16 @@ class HDRImageWriter(_ReportingAlgorithm):
             raise ValueError("HDRImageWriter has no file to write: call SetFileName(path)")
         if _empty_on_another_rank(inInfo, 0):  # rank 0 writes the image
             return 1
-        image, _, _ = _image_on(inInfo, 0, "HDRImageWriter")
+        image, cols, rows = _image_on(inInfo, 0, "HDRImageWriter")
         self.UpdateProgress(0.0)
-        HDRImage.from_pyvista(image).save(self._file_name, pixel_type=self._pixel_type)
+        shown = image.GetPointData().GetArray("tonemapped")
+        if self._file_name.lower().endswith(".png") and shown is not None and shown.GetNumberOfComponents() == 3 \
+                and shown.GetDataType() == VTK_UNSIGNED_CHAR:
+            from ..image.hdr import _write_png
+
+            _write_png(self._file_name, vtk_to_numpy(shown).reshape(rows, cols, 3)[::-1])  # rows top first
+        else:
+            HDRImage.from_pyvista(image).save(self._file_name, pixel_type=self._pixel_type)
         self._wrote = True
         self.UpdateProgress(1.0)
         return 1

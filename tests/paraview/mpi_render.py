@@ -161,6 +161,7 @@ def color_map_editor(rank, size):
     out = render.GetClientSideObject().GetOutputDataObject(0)
     folder = os.environ["PV_HDRVOL_MPI_OUT"]
     simple.SaveData(os.path.join(folder, "render.exr"), proxy=simple.OutputPort(render, 0))
+    simple.SaveData(os.path.join(folder, "render.png"), proxy=simple.OutputPort(render, 0))
     # the writer asked for this rank's piece: the reader holds only that, on every rank
     read = reader.GetClientSideObject().GetOutputDataObject(0).GetExtent()
     assert read == _piece_extent((0, 255, 0, 255, 0, 127), rank, size, 0), (rank, read)
@@ -179,10 +180,18 @@ def color_map_editor(rank, size):
     expected = hv.render(whole.GetOutput(), tf, "iso", (32, 24), scalars=array, progress_bar=False)
     got = hv.HDRImage.from_pyvista(out)
     np.testing.assert_allclose(got.rgba, expected.rgba, rtol=0, atol=1e-5)
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOImage import vtkPNGReader
+
+    png = vtkPNGReader()
+    png.SetFileName(os.path.join(folder, "render.png"))
+    png.Update()
+    np.testing.assert_array_equal(vtk_to_numpy(png.GetOutput().GetPointData().GetScalars()),
+                                  vtk_to_numpy(out.GetPointData().GetArray("tonemapped")))  # what the view shows
     saved = hv.load(os.path.join(folder, "render.exr"))
     np.testing.assert_array_equal(saved.rgba, got.rgba.astype(np.float32))
     assert shown.GetPointData().GetArray("tonemapped") is not None
-    print(f"rank 0: the array's colour map, within 1e-5 of hv.render with it; render.exr written",
+    print("rank 0: the array's colour map, within 1e-5 of hv.render with it; render.exr and render.png written",
           flush=True)
 
 

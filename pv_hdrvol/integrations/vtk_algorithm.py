@@ -22,7 +22,7 @@ from ..parallel.comm import PointToPointComm
 from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
 from ..params import RenderOptions
 from ..rays.camera import Camera, Rays, as_camera
-from . import VolumeCache
+from . import VolumeCache, _content_key
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -200,6 +200,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._comm = None
         self._last_piece = None
         self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
+        self._moved = None  # a mesh piece: (key, summary, (box, the cells moved to it, points) or None)
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
         # by the input object, which ParaView hands over as a new shallow copy each time
         self._volumes = VolumeCache(dataset_mtime=False)
@@ -767,7 +768,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             if scalars is None and inp.GetNumberOfCells():
                 active = inp.GetPointData().GetScalars()
                 scalars = active.GetName() if active is not None else None
-            summary = _mesh_summary(inp, scalars)
+            key = (scalars, _content_key(inp))
+            if self._moved is None or self._moved[0] != key:
+                self._moved = (key, _mesh_summary(inp, scalars), None)
+            summary = dict(self._moved[1], changed=self._moved[2] is None)
         except Exception as e:  # said to every process before the collective redistribution
             report = f"{type(e).__name__}: {e}"
         everyone = comm.allgather((report, summary))
@@ -787,10 +791,15 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         boxes = split_bounds(bounds, comm.size, np.concatenate([s["centres"] for s in held]),
                              np.concatenate([np.full(len(s["centres"]), s["cells"] / len(s["centres"])) for s in held]))
         tf = self._shared_transfer_function(comm)
-        part = _redistribute(inp, boxes, comm)
         mine = MeshPiece(tuple(boxes[comm.rank][0]), tuple(boxes[comm.rank][1]), tuple(lo), tuple(hi))
-        # the whole mesh's distinct points, each counted by the one box that owns it
-        points = sum(comm.allgather(_points_owned(part, mine)))
+        if any(s["changed"] for _, s in everyone) or self._moved[2] is None or self._moved[2][0] != mine:
+            # no process's piece changed (a new camera, size or colour map): keep the
+            # moved cells, whose TetMesh is then kept too
+            part = _redistribute(inp, boxes, comm)
+            # the whole mesh's distinct points, each counted by the one box that owns it
+            points = sum(comm.allgather(_points_owned(part, mine)))
+            self._moved = (self._moved[0], self._moved[1], (mine, part, points))
+        _, part, points = self._moved[2]
 
         image = piece = rays = error = None
         try:

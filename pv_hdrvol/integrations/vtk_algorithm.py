@@ -589,11 +589,11 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
         mesh = not structured and data is not None and data.GetClassName() == "vtkUnstructuredGrid"
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
-                or self._labels is not None or self._cull is not None or self._scalars_to_render()[1] == "cell":
+                or self._labels is not None or self._cull is not None:
             return None
         try:
-            if self._transfer_function() is None:  # the default reads every value of the whole volume
-                return None
+            if self._scalars_to_render()[1] == "cell" or self._transfer_function() is None:
+                return None  # a cell array; the default function reads every value of the whole volume
         except (TypeError, ValueError):
             return None  # piece 0 reports it
         comm = self._comm if self._comm is not None else ControllerComm.world()

@@ -133,17 +133,17 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     so validated) by each setter, which then calls ``Modified()`` if the value
     changed.
 
-    Pieces (MPI: ``pvbatch --mpi``, ``pvserver`` on several ranks): an image volume with
-    a transfer function (set, or a lookup table) is rendered where it lives. Each
+    Pieces (MPI: ``pvbatch --mpi``, ``pvserver`` on several ranks): data with a transfer
+    function (set, or a lookup table) is rendered where it lives. For an image each
     process asks its input for its own piece of the extent (VTK's extent translator,
-    plus one ghost layer for shading and gradient opacity), renders the samples it owns,
+    plus one ghost layer for shading and gradient opacity); a tetrahedral mesh's cells
+    are moved to one box per process (VTK's processes only). Each renders what it owns,
     and piece 0 composites the partial images in depth order into the whole image
     (:mod:`pv_hdrvol.parallel.pieces`; equal to the serial render to rounding); the
-    other pieces output empty images. Otherwise (a tetrahedral mesh, the default
-    transfer function -- it reads every value --, a cell array, a lens, labels or
-    culling) piece 0 asks for all of the data (the whole extent of an image, piece 0 of
-    1 of a mesh) and renders it alone; no process renders its piece as if it were the
-    whole.
+    other pieces output empty images. Otherwise (the default transfer function -- it
+    reads every value --, a cell array, a lens, labels or culling) piece 0 asks for all
+    of the data (the whole extent of an image, piece 0 of 1 of a mesh) and renders it
+    alone; no process renders its piece as if it were the whole.
 
     Scalars: ``SetScalars(name)``, or the standard
     ``SetInputArrayToProcess(0, 0, 0, association, name)``; by default the active
@@ -174,7 +174,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     """
 
     REPORT_NAME = "HDRVolumeRenderer"  # also for subclasses (the ParaView filter)
-    #: whether an image volume is rendered where it lives under MPI (``_distribution``)
+    #: whether data is rendered where it lives under MPI (``_distribution``)
     DISTRIBUTED = True
 
     def __init__(self):
@@ -473,12 +473,13 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         return self._lens
 
     def SetCommunicator(self, comm):
-        """The processes that render the pieces of a distributed image together: ``None``
+        """The processes that render the pieces of distributed data together: ``None``
         (default: those of VTK's global ``vtkMultiProcessController``, ParaView's MPI
         ranks) or an mpi4py-style communicator (``rank``, ``size``, ``gather``,
         ``allgather``, ``alltoall``, ``bcast``; e.g. ``MPI.COMM_WORLD``) whose
         ``rank`` is the piece this algorithm is asked for and ``size`` the number of
-        pieces."""
+        pieces (a mesh is moved between VTK's processes only: with another communicator
+        piece 0 renders all of it)."""
         if comm is not None and not all(hasattr(comm, name) for name in ("rank", "size", "gather", "allgather",
                                                                           "alltoall", "bcast")):
             raise TypeError(f"the communicator must have rank, size, gather, allgather, alltoall and bcast (as "
@@ -753,13 +754,12 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         in the box (``TetPlan.execute(piece=...)``), and composite on piece 0."""
         import numpy as np
 
-        from ..parallel.pieces import gather_boxes, split_bounds
+        from ..parallel.pieces import allgather_or_raise, gather_boxes, split_bounds
         from ..raycast.tets import MeshPiece, TetPlan
 
         comm = distribution.comm
         scalars, preference = self._scalars_to_render()
-        report = None
-        summary = None
+        summary = error = None
         try:
             kind = inp.GetClassName() if inp is not None else None
             if kind != "vtkUnstructuredGrid":
@@ -773,13 +773,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                 self._moved = (key, _mesh_summary(inp, scalars), None)
             summary = dict(self._moved[1], changed=self._moved[2] is None)
         except Exception as e:  # said to every process before the collective redistribution
-            report = f"{type(e).__name__}: {e}"
-        everyone = comm.allgather((report, summary))
-        failed = [(rank, text) for rank, (text, _) in enumerate(everyone) if text is not None]
-        if failed:
-            raise RuntimeError(f"process {failed[0][0]} could not render its piece: {failed[0][1]}") \
-                if report is None else ValueError(report)
-        held = [s for _, s in everyone if s["cells"]]
+            error = e
+        everyone = allgather_or_raise(comm, summary, error)
+        held = [s for s in everyone if s["cells"]]
         if not held:
             raise ValueError("HDRVolumeRenderer needs a non-empty vtkUnstructuredGrid: no process holds a cell")
         names = [s["scalars"] for s in held if s["scalars"]]
@@ -792,7 +788,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                              np.concatenate([np.full(len(s["centres"]), s["cells"] / len(s["centres"])) for s in held]))
         tf = self._shared_transfer_function(comm)
         mine = MeshPiece(tuple(boxes[comm.rank][0]), tuple(boxes[comm.rank][1]), tuple(lo), tuple(hi))
-        if any(s["changed"] for _, s in everyone) or self._moved[2] is None or self._moved[2][0] != mine:
+        if any(s["changed"] for s in everyone) or self._moved[2] is None or self._moved[2][0] != mine:
             # no process's piece changed (a new camera, size or colour map): keep the
             # moved cells, whose TetMesh is then kept too
             part = _redistribute(inp, boxes, comm)
@@ -840,7 +836,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         if whole is None:
             out.Initialize()
         else:
-            whole.metadata["cells_per_process"] = [s["cells"] for _, s in everyone]
+            whole.metadata["cells_per_process"] = [s["cells"] for s in everyone]
             out.ShallowCopy(whole.to_vtk())
         self._last_piece = part
         return 1

@@ -251,21 +251,30 @@ def gather_pieces(image, piece, spacing, rays, *, comm=WORLD, root=0, error=None
     return gather_boxes(image, box, rays, comm=comm, root=root, error=error, check=check_tiling, piece=piece)
 
 
+def allgather_or_raise(comm, value, error=None):
+    """Every process's ``value`` (``comm.allgather``), unless a process met an
+    exception (``error``) instead: then every process raises, the failing ones their
+    own error, the others a ``RuntimeError`` naming the first that failed, so that none
+    goes on to a collective step and waits forever for the others."""
+    report = None if error is None else f"{type(error).__name__}: {error}"
+    status = comm.allgather((report, value))
+    failed = [(rank, text) for rank, (text, _) in enumerate(status) if text is not None]
+    if failed:
+        if error is not None:
+            raise error
+        raise RuntimeError(f"process {failed[0][0]} could not render its piece: {failed[0][1]}")
+    return [v for _, v in status]
+
+
 def gather_boxes(image, box, rays, *, comm=WORLD, root=0, error=None, check=None, piece=None):
     """:func:`gather_pieces` for any pieces that own disjoint world boxes (``box =
     (lo, hi)``; a tetrahedral mesh's :class:`~pv_hdrvol.raycast.tets.MeshPiece`);
     ``check``, when given, is called on every process with the list of all ``piece``
     values and raises if they do not fit together."""
     comm = _communicator(comm)
-    report = None if error is None else f"{type(error).__name__}: {error}"
-    status = comm.allgather((report, piece))
-    failed = [(rank, text) for rank, (text, _) in enumerate(status) if text is not None]
-    if failed:
-        if error is not None:
-            raise error
-        raise RuntimeError(f"process {failed[0][0]} could not render its piece: {failed[0][1]}")
+    pieces = allgather_or_raise(comm, piece, error)
     if check is not None:
-        check([p for _, p in status])
+        check(pieces)
     gathered = comm.gather((image, box), root=0 if root is None else root)
     out = None
     if gathered is not None and (root is None or comm.rank == root):
@@ -275,5 +284,5 @@ def gather_boxes(image, box, rays, *, comm=WORLD, root=0, error=None, check=None
     return out
 
 
-__all__ = ["box_entries", "check_tiling", "composite_pieces", "gather_boxes", "gather_pieces", "render_pieces",
+__all__ = ["allgather_or_raise", "box_entries", "check_tiling", "composite_pieces", "gather_boxes", "gather_pieces", "render_pieces",
            "split_boxes", "split_bounds", "split_volume"]

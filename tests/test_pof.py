@@ -431,3 +431,34 @@ def test_block_ranges_are_the_min_and_max_of_each_blocks_points():
                 assert np.isnan(lo[k, j, i]) and np.isnan(hi[k, j, i])
             else:
                 assert lo[k, j, i] == np.nanmin(block) and hi[k, j, i] == np.nanmax(block)
+
+
+def _one_hot_block_volume():
+    """64^3 zeros with the points of block (1, 2, 1) (block_size 16) at 100, and the
+    blocks that hold any of those points (neighbours share their faces' points)."""
+    values = np.zeros((65, 65, 65))
+    values[17:32, 33:48, 17:32] = 100.0  # strictly inside block (z, y, x) = (1, 2, 1)
+    expected = np.zeros((4, 4, 4), dtype=bool)
+    expected[1, 2, 1] = True
+    return values, expected
+
+
+@pytest.mark.parametrize("tf", [hv.TransferFunction.ramp(50, 255),
+                                hv.TransferFunction.ramp(1, 1000, scale="log"),
+                                hv.TransferFunction.ramp(50, 255, scale="symlog")],
+                         ids=["linear", "log", "symlog"])
+def test_values_below_the_first_point_are_empty_for_every_consumer(tf):
+    """A ramp is 0 at its first point and below: zeros meet no extinction. The POFs,
+    the renderer's empty-space skipping and the parallel distribution all mark only the
+    block holding the 100s (the POFs took the entry after the last one a block's range
+    can reach too, so every block of zeros counted as non-empty)."""
+    from pv_hdrvol.raycast.grid import GridPlan, _base_active
+
+    values, expected = _one_hot_block_volume()
+    pof = PlenopticOpacity.compute(values, [tf], block_size=16, threads=1)
+    assert pof.nonempty[..., 0].tolist() == expected.tolist()
+    for precision in ("float64", "float32"):  # the renderer's empty-space skipping, 16^3 blocks
+        plan = GridPlan(values, tf, precision=precision, block_size=16)
+        prep = plan._prepare()
+        active = _base_active(prep.volume, prep.blocks, plan.options, None, plan.table, prep.params)
+        assert active.astype(bool).tolist() == expected.tolist()

@@ -15,7 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .._validate import as_choice, as_int, as_real
-from ..data.transfer import SCALE_CODES, TransferFunction, TransferFunctionFamily, scale_forward
+from ..data.transfer import SCALE_CODES, TransferFunction, TransferFunctionFamily, table_entry_span
 from . import _kernels as K
 
 #: The paper's view sampling: 36 azimuths theta_i = i 10 deg and 36 polar angles
@@ -373,15 +373,13 @@ def block_ranges(values, block_size):
 
 
 def _nonempty(values, shape, block_size, sigma, family):
-    """(bz, by, bx, p): the block's value range (its points, NaN ignored) meets an entry
-    of non-zero extinction of the basis, or a neighbour of one (interpolation)."""
+    """(bz, by, bx, p): the block's value range (its points, NaN ignored) reaches an
+    entry of non-zero extinction of the basis (``table_entry_span``: the entries
+    ``block_min_depth``'s interpolation reads, no more)."""
     lo, hi = block_ranges(values, block_size)  # shape (bz, by, bx) == shape
-    n = sigma.shape[1]
     a0, a1 = family.axis_range
-    ends = scale_forward(np.stack([lo, hi], axis=-1), family.scale, family.linthresh)
-    pos = np.clip((np.nan_to_num(ends, nan=a0, neginf=a0, posinf=a1) - a0) / ((a1 - a0) or 1.0), 0, 1)
-    i0 = np.maximum(0, np.floor(pos[..., 0] * (n - 1)).astype(np.int64))
-    i1 = np.minimum(n - 1, np.ceil(pos[..., 1] * (n - 1)).astype(np.int64) + 1)
+    axis_inv = 1.0 / (a1 - a0) if a1 > a0 else 0.0  # as compute() gives the kernel
+    i0, i1 = table_entry_span(lo, hi, family.scale, family.linthresh, a0, axis_inv, sigma.shape[1])
     # any(sigma[:, i0:i1 + 1] > 0) per basis from prefix counts of the non-zero entries
     counts = np.concatenate([np.zeros((sigma.shape[0], 1), dtype=np.int64),
                              np.cumsum(sigma > 0, axis=1)], axis=1)  # (p, n + 1)

@@ -47,6 +47,32 @@ def scale_forward(values, scale, linthresh=1.0):
     return np.sign(v) * np.log10(1.0 + np.abs(v) / linthresh)
 
 
+def table_entry_span(lo, hi, scale, linthresh, axis_lo, axis_inv, n, *, nearest=False):
+    """``(i0, i1)``: the first and last entries of an ``n``-entry table whose axis
+    starts at ``axis_lo`` (position ``(axis - axis_lo) * axis_inv``, as the kernels
+    compute it) that a value between ``lo`` and ``hi`` (arrays, data units) can read.
+
+    The kernels interpolate between entries ``floor(x)`` and ``ceil(x)`` of the table
+    position ``x``, clamped to the axis (values below it read entry 0 alone, so a
+    function that is 0 at its first point and below gives them no opacity);
+    ``nearest=True`` (the 8-bit emulation) reads entry ``round(x)``. The axis transform
+    is monotone, so every value of a range reads entries between those of its ends.
+    Non-linear axes get a margin of 1e-9 of the axis, because the kernels' ``log10``
+    may differ from numpy's by an ulp. NaN ends read entry 0 (callers mask all-NaN
+    ranges themselves).
+    """
+    margin = 0.0 if scale == "linear" else 1e-9
+    with np.errstate(invalid="ignore"):  # inf * 0 on a one-point axis
+        # log 0 = -inf lies off the axis, margin or not: reads entry 0 alone
+        pos = [np.nan_to_num((scale_forward(v, scale, linthresh) - axis_lo) * axis_inv, nan=0.0, neginf=-1.0,
+                             posinf=2.0) for v in (lo, hi)]
+    ulo = np.clip(pos[0] - margin, 0.0, 1.0) * (n - 1)
+    uhi = np.clip(pos[1] + margin, 0.0, 1.0) * (n - 1)
+    if nearest:
+        return np.floor(ulo + 0.5).astype(np.int64), np.floor(uhi + 0.5).astype(np.int64)
+    return np.floor(ulo).astype(np.int64), np.ceil(uhi).astype(np.int64)
+
+
 def _rgb_to_hsv(rgb):
     r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
     mx = rgb.max(axis=-1)

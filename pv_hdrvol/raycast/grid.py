@@ -11,7 +11,7 @@ import numpy as np
 
 from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, volume_from_array
 from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction, auto_transfer_function,
-                             scale_forward)
+                             scale_forward, table_entry_span)
 from ..image.hdr import HDRImage
 from .._validate import as_real, as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
@@ -214,15 +214,8 @@ def _visible(minimum, maximum, opacity, params):
     all_nan = ~np.isfinite(minimum)
     lo = np.where(all_nan, 0.0, minimum)
     hi = np.where(all_nan, 0.0, maximum)
-    margin = 0.0 if params.scale == SCALE_CODES["linear"] else 1e-9
-    ulo = np.clip(_axis_position(lo, params) - margin, 0.0, 1.0)
-    uhi = np.clip(_axis_position(hi, params) + margin, 0.0, 1.0)
-    if params.precision == PRECISION_CODES["uint8"]:
-        i0 = np.floor(ulo * (n - 1) + 0.5).astype(np.int64)
-        i1 = np.floor(uhi * (n - 1) + 0.5).astype(np.int64)
-    else:
-        i0 = np.floor(ulo * (n - 1)).astype(np.int64)
-        i1 = np.ceil(uhi * (n - 1)).astype(np.int64)
+    i0, i1 = table_entry_span(lo, hi, SCALES[params.scale], params.linthresh, params.axis_lo, params.axis_inv_range, n,
+                              nearest=params.precision == PRECISION_CODES["uint8"])
     vis = (nonzero[i1 + 1] - nonzero[i0]) > 0
     return (vis & ~all_nan).astype(np.uint8)
 

@@ -282,6 +282,58 @@ def test_hdr_colours_are_divided_by_the_brightest_for_paraview():
     assert max(preset["RGBPoints"][5:8]) == 1.0 and preset["RGBPoints"][5:8] == [1.0, 0.5, 0.0]
 
 
+RGB_PRESET = {"Name": "Blue to Red", "ColorSpace": "RGB", "RGBPoints": [0, 0, 0, 1, 0.25, 0, 1, 0, 1, 1, 0, 0],
+              "Points": [0.0, 0.0, 0.5, 0.0, 0.5, 0.2, 0.5, 0.0, 1.0, 1.0, 0.5, 0.0]}
+
+
+def test_a_paraview_preset_lands_on_the_data_range_as_applypreset_puts_it():
+    """ParaView stores presets on 0-1 and rescales them to the data on ApplyPreset: with
+    data 0-255 the stored point at 0.25 moves to 63.75 and x maps as 255 x. Kept with
+    rescale=False or without data; (low, high) picks the range; the caller's preset
+    (numpy points too) is not changed."""
+    preset = {**RGB_PRESET, "RGBPoints": np.array(RGB_PRESET["RGBPoints"], dtype=float)}
+    before = preset["RGBPoints"].copy()
+    values = np.array([[0.0, 17.0], [255.0, np.nan]])
+    model = TransferFunctionModel.from_paraview_preset(preset, values=values)
+    tf = model.transfer_function()
+    assert model.range == (0.0, 255.0)
+    x = np.linspace(0.0, 1.0, 101)
+    stored = TransferFunctionModel.from_paraview_preset(preset, rescale=False).transfer_function()
+    np.testing.assert_allclose(tf.color_at(255.0 * x), stored.color_at(x), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(tf.opacity_at(255.0 * x), stored.opacity_at(x), rtol=0, atol=1e-12)
+    assert tf.opacity_at(127.5) == pytest.approx(0.2) and tf.color_at(63.75).tolist() == [0.0, 1.0, 0.0]
+    assert TransferFunctionModel.from_paraview_preset(preset).range == (0.0, 1.0)  # no data
+    assert TransferFunctionModel.from_paraview_preset(preset, values=values, rescale=False).range == (0.0, 1.0)
+    assert TransferFunctionModel.from_paraview_preset(preset, rescale=(-2, 6)).range == (-2, 6)
+    np.testing.assert_array_equal(preset["RGBPoints"], before)
+    with pytest.raises(ValueError, match=r"rescale=True rescales the preset onto the data's range: pass values"):
+        TransferFunctionModel.from_paraview_preset(preset, rescale=True)
+    with pytest.raises(ValueError, match=r"rescale must be a finite range with high > low; got \(3, 3\)"):
+        TransferFunctionModel.from_paraview_preset(preset, rescale=(3, 3))
+    with pytest.raises(ValueError, match="the data have no finite value to rescale the preset to"):
+        TransferFunctionModel.from_paraview_preset(preset, values=np.full(4, np.nan))
+
+
+def test_our_own_preset_keeps_its_data_range_and_a_file_is_rescaled_on_load(tmp_path):
+    """A preset written by save_paraview_preset is in data units: it keeps them (and its
+    exact editor state) under data of another range unless rescale=True. load() of a
+    ParaView preset file rescales onto the data given (pv-hdrvol view --tf, the viewer's
+    Load)."""
+    model = TransferFunctionModel(hv.TransferFunction.ramp(10.0, 1e4, scale="log"))
+    path = tmp_path / "ours.json"
+    model.save_paraview_preset(path, "ours")
+    values = np.linspace(0.0, 50.0, 11)
+    back = TransferFunctionModel.load(path, values).to_dict()
+    assert {k: back[k] for k in ("color_points", "opacity_points", "scale")} == \
+        {k: model.to_dict()[k] for k in ("color_points", "opacity_points", "scale")}
+    assert TransferFunctionModel.load(path, values, rescale=True).range == (0.0, 50.0)
+    theirs = tmp_path / "theirs.json"
+    theirs.write_text(json.dumps([RGB_PRESET]))
+    assert TransferFunctionModel.load(theirs, values).range == (0.0, 50.0)
+    assert TransferFunctionModel.load(theirs).range == (0.0, 1.0)
+    assert TransferFunctionModel.load(theirs, np.full(3, 7.0)).range == (6.5, 7.5)
+
+
 def test_paraview_colour_spaces_and_curves_are_read_as_vtk_interpolates_them():
     vtk = pytest.importorskip("vtkmodules.vtkRenderingCore")
     from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction

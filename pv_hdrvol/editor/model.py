@@ -711,14 +711,15 @@ class TransferFunctionModel:
             json.dump(self.to_dict(), fh, indent=1)
 
     @classmethod
-    def load(cls, path, values=None):
+    def load(cls, path, values=None, *, rescale=None):
         """Read a file written by :meth:`save`, a transfer function's JSON, or a
-        ParaView preset file (a JSON list: its first preset)."""
+        ParaView preset file (a JSON list: its first preset, ``rescale`` as
+        :meth:`from_paraview_preset`: onto ``values``' range by default)."""
         with open(os.fspath(path), encoding="utf-8") as fh:
             data = json.load(fh)
         if isinstance(data, list):
             first = data[0] if data and hasattr(data[0], "get") else {}
-            return cls.from_paraview_preset(data, first.get("Name"), values)
+            return cls.from_paraview_preset(data, first.get("Name"), values, rescale=rescale)
         return cls.from_dict(data, values)
 
     def save_paraview_preset(self, path, name="pv_hdrvol"):
@@ -729,15 +730,34 @@ class TransferFunctionModel:
         write_paraview_presets(path, paraview_preset(self, name))
 
     @classmethod
-    def from_paraview_preset(cls, source, name=None, values=None):
+    def from_paraview_preset(cls, source, name=None, values=None, *, rescale=None):
         """The model of ParaView preset ``name`` in ``source`` (a preset file, its JSON
         text, a dict or a list of dicts; ``name`` may be omitted when it holds one).
         A preset written by :meth:`save_paraview_preset` and not edited since comes back
         exactly; ParaView's own presets on a linear axis (see
-        :mod:`pv_hdrvol.editor.presets`)."""
-        from .presets import _pick, read_paraview_presets, transfer_function_from_preset
+        :mod:`pv_hdrvol.editor.presets`).
 
-        tf, state = transfer_function_from_preset(_pick(read_paraview_presets(source), name))
+        ``rescale``: ParaView stores its presets on 0--1 (or -1--1) and rescales them to
+        the data on ``ApplyPreset``; so does the default, ``None``: a ParaView preset is
+        mapped onto the finite range of ``values`` (kept as stored without ``values``),
+        while a preset written by :meth:`save_paraview_preset` keeps its own range (it is
+        in data units already). ``True``: rescale any preset onto ``values``' range;
+        ``False``: keep the stored range; ``(low, high)``: rescale onto that range.
+        """
+        from .presets import _own_state, _pick, data_range, read_paraview_presets, transfer_function_from_preset
+
+        preset = _pick(read_paraview_presets(source), name)
+        if rescale is None or isinstance(rescale, (bool, np.bool_)):
+            if rescale is False or (rescale is None and (values is None or _own_state(preset) is not None)):
+                target = None
+            elif values is None:
+                raise ValueError("rescale=True rescales the preset onto the data's range: pass values (the data), "
+                                 "or rescale=(low, high)")
+            else:
+                target = data_range(values)
+        else:
+            target = rescale
+        tf, state = transfer_function_from_preset(preset, rescale=target)
         return cls.from_dict(state, values) if state is not None else cls(tf, values)
 
     def __repr__(self):

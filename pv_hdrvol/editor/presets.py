@@ -82,7 +82,7 @@ def _pick(presets, name):
 def _flat(preset, key, width):
     values = preset.get(key)
     try:
-        a = np.asarray(values, dtype=np.float64).reshape(-1, width)
+        a = np.array(values, dtype=np.float64).reshape(-1, width)  # a copy: the caller's preset stays as it is
     except (TypeError, ValueError):
         raise ValueError(f"preset {preset.get('Name')!r}: {key} must be a flat list of numbers, {width} per point; "
                          f"got {values!r:.200}") from None
@@ -135,12 +135,15 @@ def _vtk_opacity(points, x):
     return np.array([pwf.GetValue(float(v)) for v in x])
 
 
-def transfer_function_from_preset(preset, *, samples=SAMPLES):
+def transfer_function_from_preset(preset, *, samples=SAMPLES, rescale=None):
     """The :class:`~pv_hdrvol.TransferFunction` of one ParaView preset (a dict), on a
     linear axis as ParaView's. Without ``Points`` the opacity ramps linearly from 0 to 1
-    (ParaView's default). Returns ``(tf, editor_state)``: ``editor_state`` is the dict
-    this package stored under ``pv_hdrvol`` when the points are still the ones written
-    from it (``None`` for ParaView's own presets, or after an edit there)."""
+    (ParaView's default). ``rescale=(low, high)`` maps the preset's range (its first
+    to its last point, colour or opacity) affinely onto ``[low, high]`` first, as
+    ParaView's ``ApplyPreset`` does onto the data's range; ``None`` keeps the stored
+    points. Returns ``(tf, editor_state)``: ``editor_state`` is the dict this package
+    stored under ``pv_hdrvol`` when the points are still the ones written from it
+    (``None`` for ParaView's own presets, after an edit there, or once rescaled)."""
     samples = as_int("samples", samples, low=2, high=1 << 20)
     if preset.get("IndexedColors") is not None or preset.get("Annotations") is not None:
         if "RGBPoints" not in preset:
@@ -158,6 +161,17 @@ def transfer_function_from_preset(preset, *, samples=SAMPLES):
     hi = colors[-1, 0] if opacity is None else max(colors[-1, 0], opacity[-1, 0])
     if not hi > lo:
         raise ValueError(f"preset {preset.get('Name')!r} spans no range: its points all lie at {lo!r}")
+    state = _own_state(preset)
+    if rescale is not None:
+        new_lo, new_hi = _check_range(rescale)
+        if (new_lo, new_hi) != (lo, hi):
+            state = None  # the editor state holds the old range
+            for points in (colors,) if opacity is None else (colors, opacity):  # copies (_flat)
+                x = points[:, 0]
+                # the ends land exactly on the new range's
+                points[:, 0] = np.where(x == hi, new_hi, np.clip(new_lo + (x - lo) * ((new_hi - new_lo) / (hi - lo)),
+                                                                 new_lo, new_hi))
+            lo, hi = new_lo, new_hi
     if opacity is None:
         opacity = np.array([[lo, 0.0, 0.5, 0.0], [hi, 1.0, 0.5, 0.0]])
     curved = np.any(opacity[:-1, 2] != 0.5) or np.any(opacity[:-1, 3] != 0.0)
@@ -192,7 +206,31 @@ def transfer_function_from_preset(preset, *, samples=SAMPLES):
         keep = _simplify(x, rows, SAMPLED_TOLERANCE) if color_space == "rgb" else np.arange(x.size)
         x, rgb, alpha = x[keep], rgb[keep], alpha[keep]
     tf = TransferFunction(x, np.clip(rgb, 0.0, None), np.clip(alpha, 0.0, 1.0), color_space=color_space)
-    return tf, _own_state(preset)
+    return tf, state
+
+
+def _check_range(rescale):
+    """``(low, high)`` floats of a ``rescale=`` range, validated."""
+    try:
+        low, high = (float(v) for v in rescale)
+    except (TypeError, ValueError):
+        raise TypeError(f"rescale must be (low, high) numbers; got {rescale!r}") from None
+    if not (np.isfinite(low) and np.isfinite(high) and high > low):
+        raise ValueError(f"rescale must be a finite range with high > low; got {rescale!r}")
+    return low, high
+
+
+def data_range(values):
+    """The finite ``(min, max)`` of ``values`` that a preset is rescaled onto, as
+    ParaView's "Rescale to data range": a constant field gets ``(v - 0.5, v + 0.5)``
+    (ParaView widens a one-value range too). ``ValueError`` when nothing is finite."""
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        raise ValueError("the data have no finite value to rescale the preset to; pass rescale=(low, high) "
+                         "or rescale=False")
+    low, high = float(v.min()), float(v.max())
+    return (low - 0.5, high + 0.5) if high == low else (low, high)
 
 
 def _own_state(preset):

@@ -130,7 +130,8 @@ def build_parser():
     p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
     p.add_argument("--tf", default=None, metavar="FILE.json",
                    help="transfer function to start from: the editor's JSON, a TransferFunction's JSON or a "
-                        "ParaView preset file (its first preset)")
+                        "ParaView preset file (its first preset, rescaled onto the data's range as ParaView's "
+                        "ApplyPreset does; a preset pv_hdrvol wrote keeps its own range)")
     p.add_argument("--precision", choices=("float32", "float64"), default="float32",
                    help="compositing precision (default float32)")
     p.set_defaults(handler=_cmd_view, subparser=p)
@@ -310,16 +311,17 @@ def _read_volume(path, args):
 def _cmd_view(args):
     path = _readable_file(args.file)
     tf = None
-    if args.tf is not None:
+    tf_path = None if args.tf is None else _existing_file(args.tf)
+    volume = _read_volume(path, args)
+    if tf_path is not None:
         from ..editor.model import TransferFunctionModel
 
-        tf_path = _existing_file(args.tf)
         try:
-            model = TransferFunctionModel.load(tf_path)
+            # a ParaView preset (stored on 0-1) lands on the data's range, as ParaView's ApplyPreset
+            model = TransferFunctionModel.load(tf_path, volume.values)
         except (ValueError, TypeError, KeyError, IndexError, AttributeError) as exc:
             raise UserError(f"cannot read the transfer function {str(tf_path)!r}: {exc}") from None
         tf = model.transfer_function()
-    volume = _read_volume(path, args)
     try:
         # the viewer is a later stage than this front end: imported only for this command
         from ..viewer.qt import view

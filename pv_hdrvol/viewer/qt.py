@@ -599,7 +599,8 @@ class HDRViewer(QtWidgets.QMainWindow):
     def load_tf_dialog(self):
         path = self._file_dialog("Load transfer function", "JSON (*.json)", save=False)
         if path:
-            self.model.set_function(TransferFunctionModel.load(path).transfer_function())
+            # a ParaView preset is rescaled onto the data's range, as ParaView's ApplyPreset
+            self.model.set_function(TransferFunctionModel.load(path, self.model._values).transfer_function())
 
     def closeEvent(self, event):
         self.actor.close()

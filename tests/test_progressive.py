@@ -87,9 +87,12 @@ def test_cancellation_comes_at_the_next_row_of_tiles():
 
 
 def test_a_newer_request_cancels_the_one_in_flight_and_its_frames_never_arrive():
+    """The second request comes while the first one's full render is running (its
+    coarse frame shown, a row of tiles of the full one rendered): that render stops at
+    its next check, and only the second request's frames follow."""
     volume, tf = _volume(), _tf()
-    seen = []
-    arrived = threading.Event()
+    seen, outcomes = [], []
+    arrived, in_flight, requested = threading.Event(), threading.Event(), threading.Event()
 
     def on_frame(frame):
         seen.append(frame)
@@ -97,11 +100,33 @@ def test_a_newer_request_cancels_the_one_in_flight_and_its_frames_never_arrive()
             arrived.set()
 
     with ProgressiveRenderer(volume, tf, precision="float64", on_frame=on_frame) as renderer:
+        full = renderer._full
+
+        def watched_full(plan, camera, size, lens, generation, stale, far=None):
+            def check():  # called between chunks of rows of tiles
+                if generation == 1 and not in_flight.is_set():
+                    in_flight.set()  # the first full render has rendered its first rows
+                    assert requested.wait(60)  # hold it there until the newer request exists
+                return stale()
+
+            try:
+                frame = full(plan, camera, size, lens, generation, check, far)
+            except P.Cancelled:
+                outcomes.append((generation, "cancelled"))
+                raise
+            outcomes.append((generation, "done"))
+            return frame
+
+        renderer._full = watched_full
         first = renderer.request("iso", (200, 200))
+        assert in_flight.wait(60)
         second = renderer.request("xy", (48, 40))
+        requested.set()
         assert arrived.wait(60)
-    assert second == first + 1
-    assert all(f.generation == second for f in seen) and [f.level for f in seen][-1] == "full"
+    assert (first, second) == (1, 2)
+    assert outcomes == [(first, "cancelled"), (second, "done")]
+    assert all(isinstance(f, Frame) for f in seen)
+    assert [(f.level, f.generation) for f in seen] == [("coarse", first), ("coarse", second), ("full", second)]
     np.testing.assert_array_equal(seen[-1].image.rgba, hv.render(volume, tf, "xy", (48, 40),
                                                                  precision="float64").rgba)
 
@@ -132,11 +157,12 @@ def test_errors_reach_on_error_and_bad_arguments_are_named():
         errors.append(error)
         done.set()
 
-    with ProgressiveRenderer(volume, on_frame=lambda f: None, on_error=on_error) as renderer:
+    frames = []
+    with ProgressiveRenderer(volume, on_frame=frames.append, on_error=on_error) as renderer:
         renderer.request("iso", (8, 8), lens="not a lens")
         assert done.wait(30)
     assert isinstance(errors[0], TypeError) and "lens must have a rays(camera, size) method" in str(errors[0])
-    assert isinstance(Frame.__dataclass_fields__, dict)
+    assert len(errors) == 1 and frames == []  # a lens that is not one renders no coarse frame either
 
 
 def test_a_failed_render_does_not_stop_the_worker(capsys):
@@ -159,4 +185,7 @@ def test_a_failed_render_does_not_stop_the_worker(capsys):
         assert "TypeError: lens must have a rays(camera, size) method; got str" in printed
         renderer.request("iso", (8, 8))
         assert done.wait(60)
-    assert seen[-1].level == "full" and seen[-1].image.shape == (8, 8)
+    assert [f.level for f in seen] == ["coarse", "full"] and seen[-1].generation == 2
+    direct = hv.render(volume, tf, "iso", (8, 8), precision="float64")
+    np.testing.assert_array_equal(seen[-1].image.rgba, direct.rgba)
+    np.testing.assert_array_equal(seen[-1].image.depth, direct.depth)

@@ -234,8 +234,21 @@ def test_the_advice_names_float64_data_and_precision(monkeypatch):
 
 
 def test_without_a_memory_figure_there_is_no_check(monkeypatch):
+    """A render whose estimate no machine has (its image counted as 2**60 bytes) is
+    refused under any memory figure, and renders, unchanged, without one."""
+    from pv_hdrvol.raycast import grid
+
+    estimate = grid.render_bytes
+    monkeypatch.setattr(grid, "render_bytes", lambda *a, **k: {**estimate(*a, **k), "image": 2**60})
+    monkeypatch.setattr(memory, "available_memory", lambda: 2**50)
+    with pytest.raises(memory.RenderMemoryError, match=r"^this render needs about 1048576.0 TiB"):
+        hv.render(np.ones((4, 4, 4)), GRAY_TF, None, (8, 8), precision="float64")
     monkeypatch.setattr(memory, "available_memory", lambda: None)
-    assert hv.render(np.ones((4, 4, 4)), GRAY_TF, None, (8, 8)).shape == (8, 8)
+    image = hv.render(np.ones((4, 4, 4)), GRAY_TF, None, (8, 8), precision="float64")
+    monkeypatch.undo()
+    np.testing.assert_array_equal(image.rgba, hv.render(np.ones((4, 4, 4)), GRAY_TF, None, (8, 8),
+                                                        precision="float64").rgba)
+    assert image.rgba[..., 3].max() > 0
 
 
 def test_available_memory_reads_memavailable(tmp_path, monkeypatch):

@@ -107,7 +107,12 @@ def test_cli_makes_a_folder_and_synthesises_from_it(tmp_path, capsys):
     png = tmp_path / "layers.png"
     assert main(["proxy", "view", str(out), "-o", str(png), "--layer", "0", "1", "0.5", "0.2", "1",
                  "--ambient-occlusion", "1"]) == 0
-    assert png.read_bytes()[:4] == b"\x89PNG"
+    # the PNG holds the layer picture's display mapping, pixel for pixel
+    layered = p.synthesize(layers={0: ((1.0, 0.5, 0.2), 1.0)}, ambient_occlusion=1.0)
+    plain = p.synthesize()
+    shown = _read_png(png)
+    np.testing.assert_array_equal(shown, layered.to_display())
+    assert np.abs(shown.astype(int) - plain.to_display().astype(int)).max() > 32  # a layer, not the volume
     with pytest.raises(SystemExit):
         main(["proxy", "view", str(out), "-o", str(exr), "--opacity", "9=0.5"])
     assert "interval 9 is out of range; these proxies have intervals 0..7" in capsys.readouterr().err
@@ -117,6 +122,20 @@ def test_cli_makes_a_folder_and_synthesises_from_it(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["proxy", "view", str(tmp_path / "nothing"), "-o", str(exr)])
     assert "no proxy folder at" in capsys.readouterr().err
+
+
+def _read_png(path):
+    """(rows, cols, channels) uint8, row 0 at the top, as VTK's PNG reader reads it."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOImage import vtkPNGReader
+
+    reader = vtkPNGReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    out = reader.GetOutput()
+    cols, rows, _ = out.GetDimensions()
+    pixels = vtk_to_numpy(out.GetPointData().GetScalars())
+    return pixels.reshape(rows, cols, -1)[::-1]
 
 
 def test_vtk_algorithm_writes_the_folder(tmp_path):

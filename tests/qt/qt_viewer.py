@@ -7,6 +7,8 @@ tests/qt/qt_viewer.py`` (pyproject.toml's options switch pytest-qt off for the m
 suite). Renders in float32, the viewer's default, whose kernels the main suite compiles
 anyway.
 """
+import warnings
+
 import numpy as np
 import pytest
 from qtpy import QtCore, QtGui, QtWidgets
@@ -169,10 +171,81 @@ def test_tone_mapping_is_instant_and_saving_keeps_the_hdr_image(qtbot, viewer, t
     np.testing.assert_array_equal(iio.imread(tmp_path / "v.png")[..., :3], viewer.actor.composite)
 
 
-def test_every_shortcut_is_listed_in_the_help(viewer):
-    for name, action in viewer.actions_by_name.items():
-        keys = action.shortcut().toString()
-        assert keys and name in viewer._shortcut_text
+def _key_and_modifiers(keys):
+    """The first key of ``QKeySequence(keys)`` as (key, modifiers), Qt 6 or Qt 5."""
+    combo = QtGui.QKeySequence(keys)[0]
+    if hasattr(combo, "key"):  # Qt 6: a QKeyCombination
+        return combo.key(), combo.keyboardModifiers()
+    mask = int(QtCore.Qt.KeyboardModifierMask)
+    return QtCore.Qt.Key(combo & ~mask), QtCore.Qt.KeyboardModifiers(combo & mask)
+
+
+def test_the_help_lists_exactly_the_shortcuts_the_window_answers(qtbot, viewer):
+    """The help's shortcut lines ("KEYS  what") against the window's own bindings, found
+    in the widget tree (every QAction and QShortcut with a key, in a menu or not), both
+    ways; then each listed key, pressed, triggers the action of that name (the actions'
+    slots are swapped for a recorder: Ctrl+W would close the window, Ctrl+S open a
+    dialog)."""
+    listed = {}
+    for line in viewer._shortcut_text.partition("\n\n")[0].splitlines():
+        keys, text = line.split(None, 1)
+        listed[text.strip()] = keys
+    bound = {}
+    for action in viewer.findChildren(QtWidgets.QAction):
+        if not action.shortcut().isEmpty():
+            bound[action.text()] = action.shortcut().toString()
+    for shortcut in viewer.findChildren(QtWidgets.QShortcut):
+        bound[shortcut.whatsThis() or repr(shortcut)] = shortcut.key().toString()
+    assert len(bound) >= 10 and bound == listed
+    in_menus = {a.text() for menu in viewer.menuBar().findChildren(QtWidgets.QMenu) for a in menu.actions()}
+    assert set(listed) <= in_menus  # reachable from the menus too
+
+    # Qt's shortcut map answers for the active window only, and under Xvfb no window
+    # manager makes it active
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        QtWidgets.QApplication.setActiveWindow(viewer)
+    viewer.setFocus()
+    qtbot.waitUntil(lambda: QtWidgets.QApplication.activeWindow() is viewer, timeout=10_000)
+    pressed = []
+    for action in viewer.findChildren(QtWidgets.QAction):
+        if not action.shortcut().isEmpty():
+            action.triggered.disconnect()
+            action.triggered.connect(lambda checked=False, text=action.text(): pressed.append(text))
+    for text, keys in listed.items():
+        key, modifiers = _key_and_modifiers(keys)
+        qtbot.keyClick(viewer, key, modifiers)
+        QtWidgets.QApplication.processEvents()
+        assert pressed[-1:] == [text], (keys, text, pressed)
+    assert pressed == list(listed)
+
+
+def test_the_editor_keys_do_what_the_help_says(qtbot, viewer):
+    """The help's editor line ("L log opacity axis; C log colour axis; M magnification;
+    Delete"): each key, pressed on the editor, does that."""
+    help_text = " ".join(viewer._shortcut_text.split())
+    m, editor = viewer.model, viewer.editor
+    for claim, key, state in (("L log opacity axis", QtCore.Qt.Key_L, lambda: m.opacity_axis.scale),
+                              ("C log colour axis", QtCore.Qt.Key_C, lambda: m.color_axis.scale),
+                              ("M magnification", QtCore.Qt.Key_M, lambda: m.magnified)):
+        assert claim in help_text, claim
+        before = state()
+        qtbot.keyClick(editor, key)
+        assert state() != before, claim
+        if claim.endswith("axis"):
+            assert {before, state()} == {"linear", "log"}, claim
+        qtbot.keyClick(editor, key)
+        assert state() == before, claim
+    # Delete removes the selected point (a click selects it)
+    assert "Delete" in help_text
+    values = m.opacity_points[0].copy()
+    index = int(np.argmin(np.abs(values - 0.5)))
+    x, y = editor.opacity_point_position(index)
+    _mouse(editor, "press", (x, y))
+    _mouse(editor, "release", (x, y), buttons=QtCore.Qt.NoButton)
+    assert editor.selected == ("opacity", index)
+    qtbot.keyClick(editor, QtCore.Qt.Key_Delete)
+    np.testing.assert_array_equal(m.opacity_points[0], np.delete(values, index))
 
 
 def test_the_view_command_opens_the_file_with_its_transfer_function(qtbot, tmp_path, monkeypatch):

@@ -11,6 +11,7 @@ from .culling.pof import PlenopticOpacity
 from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
 from .data.tets import TetMesh, tetmesh_from_arrays, tetmesh_from_dataset
 from .data.transfer import TransferFunction, TransferFunctionFamily
+from .editor.model import TransferFunctionModel
 from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
 from .image.upsample import upsample
@@ -69,18 +70,52 @@ def view(data, tf=None, **kwargs):
     transfer-function editor, tone mapping, probe, lens, saving). Needs Qt and pyvistaqt
     (``pip install 'pv_hdrvol[gui]'``).
 
+    ``data`` is anything :func:`render` takes, or the path of a file ``pv-hdrvol view``
+    opens (``.vti``, ``.vtk``, ``.vtu``, ``.nrrd``, ``.nhdr``, ``.mha``, ``.mhd``,
+    ``.cube``), read as it reads them (:func:`pv_hdrvol.integrations.files.read_volume`;
+    ``scalars=`` picks the array). ``tf`` is a :class:`TransferFunction` or, as
+    ``pv-hdrvol view --tf``, the path of the editor's JSON, a transfer function's JSON or
+    a ParaView preset file.
+
     A :class:`ProxySet` or the path of a proxy folder opens the proxy viewer instead
     (:func:`pv_hdrvol.proxy.qt.view`: opacity per interval, turning, relighting,
-    layers, enhancement; no volume needed)."""
+    layers, enhancement; no volume needed).
+
+    Raises
+    ------
+    FileNotFoundError
+        ``data`` (or ``tf``) names no file or folder.
+    ValueError
+        The file's extension is not one of those, or the file cannot be read (the
+        message names it); a folder is not a proxy folder.
+    """
     import os
 
-    if isinstance(data, ProxySet) or (isinstance(data, (str, os.PathLike))
-                                      and os.path.isfile(os.path.join(data, "proxies.json"))):
+    if isinstance(data, (str, os.PathLike)):
+        path = os.fspath(data)
+        if os.path.isdir(path):
+            data = load_proxies(path)  # names what a folder that is not a proxy folder lacks
+            kwargs.setdefault("title", f"pv_hdrvol proxies: {path}")
+        else:
+            from .integrations.files import read_volume
+
+            data = read_volume(path, scalars=kwargs.pop("scalars", None),
+                               preference=kwargs.pop("preference", "point"))
+            kwargs.setdefault("title", f"pv_hdrvol: {os.path.basename(path)}")
+    if isinstance(data, ProxySet):
         if tf is not None:
             raise TypeError("a proxy set has its transfer function: tf= does not apply")
         from .proxy.qt import view as _view_proxies
 
         return _view_proxies(data, **kwargs)
+    if isinstance(tf, (str, os.PathLike)):  # as pv-hdrvol view --tf: a ParaView preset lands on the data's range
+        from .data.tets import as_tetmesh, is_unstructured
+        from .editor.model import TransferFunctionModel
+        from .raycast.grid import as_volume
+
+        convert = as_tetmesh if is_unstructured(data) else as_volume
+        volume = convert(data, scalars=kwargs.get("scalars"), preference=kwargs.get("preference", "point"))
+        tf = TransferFunctionModel.load(tf, volume.values).transfer_function()
     from .viewer.qt import view as _view
 
     return _view(data, tf, **kwargs)
@@ -88,7 +123,20 @@ def view(data, tf=None, **kwargs):
 
 def add_hdr_volume(plotter, data, tf=None, **kwargs):
     """Draw ``data`` as an HDR volume in a PyVista plotter's scene, occluded by its meshes
-    (:func:`pv_hdrvol.viewer.scene.add_hdr_volume`; also ``plotter.hdrvol.add_volume``)."""
+    (:func:`pv_hdrvol.viewer.scene.add_hdr_volume`; also ``plotter.hdrvol.add_volume``).
+
+    Raises
+    ------
+    TypeError
+        ``plotter`` is not a PyVista plotter.
+    """
+    import pyvista as pv
+
+    if not isinstance(plotter, pv.BasePlotter):
+        kind = type(plotter).__name__
+        got = repr(plotter) if isinstance(plotter, str) else f"{'an' if kind[0] in 'AEIOU' else 'a'} {kind}"
+        raise TypeError(f"plotter must be a pyvista.Plotter (or a pyvistaqt BackgroundPlotter or QtInteractor); got "
+                        f"{got}: pass the plotter first, add_hdr_volume(plotter, data, tf)")
     from .viewer.scene import add_hdr_volume as _add
 
     return _add(plotter, data, tf, **kwargs)
@@ -107,7 +155,7 @@ __all__ = [
     "datasets", "BlockGrid", "Camera", "Culling", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye",
     "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
     "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
-    "TransferFunction", "TransferFunctionFamily", "depth_layers", "load", "render", "render_parallel",
+    "TransferFunction", "TransferFunctionFamily", "TransferFunctionModel", "depth_layers", "load", "render", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
     "volume_from_array", "volume_from_dataset", "view", "add_hdr_volume", "TransferFunctionEditor",
     "make_proxies", "load_proxies", "ProxySet", "ProxyFormatError", "VolumeDistortionCamera",

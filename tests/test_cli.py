@@ -193,7 +193,7 @@ def test_info(volume_file, tmp_path, capsys):
     (["render", "{vol}", "--png", "{tmp}/x.jpg"], "pv-hdrvol render: error: --png '{tmp}/x.jpg' must end in .png"),
     (["render", "{tmp}/notes.txt"], "pv-hdrvol render: error: cannot read '{tmp}/notes.txt': unknown extension "
                                     "'.txt'"),
-    (["render", "{tmp}/sphere.vtk"], "pv-hdrvol render: error: '{tmp}/sphere.vtk' holds a PolyData; pv-hdrvol "
+    (["render", "{tmp}/sphere.vtk"], "pv-hdrvol render: error: '{tmp}/sphere.vtk' holds a PolyData; pv_hdrvol "
                                      "renders image data (ImageData) and tetrahedral meshes (UnstructuredGrid)"),
     (["render", "{tmp}/tets.vtk", "--blending", "maximum"],
      "pv-hdrvol render: error: tetrahedral meshes support blending='composite' only; got 'maximum'"),

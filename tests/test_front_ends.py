@@ -150,3 +150,74 @@ def test_a_render_made_with_the_keywords_renders_again_from_its_settings(grid):
     settings = img.settings()
     assert settings.keywords == {} and settings.tf.vmin == 0.1
     np.testing.assert_array_equal(settings.render(g).rgba, img.rgba)
+
+
+# -- one answer per question (issue 31, part 6) ----------------------------------------------------------------------
+@pytest.fixture
+def opened(monkeypatch):
+    """What hv.view and pv-hdrvol view hand to the Qt viewers: [(which, data, tf, keywords)]."""
+    pytest.importorskip("pyvistaqt")
+    import pv_hdrvol.proxy.qt
+    import pv_hdrvol.viewer.qt
+
+    calls = []
+    monkeypatch.setattr(pv_hdrvol.viewer.qt, "view", lambda data, tf=None, **kw: calls.append(("volume", data, tf, kw)))
+    monkeypatch.setattr(pv_hdrvol.proxy.qt, "view", lambda data, **kw: calls.append(("proxies", data, None, kw)))
+    return calls
+
+
+def _mesh():
+    mesh = pv.ImageData(dimensions=(4, 4, 4)).triangulate()
+    mesh["s"] = np.arange(mesh.n_points, dtype=float)
+    return mesh
+
+
+def test_view_opens_every_file_the_cli_opens_as_the_cli_reads_it(grid, tmp_path, opened):
+    _mesh().save(tmp_path / "tets.vtu")
+    for path in (grid[1], tmp_path / "tets.vtu"):
+        hv.view(str(path))
+        main(["view", str(path)])
+        (_, mine, tf, kw), (_, cli, cli_tf, cli_kw) = opened[-2:]
+        assert type(mine) is type(cli) and type(mine).__name__ in ("GridVolume", "TetMesh")  # was: "got str"
+        np.testing.assert_array_equal(mine.values, cli.values)
+        assert tf is cli_tf is None and kw["title"] == cli_kw["title"] == f"pv_hdrvol: {path.name}"
+    hv.view(grid[1], scalars="v")  # a pathlib.Path, and the array by name
+    assert opened[-1][1].name == "v"
+
+
+def test_view_reads_a_transfer_function_file_as_the_cli_does(grid, tmp_path, opened):
+    from pv_hdrvol.editor.model import TransferFunctionModel
+
+    tf = hv.TransferFunction.ramp(0.0, 1.0, cmap="gray", opacity=(0.0, 0.3))
+    TransferFunctionModel(tf).save(tmp_path / "tf.json")
+    hv.view(str(grid[1]), tf=str(tmp_path / "tf.json"))
+    main(["view", str(grid[1]), "--tf", str(tmp_path / "tf.json")])
+    assert opened[-2][2].to_dict() == opened[-1][2].to_dict() == TransferFunctionModel(tf).transfer_function().to_dict()
+
+
+def test_view_names_a_file_it_cannot_open(tmp_path, opened):
+    missing = tmp_path / "missing.vti"
+    with pytest.raises(FileNotFoundError, match=re.escape(f"No such file or directory: '{missing}'")):
+        hv.view(str(missing))
+    (tmp_path / "notes.txt").write_text("not a volume")
+    with pytest.raises(ValueError, match=re.escape(f"cannot read '{tmp_path / 'notes.txt'}': unknown extension '.txt'; "
+                                                   f"use one of .vti, .vtk, .vtu, .nrrd, .nhdr, .mha, .mhd, .cube")):
+        hv.view(tmp_path / "notes.txt")
+    pv.Sphere().save(tmp_path / "sphere.vtk")
+    with pytest.raises(ValueError, match=re.escape(f"'{tmp_path / 'sphere.vtk'}' holds a PolyData; pv_hdrvol renders "
+                                                   f"image data (ImageData) and tetrahedral meshes")):
+        hv.view(tmp_path / "sphere.vtk")
+    (tmp_path / "empty.proxy").mkdir()
+    with pytest.raises(FileNotFoundError, match=re.escape(f"'{tmp_path / 'empty.proxy'}' is not a complete proxy "
+                                                          f"folder: proxies.json is missing")):
+        hv.view(tmp_path / "empty.proxy")
+    assert opened == []
+
+
+def test_add_hdr_volume_names_a_plotter_that_is_not_one(grid):
+    with pytest.raises(TypeError, match=re.escape("plotter must be a pyvista.Plotter (or a pyvistaqt BackgroundPlotter "
+                                                  "or QtInteractor); got 'not a plotter': pass the plotter first, "
+                                                  "add_hdr_volume(plotter, data, tf)")):  # was AttributeError
+        hv.add_hdr_volume("not a plotter", grid[0])
+    with pytest.raises(TypeError, match=re.escape("got an ImageData: pass the plotter first")):
+        hv.add_hdr_volume(grid[0], grid[0])

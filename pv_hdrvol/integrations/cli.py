@@ -25,11 +25,9 @@ from ..data.transfer import SCALES
 from ..image.tonemap import OPERATORS
 from ..params import BLENDINGS, PRECISIONS
 
+from .files import IMAGE_FORMATS, MESH_FORMATS, READABLE  # what render and view read; proxies: images only
+
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
-#: Extensions ``pv-hdrvol render`` reads (with ``pyvista.read``); the help is made from it.
-READABLE = (".vti", ".vtk", ".vtu", ".nrrd", ".nhdr", ".mha", ".mhd", ".cube")
-#: Of those, the ones that hold tetrahedral meshes (``.vtk`` holds either kind).
-MESH_FORMATS = (".vtu", ".vtk")
 
 
 class UserError(Exception):
@@ -91,7 +89,10 @@ def build_parser():
                        description="Render an image volume or a tetrahedral mesh read with pyvista.read to a float "
                                    "OpenEXR image. Gaussian cube files (.cube) are rendered as pyvista.read gives "
                                    "them: in grid index units (spacing 1, origin 0, axis-aligned), without the "
-                                   "cube's own origin, step and axis directions (a note on stderr says so).")
+                                   "cube's own origin, step and axis directions (a note on stderr says so). "
+                                   "Camera: perspective, 30-degree vertical view angle, framing the data's bounding "
+                                   "sphere from --view (default iso); orthographic with --pof (POF culling assumes "
+                                   "parallel rays). python -m pv_hdrvol.parallel render uses the same camera.")
     p.add_argument("file", metavar="FILE",
                    help=f"image volume or tetrahedral mesh, one of {', '.join(READABLE)} "
                         f"(meshes: {', '.join(MESH_FORMATS)})")
@@ -163,7 +164,8 @@ def build_parser():
                                    "rotated view, lighting, enhancement.")
     psub = p.add_subparsers(dest="proxy_command", metavar="ACTION", required=True)
     q = psub.add_parser("make", help="cast a volume file into a proxy folder")
-    q.add_argument("file", metavar="FILE", help=f"image volume, one of {', '.join(READABLE)}")
+    q.add_argument("file", metavar="FILE", help=f"image volume, one of {', '.join(IMAGE_FORMATS)} (proxies are made "
+                                                f"of image data: not of tetrahedral meshes)")
     q.add_argument("output", metavar="FOLDER", help="proxy folder to write (created)")
     q.add_argument("--scalars", default=None, metavar="NAME", help="array to use (default: active scalars)")
     q.add_argument("--size", type=int, nargs="+", default=[512], metavar="N",
@@ -271,41 +273,30 @@ def _cmd_render(args):
     _print_stats(image, f"{path.name} ({volume.name.strip()}, {shape})")
 
 
-def _readable_file(name):
+def _readable_file(name, formats=READABLE):
     """``name`` as an existing path with an extension ``pyvista.read`` reads here."""
+    from .files import readable_path
+
     path = _existing_file(name)
-    if path.suffix.lower() not in READABLE:
-        raise UserError(f"cannot read {str(path)!r}: unknown extension {path.suffix!r}; "
-                        f"use one of {', '.join(READABLE)}")
-    return path
+    try:
+        return readable_path(path, formats)
+    except ValueError as exc:  # "cannot read 'x.txt': unknown extension '.txt'; use one of ..."
+        raise UserError(str(exc)) from None
 
 
 def _read_volume(path, args):
-    """The image volume or tetrahedral mesh of array ``args.scalars`` in file ``path``."""
-    import pyvista as pv
-
-    from .. import volume_from_dataset
-    from ..data.grid import ScalarsError
+    """The image volume or tetrahedral mesh of array ``args.scalars`` in file ``path``
+    (:func:`pv_hdrvol.integrations.files.read_volume`, as ``pv_hdrvol.view(path)`` reads it)."""
+    from .files import read_volume
 
     try:
-        dataset = pv.read(path)
-    except Exception as exc:  # readers raise anything from OSError to ValueError
-        raise UserError(f"cannot read {str(path)!r}: {exc}") from None
-    if not isinstance(dataset, (pv.ImageData, pv.UnstructuredGrid)):
-        kind = type(dataset).__name__
-        raise UserError(f"{str(path)!r} holds a {kind}; pv-hdrvol renders image data (ImageData) and "
-                        f"tetrahedral meshes (UnstructuredGrid)")
-    if path.suffix.lower() == ".cube" and tuple(dataset.spacing) == (1.0, 1.0, 1.0) \
-            and tuple(dataset.origin) == (0.0, 0.0, 0.0):  # index units: what pyvista 0.4x's reader gives
-        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
-    try:
-        if isinstance(dataset, pv.UnstructuredGrid):
-            from ..data.tets import tetmesh_from_dataset
-
-            return tetmesh_from_dataset(dataset, scalars=args.scalars)
-        return volume_from_dataset(dataset, scalars=args.scalars)
-    except (ScalarsError, ValueError, TypeError) as exc:
+        volume = read_volume(path, scalars=args.scalars)
+    except (OSError, ValueError, TypeError) as exc:  # each names the file, or the arrays there are
         raise UserError(str(exc)) from None
+    if path.suffix.lower() == ".cube" and tuple(volume.spacing) == (1.0, 1.0, 1.0) \
+            and tuple(volume.origin) == (0.0, 0.0, 0.0):  # index units: what pyvista 0.4x's reader gives
+        print(f"{args.subparser.prog}: note: {_cube_note(path)}", file=sys.stderr)
+    return volume
 
 
 def _cmd_view(args):
@@ -357,15 +348,22 @@ def _cmd_demo(args):
 
 
 def _cmd_proxy_make(args):
-    path = _readable_file(args.file)
+    path = _existing_file(args.file)
+    if path.suffix.lower() not in IMAGE_FORMATS and path.suffix.lower() in MESH_FORMATS:
+        raise UserError(f"{str(path)!r} is a mesh file; proxies are made of image volumes (the proxy pass marches "
+                        f"voxels): use one of {', '.join(IMAGE_FORMATS)}, or render the mesh with pv-hdrvol render")
+    path = _readable_file(args.file, IMAGE_FORMATS)
     out = pathlib.Path(args.output)
     if out.exists() and not out.is_dir():
         raise UserError(f"{str(out)!r} exists and is not a folder")
     if args.view not in VIEWS:
         raise UserError(f"--view must be one of {', '.join(VIEWS)}; got {args.view!r}")
     volume = _read_volume(path, args)
-    if not hasattr(volume, "values"):
-        raise UserError(f"{str(path)!r} holds a mesh; proxies are made of image volumes")
+    from ..data.tets import is_unstructured
+
+    if is_unstructured(volume):  # a TetMesh has values too
+        raise UserError(f"{str(path)!r} holds a tetrahedral mesh; proxies are made of image volumes (the proxy pass "
+                        f"marches voxels): render the mesh with pv-hdrvol render")
     from ..proxy.generate import make_proxies
 
     layers = args.peaks if args.peaks is not None else args.layers

@@ -2,6 +2,7 @@
 the PyVista accessor, ``pv-hdrvol proxy`` and the VTK algorithm."""
 import csv
 import json
+import re
 
 import numpy as np
 import pytest
@@ -160,3 +161,50 @@ def test_vtk_algorithm_writes_the_folder(tmp_path):
     writer.SetCamera(hv.Camera.fit(grid, "xy"))  # perspective
     assert not writer.Update()
     assert "proxies need a parallel-projection camera" in writer.GetLastError()
+
+
+# -- one answer per question (issue 31, part 6) ----------------------------------------------------------------------
+def _tets():
+    mesh = pv.ImageData(dimensions=(4, 4, 4)).triangulate()
+    mesh["s"] = np.arange(mesh.n_points, dtype=float)
+    return mesh
+
+
+def test_proxies_are_refused_for_meshes_with_one_message(tmp_path, capsys):
+    # the proxy pass marches voxels; the tet renderer keeps no per-interval attenuation: meshes are refused
+    for mesh in (_tets(), hv.tetmesh_from_dataset(_tets())):
+        with pytest.raises(TypeError, match=f"proxies are made of image data \\(ImageData\\); got a tetrahedral mesh "
+                                            f"\\({type(mesh).__name__}\\): resample it onto an image first"):
+            hv.make_proxies(mesh, "iso", 8, training=0)
+    _tets().save(tmp_path / "tets.vtu")
+    with pytest.raises(SystemExit) as exit_info:
+        main(["proxy", "make", str(tmp_path / "tets.vtu"), str(tmp_path / "out")])
+    assert exit_info.value.code == 2
+    assert (f"pv-hdrvol proxy make: error: '{tmp_path / 'tets.vtu'}' is a mesh file; proxies are made of image "
+            f"volumes (the proxy pass marches voxels): use one of .vti, .vtk, .nrrd, .nhdr, .mha, .mhd, .cube, or "
+            f"render the mesh with pv-hdrvol render") in capsys.readouterr().err
+    _tets().save(tmp_path / "tets.vtk")  # .vtk holds either kind: refused once read
+    with pytest.raises(SystemExit):
+        main(["proxy", "make", str(tmp_path / "tets.vtk"), str(tmp_path / "out")])
+    assert (f"error: '{tmp_path / 'tets.vtk'}' holds a tetrahedral mesh; proxies are made of image volumes"
+            in capsys.readouterr().err)
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(SystemExit):
+        main(["proxy", "make", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "image volume, one of .vti, .vtk, .nrrd, .nhdr, .mha, .mhd, .cube (proxies are made of image data" \
+        in help_text and ".vtu" not in help_text  # was: listed, then refused
+
+
+def test_layers_outside_the_data_are_refused_not_left_empty():
+    grid = blob_grid(12)
+    lo, hi = float(grid["density"].min()), float(grid["density"].max())
+    with pytest.raises(ValueError, match=re.escape(f"layers 1e+09 outside the data range [{lo:g}, {hi:g}] would be "
+                                                   f"empty depth layers (no ray crosses them); choose isovalues "
+                                                   f"inside the range, or layers=k for k layers at the opacity's "
+                                                   f"peaks")):
+        hv.make_proxies(grid, "iso", 8, intervals=4, layers=[0.5, 1e9], training=0)
+    with pytest.raises(ValueError, match=re.escape("layers -1, 2 outside the data range")):
+        hv.make_proxies(grid, "iso", 8, intervals=4, layers=[-1.0, 2.0], training=0)
+    p = hv.make_proxies(grid, "iso", 8, intervals=4, layers=[lo, hi], training=0)  # the ends are inside
+    assert p.n_layers == 2

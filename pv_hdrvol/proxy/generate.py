@@ -268,6 +268,7 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
     Parameters
     ----------
     data : image volume (``pyvista.ImageData``, ``vtkImageData``, 3-D array, GridVolume)
+        Not a tetrahedral mesh (a ``TypeError``): the proxy pass marches voxels.
     camera : Camera or str, optional
         A parallel-projection camera, or a view name framed with one (default "iso":
         ``Camera.fit(data, "iso", parallel_projection=True)``). Its position is moved along the view to the near
@@ -278,8 +279,9 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
     intervals : int
         ``L``, uniform intervals on the transfer function's axis (paper: 16; 2..64).
     layers : sequence of float, int or None
-        Isovalues of the depth layers; an int ``k`` puts ``k`` layers at the highest
-        peaks of the opacity (:func:`opacity_peaks`); ``None``: no depth layers.
+        Isovalues of the depth layers, inside the data's range (one outside it would
+        give an empty layer: a ``ValueError``); an int ``k`` puts ``k`` layers at the
+        highest peaks of the opacity (:func:`opacity_peaks`); ``None``: no depth layers.
     multi_perspective : bool
         Also make proxies along the rays of a :class:`VolumeDistortionCamera`
         (``pole_scale``), which see around the object: depth layers for rotation and
@@ -298,9 +300,14 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
     -------
     ProxySet
     """
+    from ..data.tets import is_unstructured
     from .proxies import ProxySet
 
     t_start = time.perf_counter()
+    if is_unstructured(data):  # the proxy pass marches voxels (proxy/_kernels.py): no tetrahedral version
+        raise TypeError(f"proxies are made of image data (ImageData); got a tetrahedral mesh "
+                        f"({type(data).__name__}): resample it onto an image first "
+                        f"(pyvista.ImageData(...).sample(mesh))")
     volume = as_volume(data, scalars=scalars, preference=preference)
     if isinstance(training, bool):
         raise TypeError(f"training must be an int or a list of opacity scales; got {training!r}")
@@ -317,6 +324,12 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
         isovalues = np.asarray(layers, dtype=np.float64).reshape(-1)
         if not np.all(np.isfinite(isovalues)):
             raise ValueError(f"layers must be finite isovalues; got {isovalues.tolist()}")
+        lo, hi = volume.value_range
+        outside = isovalues[(isovalues < lo) | (isovalues > hi)] if volume.any_finite else np.empty(0)
+        if outside.size:  # no ray crosses them: their layers would be all inf, silently
+            raise ValueError(f"layers {', '.join(f'{v:g}' for v in outside)} outside the data range [{lo:g}, {hi:g}] "
+                             f"would be empty depth layers (no ray crosses them); choose isovalues inside the range, "
+                             f"or layers=k for k layers at the opacity's peaks")
     if not isinstance(multi_perspective, (bool, np.bool_)):
         raise TypeError(f"multi_perspective must be a bool; got {multi_perspective!r}")
     scales = training_scales(training, intervals, seed) if training != 0 else [np.ones(intervals)]

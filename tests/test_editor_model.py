@@ -392,3 +392,7 @@ def test_load_reads_the_editors_json_and_paraview_preset_files(tmp_path):
     (tmp_path / "empty.json").write_text("[]")
     with pytest.raises(ValueError, match="the file holds 0 presets"):
         TransferFunctionModel.load(tmp_path / "empty.json")
+
+
+def test_the_editor_model_is_a_public_name():
+    assert hv.TransferFunctionModel is TransferFunctionModel and "TransferFunctionModel" in hv.__all__

@@ -94,3 +94,38 @@ def test_empty_unstructured_grid_has_no_cells_on_every_path(make):
         hv.render(mesh, None, hv.Camera(), 8)
     with pytest.raises(ValueError, match=message):
         hv.tetmesh_from_dataset(mesh)
+
+
+# -- other files the package reads: every parsing error names the file (issue 31, part 6) --------------------------
+def test_a_truncated_pof_file_names_itself_and_the_fix(tmp_path):
+    from pv_hdrvol.culling.pof import PlenopticOpacity
+
+    values = np.zeros((9, 9, 9))
+    values[2:7, 2:7, 2:7] = 1.0
+    tf = hv.TransferFunction([0.0, 1.0], [[1.0, 1.0, 1.0]] * 2, [0.0, 0.5])
+    whole = tmp_path / "whole.pof.npz"
+    PlenopticOpacity.compute(values, [tf], block_size=4, threads=1).save(whole)
+    data = whole.read_bytes()
+    for n in (0, 10, len(data) // 2, len(data) - 10):  # empty, in the first header, in the data, in the directory
+        path = tmp_path / f"cut{n}.pof.npz"
+        path.write_bytes(data[:n])
+        with pytest.raises(ValueError, match=re.escape(f"{str(path)!r} is not a readable POF file (truncated or "
+                                                       f"corrupt: write it again with PlenopticOpacity.save or "
+                                                       f"python -m pv_hdrvol.parallel pof): ")):
+            PlenopticOpacity.load(path)
+    with pytest.raises(FileNotFoundError, match=re.escape(f"{str(tmp_path / 'missing.pof.npz')!r}")):
+        PlenopticOpacity.load(tmp_path / "missing.pof.npz")
+
+
+@pytest.mark.parametrize("cut", [0, 1, 2])  # empty, in the first line, halfway
+def test_a_truncated_editor_file_names_itself_and_the_fix(tmp_path, cut):
+    from pv_hdrvol.editor.model import TransferFunctionModel
+
+    whole = tmp_path / "whole.json"
+    TransferFunctionModel(hv.TransferFunction.ramp(0.0, 1.0, cmap="gray")).save(whole)
+    text = whole.read_text()
+    path = tmp_path / "cut.json"
+    path.write_text(text[:(0, 3, len(text) // 2)[cut]])
+    with pytest.raises(ValueError, match=re.escape(f"{str(path)!r} is not valid JSON (truncated or not a transfer "
+                                                   f"function file: save it again): ")):
+        TransferFunctionModel.load(path)

@@ -328,16 +328,41 @@ class PlenopticOpacity:
 
     @classmethod
     def load(cls, path):
-        import json
+        """Read a file written by :meth:`save`.
 
-        with np.load(path) as f:
-            meta = json.loads(bytes(f["meta"]).decode())
-            if meta.get("version") != FILE_VERSION:
-                raise ValueError(f"{path}: POF file version {meta.get('version')!r}; this version reads {FILE_VERSION}")
-            return cls(f["table"], f["poly"], f["nonempty"], block_size=meta["block_size"], dims=meta["dims"],
-                       spacing=meta["spacing"], pitch=meta["pitch"], step=meta["step"], chord_min=meta["chord_min"],
-                       bases=[TransferFunction.from_dict(b) for b in meta["bases"]],
-                       footprint=meta.get("footprint", "chord"), sets=f["sets"] if "sets" in f.files else None)
+        Raises
+        ------
+        FileNotFoundError
+            No file at ``path``.
+        ValueError
+            The file is not one :meth:`save` wrote, is truncated or corrupt, or has
+            another version; the message names it.
+        """
+        import json
+        import zipfile
+        import zlib
+
+        name = os.fspath(path)
+        try:
+            # every array is read here: an .npz reads lazily, so a truncated member fails on access
+            with np.load(name, allow_pickle=False) as f:
+                meta = json.loads(bytes(f["meta"]).decode())
+                arrays = [f[key] for key in ("table", "poly", "nonempty")]
+                sets = f["sets"] if "sets" in f.files else None
+            version = meta.get("version")
+            if version != FILE_VERSION:
+                raise _VersionError(f"{name!r} is a POF file of version {version!r}; this version of pv_hdrvol reads "
+                                    f"{FILE_VERSION}: compute it again (python -m pv_hdrvol.parallel pof)")
+            bases = [TransferFunction.from_dict(b) for b in meta["bases"]]
+            kwargs = {key: meta[key] for key in ("block_size", "dims", "spacing", "pitch", "step", "chord_min")}
+        except (FileNotFoundError, IsADirectoryError, _VersionError):
+            raise
+        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, KeyError, TypeError, AttributeError,
+                UnicodeDecodeError) as exc:  # what numpy's, zipfile's and json's parsers raise on a bad file
+            detail = str(exc) or type(exc).__name__
+            raise ValueError(f"{name!r} is not a readable POF file (truncated or corrupt: write it again with "
+                             f"PlenopticOpacity.save or python -m pv_hdrvol.parallel pof): {detail}") from None
+        return cls(*arrays, bases=bases, footprint=meta.get("footprint", "chord"), sets=sets, **kwargs)
 
     def check_volume(self, volume, block_size=None):
         """Raise ``ValueError`` unless ``volume`` is the shape (and spacing) these POFs describe."""
@@ -347,6 +372,10 @@ class PlenopticOpacity:
             raise ValueError(f"these POFs describe spacing {self.spacing.tolist()}; got {list(volume.spacing)}")
         if block_size is not None and block_size != self.block_size:
             raise ValueError(f"these POFs have block_size {self.block_size}; got {block_size}")
+
+
+class _VersionError(ValueError):
+    """A POF file of another version (its message names the file)."""
 
 
 def _family_opacity(m, k):

@@ -110,8 +110,7 @@ class TransferFunctionModel:
     Examples
     --------
     >>> import pv_hdrvol as hv
-    >>> from pv_hdrvol.editor.model import TransferFunctionModel
-    >>> model = TransferFunctionModel(hv.TransferFunction.ramp(1e-3, 1e3, scale="log", cmap="gray"))
+    >>> model = hv.TransferFunctionModel(hv.TransferFunction.ramp(1e-3, 1e3, scale="log", cmap="gray"))
     >>> i = model.add_opacity_point(1.0, 0.25)
     >>> float(model.transfer_function().opacity_at(1.0))
     0.25
@@ -714,9 +713,23 @@ class TransferFunctionModel:
     def load(cls, path, values=None, *, rescale=None):
         """Read a file written by :meth:`save`, a transfer function's JSON, or a
         ParaView preset file (a JSON list: its first preset, ``rescale`` as
-        :meth:`from_paraview_preset`: onto ``values``' range by default)."""
-        with open(os.fspath(path), encoding="utf-8") as fh:
-            data = json.load(fh)
+        :meth:`from_paraview_preset`: onto ``values``' range by default).
+
+        Raises
+        ------
+        FileNotFoundError
+            No file at ``path``.
+        ValueError
+            The file is not JSON (truncated, say) or not one of those; the message
+            names it.
+        """
+        name = os.fspath(path)
+        with open(name, encoding="utf-8") as fh:
+            try:
+                data = json.load(fh)
+            except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError: name the file, not only the line
+                raise ValueError(f"{name!r} is not valid JSON (truncated or not a transfer function file: save it "
+                                 f"again): {exc}") from None
         if isinstance(data, list):
             first = data[0] if data and hasattr(data[0], "get") else {}
             return cls.from_paraview_preset(data, first.get("Name"), values, rescale=rescale)

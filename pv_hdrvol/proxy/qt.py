@@ -20,8 +20,12 @@ from ..image.hdr import HDRImage
 from ..params import Light
 from .proxies import MAX_ROTATION, ProxySet, load_proxies
 
-#: slider steps of an interval's scale: position 0 is k = 0, then log10 k from -2 to 1
-SCALE_STEPS = 300
+#: slider positions per decade of an interval's scale
+STEPS_PER_DECADE = 100
+#: slider steps of an interval's scale: position 0 is k = 0, then log10 k from -2 to 1 in
+#: steps of 1 / STEPS_PER_DECADE, so that every power of ten, k = 1 (the proxies' own
+#: render, where the window opens) above all, is a position of its own, exactly
+SCALE_STEPS = 1 + 3 * STEPS_PER_DECADE
 #: the light of "relight": from the upper left, in front (world direction from the camera frame)
 LIGHT_FROM = (-1.0, 1.0, 1.0)
 
@@ -30,14 +34,15 @@ def slider_scale(position):
     """Extinction scale of an interval slider ``position`` (0..SCALE_STEPS)."""
     if position <= 0:
         return 0.0
-    return 10.0 ** (-2.0 + 3.0 * (position - 1) / (SCALE_STEPS - 1))
+    # an integer numerator: position 1 + 2 * STEPS_PER_DECADE is 10.0 ** 0.0 == 1.0, not 1 - 1e-16
+    return 10.0 ** ((int(position) - 1 - 2 * STEPS_PER_DECADE) / STEPS_PER_DECADE)
 
 
 def scale_position(k):
     """The slider position of scale ``k`` (nearest; 0 for 0)."""
     if k <= 0:
         return 0
-    return int(round(1 + (math.log10(min(max(k, 0.01), 10.0)) + 2.0) / 3.0 * (SCALE_STEPS - 1)))
+    return int(round(1 + (math.log10(min(max(k, 0.01), 10.0)) + 2.0) * STEPS_PER_DECADE))
 
 
 class ProxyViewer(QtWidgets.QMainWindow):

@@ -48,18 +48,20 @@ def test_rgb_colour_map_is_taken_exactly(log):
     np.testing.assert_allclose(tf.opacity_at(x), alpha, atol=1e-12)
 
 
-@pytest.mark.parametrize("space", ["Diverging", "Lab", "HSV"])
-def test_other_colour_spaces_and_mixed_axes_are_within_the_tolerance(space):
+# largest colour errors measured over the 20,001 values below: Diverging 1.11e-4,
+# Lab 1.10e-4, HSV 1.56e-4; opacity 9.90e-5 in each (docs/paraview.md), held to about 10 %
+@pytest.mark.parametrize("space, colour_error", [("Diverging", 1.22e-4), ("Lab", 1.21e-4), ("HSV", 1.72e-4)])
+def test_other_colour_spaces_and_mixed_axes_are_within_the_tolerance(space, colour_error):
     ctf = _colors([(0.1, 0.23, 0.30, 0.75), (5.0, 0.87, 0.87, 0.87), (50.0, 0.71, 0.02, 0.15)], log=True,
                   space=space)
     pwf = _opacity([(0.1, 0.0), (50.0, 0.8)], log=False)  # linear opacity on a log colour map
     tf = transfer_function_from_vtk(ctf, pwf)
     x = np.geomspace(0.1, 50.0, 20001)
     rgb, alpha = _vtk_values(ctf, pwf, x)
-    # bisection checks segment midpoints: elsewhere the error may be a few times larger
-    assert np.abs(tf.color_at(x) - rgb).max() < 4 * TOLERANCE
-    assert np.abs(tf.opacity_at(x) - alpha).max() < 4 * TOLERANCE
-    assert tf.values.size < 2000
+    # bisection checks segment midpoints (TOLERANCE, 1e-4): elsewhere the error may be larger
+    assert np.abs(tf.color_at(x) - rgb).max() < colour_error
+    assert np.abs(tf.opacity_at(x) - alpha).max() < 1.1 * TOLERANCE
+    assert tf.values.size < 200  # 113 to 145 points
 
 
 def test_discretized_paraview_style_table_is_read_as_the_continuous_function():

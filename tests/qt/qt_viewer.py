@@ -276,6 +276,28 @@ def test_the_view_command_opens_the_file_with_its_transfer_function(qtbot, tmp_p
     window.close()
 
 
+def test_hv_view_opens_a_file_and_a_function_file_as_the_view_command_does(qtbot, tmp_path):
+    """``hv.view("blobs.vti", tf="preset.json")`` (it used to say "got str"): the
+    command's window, title and function, refined to the direct render."""
+    from pv_hdrvol.editor.model import TransferFunctionModel
+    import pyvista as pv
+
+    grid = _volume()
+    image = pv.ImageData(dimensions=grid.dims, spacing=grid.spacing, origin=grid.origin)
+    image.point_data["density"] = grid.values.reshape(-1)
+    image.save(tmp_path / "blobs.vti")
+    TransferFunctionModel(_tf()).save_paraview_preset(tmp_path / "preset.json", "mine")
+    window = hv.view(str(tmp_path / "blobs.vti"), tf=str(tmp_path / "preset.json"), block=False)
+    qtbot.addWidget(window)
+    assert isinstance(window, HDRViewer) and window.windowTitle() == "pv_hdrvol: blobs.vti"
+    np.testing.assert_array_equal(window.model.transfer_function().opacities, _tf().opacities)
+    window.resize(600, 500)
+    qtbot.waitExposed(window)
+    _wait_full(qtbot, window)
+    np.testing.assert_array_equal(window.actor.hdr.rgba, _direct(window).rgba)
+    window.close()
+
+
 def test_a_background_plotter_draws_the_volume_behind_its_mesh(qtbot):
     """pyvistaqt's BackgroundPlotter: the volume arrives progressively on its window and
     a mesh in front of it hides it exactly; the full frame is the direct render with the

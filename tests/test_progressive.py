@@ -49,6 +49,32 @@ def test_a_tetrahedral_mesh_refines_to_its_direct_render():
     np.testing.assert_array_equal(frames[-1].image.rgba, direct.rgba)
 
 
+@pytest.mark.parametrize("mesh", [False, True], ids=["grid", "tets"])
+def test_unoccluded_frames_equal_the_render_without_far(mesh):
+    """unoccluded=True: each frame also carries the render with no ray stopped (a window
+    over the stopped rays rendered again; a mesh renders whole), bit for bit the frame
+    of the same request without far; None when far stops nothing."""
+    if mesh:
+        points, tets, values = box_mesh((3, 3, 3), field=lambda p: 1.0 + p[:, 0] * p[:, 1])
+        data, tf = hv.tetmesh_from_arrays(points, tets, values), hv.TransferFunction.ramp(1.0, 10.0, cmap="gray",
+                                                                                         opacity=(0.1, 0.6))
+    else:
+        data, tf = _volume(), _tf()
+    camera = hv.Camera.fit(data.bounds, "iso")
+    far = np.full((30, 40), np.inf)
+    far[5:12, 20:31] = 1e-3  # a mesh just in front of the camera over part of the picture
+    renderer = ProgressiveRenderer(data, tf, precision="float64", factor=2)
+    cut = renderer.frames(camera, (40, 30), far=far, unoccluded=True)
+    renderer.factor = 2
+    open_ = renderer.frames(camera, (40, 30))
+    for a, b in zip(cut, open_):
+        assert a.level == b.level and not np.array_equal(a.image.rgba, b.image.rgba)
+        np.testing.assert_array_equal(a.unoccluded.rgba, b.image.rgba)
+    renderer.factor = 2
+    assert [f.unoccluded for f in renderer.frames(camera, (40, 30), far=np.full((30, 40), np.inf),
+                                                  unoccluded=True)] == [None, None]
+
+
 def test_the_coarse_frame_is_the_small_render_upsampled():
     volume, tf = _volume(), _tf()
     camera = hv.Camera.fit(volume.bounds, "xy")
@@ -102,7 +128,7 @@ def test_a_newer_request_cancels_the_one_in_flight_and_its_frames_never_arrive()
     with ProgressiveRenderer(volume, tf, precision="float64", on_frame=on_frame) as renderer:
         full = renderer._full
 
-        def watched_full(plan, camera, size, lens, generation, stale, far=None):
+        def watched_full(plan, camera, size, lens, generation, stale, far=None, unoccluded=False):
             def check():  # called between chunks of rows of tiles
                 if generation == 1 and not in_flight.is_set():
                     in_flight.set()  # the first full render has rendered its first rows
@@ -110,7 +136,7 @@ def test_a_newer_request_cancels_the_one_in_flight_and_its_frames_never_arrive()
                 return stale()
 
             try:
-                frame = full(plan, camera, size, lens, generation, check, far)
+                frame = full(plan, camera, size, lens, generation, check, far, unoccluded)
             except P.Cancelled:
                 outcomes.append((generation, "cancelled"))
                 raise

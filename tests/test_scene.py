@@ -1,6 +1,6 @@
 """HDR volumes in PyVista scenes (issue 21, part 4), off screen: the volume drawn is
-our render from the plotter's camera bit for bit, composited as ``T(C) + (1 - a)
-scene``; a mesh in front of the volume hides it exactly; a mesh inside stops the rays
+our render from the plotter's camera bit for bit, composited as ``T(C) + (1 - max(a,
+max T(C))) scene``; a mesh in front of the volume hides it exactly; a mesh inside stops the rays
 at its surface (the depth buffer read back as ray distances, checked on a plane)."""
 import numpy as np
 import pytest
@@ -36,6 +36,13 @@ def _plotter():
     return pl
 
 
+def _over(mapped, alpha, background):
+    """The expected 8-bit composite: premultiplied ``mapped`` over ``background`` (a
+    grey level in [0, 1]) with coverage max(alpha, brightest channel)."""
+    coverage = np.maximum(alpha, mapped.max(axis=-1))[..., None]
+    return np.round(np.clip(mapped + (1 - coverage) * background, 0, 1) * 255)
+
+
 def _view(pl):
     pl.camera.position = (0.5, 0.5, 4.0)
     pl.camera.focal_point = (0.5, 0.5, 0.5)
@@ -44,7 +51,7 @@ def _view(pl):
 
 def test_the_volume_is_our_render_from_the_plotters_camera_composited_over_the_scene():
     pl = _plotter()
-    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", tonemap="linear")
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", tonemap="linear", show_scalar_bar=False)
     assert isinstance(actor, HDRVolumeActor) and pl.hdrvol.actors == (actor,)
     _view(pl)
     shot = pl.screenshot(return_img=True)
@@ -52,8 +59,10 @@ def test_the_volume_is_our_render_from_the_plotters_camera_composited_over_the_s
     direct = hv.render(_volume(), _tf(), camera, SIZE, precision="float64")
     np.testing.assert_array_equal(actor.hdr.rgba, direct.rgba)  # nothing in front: no ray stopped
     mapped = hv.tonemap(direct, "linear").rgb
+    # premultiplied colour over the background with coverage max(alpha, brightest channel)
+    coverage = np.maximum(direct.rgba[..., 3], mapped.max(axis=-1))[..., None]
+    expected = np.round(np.clip(mapped + (1 - coverage) * (51 / 255), 0, 1) * 255).astype(np.uint8)
     a = direct.rgba[..., 3:4]
-    expected = np.round(np.clip(mapped + (1 - a) * (51 / 255), 0, 1) * 255).astype(np.uint8)
     assert np.abs(shot.astype(int) - expected).max() <= 1  # 8-bit rounding of the background
     assert (a > 0.2).sum() > 500
     pl.close()
@@ -66,7 +75,7 @@ def test_a_mesh_in_front_of_the_volume_hides_it_and_only_there():
     _view(pl)
     plain = pl.screenshot(return_img=True)
     red = np.all(plain == [255, 0, 0], axis=-1)
-    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64")
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", show_scalar_bar=False)
     shot = pl.screenshot(return_img=True)
     assert red.sum() > 100
     np.testing.assert_array_equal(shot[red], plain[red])  # hidden: the mesh's own colour, exactly
@@ -101,7 +110,7 @@ def test_a_mesh_inside_the_volume_stops_the_rays_at_its_surface():
 
 def test_changing_the_tone_mapping_re_maps_without_rendering():
     pl = _plotter()
-    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64")
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", show_scalar_bar=False)
     _view(pl)
     pl.screenshot(return_img=True)
     hdr = actor.hdr
@@ -109,7 +118,7 @@ def test_changing_the_tone_mapping_re_maps_without_rendering():
     shot = pl.screenshot(return_img=True)
     assert actor.hdr is hdr  # the kept render
     mapped = hv.tonemap(hdr, "linear", exposure_stops=2.0).rgb
-    expected = np.round(np.clip(mapped + (1 - hdr.rgba[..., 3:4]) * (51 / 255), 0, 1) * 255)
+    expected = _over(mapped, hdr.rgba[..., 3], 51 / 255)
     assert np.abs(shot.astype(int) - expected).max() <= 1
     actor.set_transfer_function(global_alpha=0.1)
     pl.screenshot(return_img=True)
@@ -156,7 +165,7 @@ def test_a_notebook_plot_with_the_static_backend_shows_the_volume():
     pytest.importorskip("IPython")
     pl = pv.Plotter(notebook=True, off_screen=True, window_size=SIZE)
     pl.background_color = (0.2, 0.2, 0.2)
-    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64")
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", show_scalar_bar=False)
     _view(pl)
     picture = np.asarray(pl.show(jupyter_backend="static", return_viewer=True))[..., :3]
     assert actor.level == "full"
@@ -165,7 +174,7 @@ def test_a_notebook_plot_with_the_static_backend_shows_the_volume():
     direct = hv.render(_volume(), _tf(), hv.Camera.from_pyvista(pl.camera), SIZE, precision="float64")
     a = direct.rgba[..., 3:4]
     assert (a > 0.2).sum() > 500
-    expected = np.round(np.clip(hv.tonemap(direct, "reinhard").rgb + (1 - a) * (51 / 255), 0, 1) * 255)
+    expected = _over(hv.tonemap(direct, "reinhard").rgb, direct.rgba[..., 3], 51 / 255)
     assert picture.shape == expected.shape
     assert np.abs(picture.astype(int) - expected).max() <= 1  # 8-bit rounding of the background
 
@@ -183,3 +192,134 @@ def test_removing_the_volume_leaves_the_scene_and_bad_operators_are_named():
     with pytest.raises(ValueError, match="tonemap must be one of .* or a callable; got 'nope'"):
         pl.hdrvol.add_volume(_volume(), _tf(), tonemap="nope")
     pl.close()
+
+
+# -- issue 31: any background, brightness that occluders do not change, annotations on top --
+def _bright_tf():
+    """Emission far above the opacity (HDR colours, faint opacity): the case that added
+    light saturated on a white background."""
+    return hv.TransferFunction([0.0, 0.5, 1.0], [[0.2, 0.1, 2.0], [2.0, 0.5, 0.2], [4.0, 3.0, 0.5]],
+                               [0.0, 0.05, 0.1])
+
+
+@pytest.mark.parametrize("grey", [1.0, 0.5, 0.0], ids=["white", "grey", "black"])
+def test_the_volume_reads_on_any_background(grey):
+    """Composited as premultiplied colour with coverage max(alpha, max T(C)): over white
+    the volume darkens what it covers (the sum T(C) + (1 - alpha) saturated at 255 and
+    the volume vanished); over black the picture is T(C) as it was."""
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    pl.background_color = (grey,) * 3
+    actor = pl.hdrvol.add_volume(_volume(), _bright_tf(), precision="float64", show_scalar_bar=False)
+    _view(pl)
+    shot = pl.screenshot(return_img=True).astype(int)
+    mapped = hv.tonemap(actor.hdr, "reinhard").rgb
+    background = round(grey * 255) / 255
+    assert np.abs(shot - _over(mapped, actor.hdr.rgba[..., 3], background)).max() <= 1
+    covered = actor.hdr.rgba[..., 3] > 0.02
+    assert covered.sum() > 300
+    # the mean distance from the background over the volume's footprint, 8-bit levels
+    visibility = np.abs(shot[covered] - round(grey * 255)).mean()
+    assert visibility > 40, visibility
+    if grey == 0.0:
+        np.testing.assert_array_equal(shot, np.round(mapped * 255))
+    pl.close()
+
+
+def test_a_mesh_in_front_changes_only_the_pixels_it_covers():
+    """The tone mapping's statistics come from the volume alone (the rays a mesh stops
+    are rendered again without it): with the default Reinhard operator, a sphere in
+    front of the volume leaves every pixel it does not cover as it was, bit for bit
+    (they changed by up to 0.05 when the log-average was taken over the occluded
+    render)."""
+    pl = _plotter()
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", show_scalar_bar=False)
+    _view(pl)
+    alone = pl.screenshot(return_img=True)
+    hdr_alone = actor.hdr
+    pl.add_mesh(pv.Sphere(radius=0.15, center=(0.45, 0.5, 1.2)), color="red", lighting=False)
+    with_sphere = pl.screenshot(return_img=True)
+    stopped = np.isfinite(actor.far)
+    assert 100 < stopped.sum() < stopped.size / 2
+    assert actor._unoccluded is not None
+    np.testing.assert_array_equal(actor._unoccluded.rgba, hdr_alone.rgba)  # the volume alone, exactly
+    np.testing.assert_array_equal(with_sphere[~stopped], alone[~stopped])
+    assert np.any(with_sphere[stopped] != alone[stopped])
+    pl.close()
+
+
+def test_annotations_and_the_orientation_axes_stay_above_the_volume():
+    """Text and the orientation widget drawn where the volume is opaque: their pixels
+    are those of the scene without the volume (the overlay hid the axes and covered
+    the text)."""
+    def shot(with_volume, with_axes=True):
+        pl = _plotter()
+        pl.add_text("HDR", position=(30, 22), font_size=18, color=(1.0, 0.0, 0.0))
+        if with_axes:
+            pl.add_axes(viewport=(0.5, 0.0, 0.9, 0.5))  # lower right, over the volume
+        actor = None
+        if with_volume:
+            actor = pl.hdrvol.add_volume(_volume(), hv.TransferFunction.ramp(0.0, 1.0, cmap="gray",
+                                                                             opacity=(1.0, 1.0)),
+                                         precision="float64", show_scalar_bar=False)
+        _view(pl)
+        pl.camera.zoom(1.6)
+        picture = pl.screenshot(return_img=True).astype(int)
+        opaque = None if actor is None else actor.hdr.rgba[..., 3] > 0.99
+        pl.close()
+        return picture, opaque
+
+    (plain, _), (full, opaque), (no_axes, _) = shot(False), shot(True), shot(True, with_axes=False)
+    text = np.all(plain == [255, 0, 0], axis=-1) & opaque
+    assert text.sum() > 20
+    np.testing.assert_array_equal(full[text], plain[text])
+    # the axes' lines: far from the background in the plain picture; with the volume they
+    # match the plain picture but at antialiased edges, which blend with what lies under
+    region = np.zeros(plain.shape[:2], bool)
+    region[SIZE[1] // 2:, SIZE[0] // 2:] = True
+    lines = region & (np.abs(plain - 51).sum(-1) > 150) & opaque
+    assert lines.sum() > 10
+    shown = np.abs(full[lines] - plain[lines]).mean()
+    hidden = np.abs(no_axes[lines] - plain[lines]).mean()  # what a covered axis would show
+    assert shown < 0.2 * hidden, (shown, hidden)
+
+
+@pytest.mark.parametrize("scale", ["linear", "log", "symlog"])
+def test_the_scalar_bar_shows_the_transfer_functions_colours_on_its_axis(scale):
+    """As PyVista's add_volume: a scalar bar (show_scalar_bar=True by default, titled by
+    the array, scalar_bar_args passed on), with the function's colours; VTK's log scale
+    for a log axis; a symlog axis labelled by annotations in data values."""
+    from vtkmodules.vtkCommonCore import VTK_SCALE_LINEAR, VTK_SCALE_LOG10
+
+    grid = pv.ImageData(dimensions=(8, 8, 8))
+    grid["density"] = np.geomspace(1e-3, 1e3, grid.n_points) * (1 if scale != "symlog" else
+                                                                np.resize([1, -1], grid.n_points))
+    lo = 1e-3 if scale == "log" else -1e3 if scale == "symlog" else 0.0
+    tf = hv.TransferFunction.ramp(lo, 1e3, scale=scale, cmap="viridis", linthresh=1e-2)
+    pl = pv.Plotter(off_screen=True, window_size=SIZE)
+    actor = pl.hdrvol.add_volume(grid, tf, scalar_bar_args={"vertical": True})
+    bar = actor.scalar_bar
+    assert bar is not None and bar.GetTitle() == "density" and bar.GetOrientation() == 1  # vertical
+    assert "density" in pl.scalar_bars
+    lut = bar.GetLookupTable()
+    assert lut.GetScale() == (VTK_SCALE_LOG10 if scale == "log" else VTK_SCALE_LINEAR)
+    peak = tf.colors.max()
+    for v in (lo, 1e-2 if scale != "linear" else 250.0, 1e3):
+        axis_v = hv.data.transfer.scale_forward(v, "symlog", 1e-2) if scale == "symlog" else v
+        rgb = np.zeros(3)
+        lut.GetColor(float(axis_v), rgb)
+        np.testing.assert_allclose(rgb, tf.color_at(v) / peak, atol=2.5 / 255)  # 256 entries, 8 bits
+    if scale == "symlog":
+        labels = {lut.GetAnnotation(i) for i in range(lut.GetNumberOfAnnotatedValues())}
+        assert {"-1e+03", "0", "1e+03"} <= labels, labels
+    pl.close()
+
+
+def test_a_plotter_that_is_not_one_is_named():
+    """The module's add_hdr_volume checks its plotter (an AttributeError on .renderer
+    before), as pv_hdrvol.add_hdr_volume does, with the same message."""
+    message = (r"plotter must be a pyvista.Plotter \(or a pyvistaqt BackgroundPlotter or QtInteractor\); got "
+               r"'not a plotter': pass the plotter first, add_hdr_volume\(plotter, data, tf\)")
+    with pytest.raises(TypeError, match=message):
+        add_hdr_volume("not a plotter", _volume())
+    with pytest.raises(TypeError, match=message):
+        hv.add_hdr_volume("not a plotter", _volume())

@@ -627,6 +627,25 @@ class ToneMapped:
 
 
 # -- the function -------------------------------------------------------------------------
+def fit(image, operator="reinhard", *, roi=None, **params):
+    """The statistics ``operator`` takes from ``image`` (its :class:`Fitted`), to map
+    another image the same way: ``tonemap(other, fitted=fit(image, ...))``. A scene
+    fits on the volume's render without the meshes in front, so that a mesh changes
+    only the pixels it covers. ``image``, ``operator``, ``roi`` and ``**params``: as
+    :func:`tonemap`."""
+    pixels = _as_pixels(image)
+    op = make_operator(operator, **params)
+    return op.fit(_luminance(pixels), _roi_weights(roi, pixels.shape[:2]))
+
+
+def _luminance(pixels):
+    """Luminance (rows, cols) float64 of (rows, cols, 3 or 4) linear pixels."""
+    flat = np.ascontiguousarray(pixels).reshape(-1, pixels.shape[2])
+    y = np.empty(flat.shape[0])
+    K.luminance(flat, y)
+    return y.reshape(pixels.shape[:2])
+
+
 def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=None, **params):
     """Tone map an HDR image for display.
 
@@ -672,9 +691,7 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
     flat = np.ascontiguousarray(pixels).reshape(-1, pixels.shape[2])
     y = None
     if fitted is None or not fitted.is_global:
-        y = np.empty(flat.shape[0])
-        K.luminance(flat, y)
-        y = y.reshape(shape)
+        y = _luminance(pixels)
     if fitted is None:
         fitted = op.fit(y, weights)
     out = np.empty((flat.shape[0], 3), dtype=np.float32)

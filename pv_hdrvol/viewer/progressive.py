@@ -67,6 +67,11 @@ class Frame:
         The request this frame answers (:meth:`ProgressiveRenderer.request`'s return).
     seconds : float
         Wall time of the frame's render (and upsampling).
+    unoccluded : HDRImage or None
+        With ``unoccluded=True`` and a ``far`` that stops some rays: the same render with
+        no ray stopped (the pixels ``far`` cuts rendered again, the others shared), for
+        statistics that geometry in front must not change (a scene's tone mapping).
+        ``None`` otherwise: then it equals ``image``.
     """
 
     image: HDRImage
@@ -74,6 +79,7 @@ class Frame:
     factor: int
     generation: int
     seconds: float
+    unoccluded: Optional[HDRImage] = None
 
 
 class ProgressiveRenderer:
@@ -126,7 +132,7 @@ class ProgressiveRenderer:
         self._lock = threading.Condition()
         self._plan = self._make_plan(tf, self.options)
         self._generation = 0
-        self._pending = None  # (generation, camera, size, lens, plan, far) of the latest request
+        self._pending = None  # (generation, camera, size, lens, plan, far, unoccluded) of the latest request
         self._thread = None
         self._closed = False
         #: the last frame delivered by the worker (None before the first)
@@ -149,22 +155,23 @@ class ProgressiveRenderer:
             self.options, self._plan = options, plan
 
     # -- synchronous ------------------------------------------------------------------
-    def frames(self, camera, size, *, lens=None, coarse=True, far=None):
+    def frames(self, camera, size, *, lens=None, coarse=True, far=None, unoccluded=False):
         """The frames of one request, rendered here: the coarse frame (unless
         ``coarse=False``), then the full one. A list of :class:`Frame`. ``far``: where
         opaque geometry stops each ray (as :meth:`GridPlan.execute
         <pv_hdrvol.raycast.grid.GridPlan.execute>`; the coarse frame takes the value
-        of the full-size pixel at each coarse pixel's centre)."""
+        of the full-size pixel at each coarse pixel's centre). ``unoccluded=True``:
+        each frame also carries the render without ``far`` (:attr:`Frame.unoccluded`)."""
         size = as_size(size)
         with self._lock:
             plan = self._plan
         out = []
         if coarse and _coarse_lens(lens, 0.5) is not _NO_COARSE:
-            out.append(self._coarse(plan, camera, size, lens, 0, lambda: False, far))
-        out.append(self._full(plan, camera, size, lens, 0, lambda: False, far))
+            out.append(self._coarse(plan, camera, size, lens, 0, lambda: False, far, unoccluded))
+        out.append(self._full(plan, camera, size, lens, 0, lambda: False, far, unoccluded))
         return out
 
-    def _coarse(self, plan, camera, size, lens, generation, stale, far=None):
+    def _coarse(self, plan, camera, size, lens, generation, stale, far=None, unoccluded=False):
         width, height = size
         f = self.factor
         small = (max(1, -(-width // f)), max(1, -(-height // f)))
@@ -174,19 +181,43 @@ class ProgressiveRenderer:
             cols = np.minimum(((np.arange(small[0]) + 0.5) * width / small[0]).astype(int), width - 1)
             far = far[rows[:, None], cols[None, :]]
         t0 = time.perf_counter()
-        image = self._execute(plan, camera, small, _coarse_lens(lens, small[0] / width), stale, far)
+        small_lens = _coarse_lens(lens, small[0] / width)
+        image = self._execute(plan, camera, small, small_lens, stale, far)
         rendered = time.perf_counter() - t0
+        opened = self._unoccluded(plan, camera, small, small_lens, stale, far, image) if unoccluded else None
         image = _resize(image, size)
+        opened = None if opened is None else _resize(opened, size)
         seconds = time.perf_counter() - t0
         self.factor = _next_factor(f, rendered, self.coarse_seconds)
-        return Frame(image, "coarse", f, generation, seconds)
+        return Frame(image, "coarse", f, generation, seconds, opened)
 
-    def _full(self, plan, camera, size, lens, generation, stale, far=None):
+    def _full(self, plan, camera, size, lens, generation, stale, far=None, unoccluded=False):
         t0 = time.perf_counter()
         image = self._execute(plan, camera, size, lens, stale, far)
-        return Frame(image, "full", 1, generation, time.perf_counter() - t0)
+        opened = self._unoccluded(plan, camera, size, lens, stale, far, image) if unoccluded else None
+        return Frame(image, "full", 1, generation, time.perf_counter() - t0, opened)
 
-    def _execute(self, plan, camera, size, lens, stale, far=None):
+    def _unoccluded(self, plan, camera, size, lens, stale, far, image):
+        """``image`` (rendered with ``far``) as it would be without ``far``, or None
+        when ``far`` stopped no ray: the smallest window holding every stopped ray is
+        rendered again without it (a window is pixel for pixel the full render's;
+        meshes have no windows and render whole)."""
+        if far is None:
+            return None
+        stopped = np.isfinite(np.asarray(far))
+        if not stopped.any():
+            return None
+        if self.tets:
+            return self._execute(plan, camera, size, lens, stale)
+        rows = np.nonzero(stopped.any(axis=1))[0]
+        cols = np.nonzero(stopped.any(axis=0))[0]
+        window = (int(cols[0]), int(rows[0]), int(cols[-1] - cols[0] + 1), int(rows[-1] - rows[0] + 1))
+        part = self._execute(plan, camera, size, lens, stale, window=window)
+        rgba = np.array(image.rgba)
+        rgba[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1] = part.rgba
+        return HDRImage(rgba, image.depth)  # depth is not the point: statistics read the colour
+
+    def _execute(self, plan, camera, size, lens, stale, far=None, window=None):
         seen = []
 
         def progress(_fraction):
@@ -202,17 +233,18 @@ class ProgressiveRenderer:
                 return plan.execute(camera, size, progress=progress, progress_bar=False,
                                     chunk_seconds=CHUNK_SECONDS, far=far)
             return plan.execute(camera, size, lens=lens, progress=progress, progress_bar=False,
-                                chunk_seconds=CHUNK_SECONDS, far=far)
+                                chunk_seconds=CHUNK_SECONDS, far=far, window=window)
         except RuntimeError as error:
             if seen and str(error) == "render aborted":
                 raise Cancelled() from None
             raise
 
     # -- asynchronous -----------------------------------------------------------------
-    def request(self, camera, size, *, lens=None, far=None):
+    def request(self, camera, size, *, lens=None, far=None, unoccluded=False):
         """Render ``camera`` at ``size`` on the worker thread: a coarse frame, then the
         full one, each handed to ``on_frame``. Cancels the render in flight. Returns the
-        request's generation number (frames carry it). ``far``: as :meth:`frames`."""
+        request's generation number (frames carry it). ``far`` and ``unoccluded``: as
+        :meth:`frames`."""
         if self.on_frame is None:
             raise ValueError("request() needs on_frame= (the frames go there); frames() renders synchronously")
         size = as_size(size)
@@ -221,7 +253,7 @@ class ProgressiveRenderer:
             if self._closed:
                 raise RuntimeError("the renderer is closed")
             self._generation += 1
-            self._pending = (self._generation, camera, size, lens, self._plan, far)
+            self._pending = (self._generation, camera, size, lens, self._plan, far, bool(unoccluded))
             if self._thread is None:
                 self._thread = threading.Thread(target=self._work, name="pv_hdrvol progressive", daemon=True)
                 self._thread.start()
@@ -235,7 +267,7 @@ class ProgressiveRenderer:
                     self._lock.wait()
                 if self._closed:
                     return
-                generation, camera, size, lens, plan, far = self._pending
+                generation, camera, size, lens, plan, far, unoccluded = self._pending
                 self._pending = None
 
             def stale(generation=generation):
@@ -244,7 +276,7 @@ class ProgressiveRenderer:
             try:
                 renders = (self._coarse, self._full) if _coarse_lens(lens, 0.5) is not _NO_COARSE else (self._full,)
                 for render in renders:
-                    frame = render(plan, camera, size, lens, generation, stale, far)
+                    frame = render(plan, camera, size, lens, generation, stale, far, unoccluded)
                     if stale():
                         break
                     self.last_frame = frame

@@ -438,8 +438,9 @@ class HDRViewer(QtWidgets.QMainWindow):
         self.setCentralWidget(self.plotter)
         self.plotter.set_background("black")
         data = _select(data, scalars, preference) if scalars is not None else data
+        # the editor beside the view is the colour bar (and its opacity), so no scalar bar
         self.actor = add_hdr_volume(self.plotter, data, self.model.transfer_function(), progressive=True,
-                                    global_alpha=self.model.global_alpha, **render_kwargs)
+                                    show_scalar_bar=False, global_alpha=self.model.global_alpha, **render_kwargs)
         self.plotter.view_isometric()
         self.editor = TransferFunctionEditorWidget(self.model)
         self.panel = ToneMapPanel(self)

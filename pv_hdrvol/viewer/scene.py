@@ -15,13 +15,27 @@ How it draws, each time VTK renders the scene (the renderer's ``EndEvent``):
    (full quality) on an off-screen plotter (scripts, screenshots, notebooks' static
    backend); on a window, progressively on a worker thread (a coarse frame within
    about 0.1 s, the full frame when the camera rests; a newer view cancels the old);
-4. composite the tone-mapped volume over the scene, ``T(C) + (1 - alpha) scene``
-   (premultiplied colour over the 8-bit display colour), into an opaque image drawn by
-   an overlay renderer on the next layer of the window.
+4. tone-map it with the statistics of the volume alone (the rays the meshes stopped
+   are rendered again without them, :attr:`Frame.unoccluded
+   <pv_hdrvol.viewer.progressive.Frame.unoccluded>`): a mesh in front changes only the
+   pixels it covers (for the global operators; a local one, ``durand`` or ``fattal``,
+   also maps each pixel by its neighbours);
+5. composite the tone-mapped volume ``T(C)`` over the scene as premultiplied colour
+   with coverage ``max(alpha, max(T(C)))`` (:func:`over_scene`), into an opaque image
+   drawn by an overlay renderer on the layer above the scene's; the scene's 2-D
+   annotations (text, scalar bars) are drawn there too, above the volume, and widgets'
+   renderers (the orientation axes) stay above it.
+
+The coverage is the least one for which the tone-mapped colour is a valid premultiplied
+colour: the tone mapper brightens faint emission far beyond its opacity, and adding
+that light over a white background saturated it (PyVista's default theme: the volume
+vanished); with the coverage the volume hides as much of the background as it shows
+colour. Over black it changes nothing (``T(C)`` as before). docs/interactive.md
+measures the volume's visibility on white, grey and black against PyVista's
+``add_volume`` on the same data.
 
 The HDR render is kept (:attr:`HDRVolumeActor.hdr`): changing the tone mapping only
-re-maps it. Noticed and left as is: 2-D annotations of the scene renderer (scalar
-bars, text) lie under the volume; the volume follows the camera a frame late while it
+re-maps it. Noticed and left as is: the volume follows the camera a frame late while it
 renders.
 """
 from __future__ import annotations
@@ -32,7 +46,7 @@ import zlib
 import numpy as np
 
 from .._validate import as_real
-from ..image.tonemap import OPERATORS
+from ..image.tonemap import OPERATORS, fit
 from ..image.tonemap import tonemap as _tonemap
 from ..rays.camera import Camera
 from .progressive import COARSE_SECONDS, ProgressiveRenderer
@@ -79,6 +93,21 @@ def ray_distances(camera, depth, vtk_camera=None):
     return np.where(depth < 1.0, np.maximum(t, 0.0), np.inf)
 
 
+def over_scene(rgb, alpha, scene):
+    """The tone-mapped volume over the scene: ``rgb + (1 - coverage) scene`` with
+    ``coverage = max(alpha, max(rgb))`` per pixel, clipped to [0, 1].
+
+    ``rgb`` (rows, cols, 3) display colour of the premultiplied render, ``alpha`` (rows,
+    cols) its opacity, ``scene`` (rows, cols, 3) the display colour behind, all in
+    [0, 1]. The coverage is the least that makes ``rgb`` a valid premultiplied colour
+    (``rgb <= coverage``), and never less than the volume's opacity: over black the
+    result is ``rgb``; over any background a pixel stays within [0, 1] before clipping.
+    """
+    rgb = np.asarray(rgb, dtype=np.float32)
+    coverage = np.maximum(np.asarray(alpha, dtype=np.float32), rgb.max(axis=-1))
+    return np.clip(rgb + (1.0 - np.minimum(coverage, 1.0))[..., None] * scene, 0.0, 1.0)
+
+
 class HDRVolumeActor:
     """One HDR volume in a PyVista plotter (made by :func:`add_hdr_volume`).
 
@@ -90,15 +119,21 @@ class HDRVolumeActor:
         Which it was.
     renderer : ProgressiveRenderer
         The scene's renderer (transfer function, options).
+    scalar_bar : vtkScalarBarActor or None
+        The transfer function's colour bar (``show_scalar_bar=True``).
     """
 
     def __init__(self, plotter, data, tf=None, *, tonemap="reinhard", tonemap_params=None, progressive=None,
-                 coarse_seconds=COARSE_SECONDS, scalars=None, preference="point", **render_kwargs):
+                 coarse_seconds=COARSE_SECONDS, scalars=None, preference="point", show_scalar_bar=True,
+                 scalar_bar_args=None, **render_kwargs):
         from vtkmodules.vtkCommonDataModel import vtkImageData
         from vtkmodules.vtkRenderingCore import vtkImageActor, vtkRenderer
 
         if isinstance(tonemap, str) and tonemap not in OPERATORS:
             raise ValueError(f"tonemap must be one of {sorted(OPERATORS)} or a callable; got {tonemap!r}")
+        if scalar_bar_args is not None and not hasattr(scalar_bar_args, "keys"):
+            raise TypeError(f"scalar_bar_args must be a dict of pyvista's add_scalar_bar arguments; got "
+                            f"{type(scalar_bar_args).__name__}")
         self.plotter = plotter
         self.scene = plotter.renderer
         self.tonemap_operator = tonemap
@@ -111,6 +146,7 @@ class HDRVolumeActor:
                                             preference=preference, on_frame=self._on_frame,
                                             on_error=self._on_error, **render_kwargs)
         self.hdr, self.level, self.error, self.far = None, None, None, None
+        self._unoccluded = None  # self.hdr without the scene's meshes (None: the same), for the statistics
         self._display = None  # (tone-mapped rgb float32 (rows, cols, 3), alpha (rows, cols)) of self.hdr
         self._key = None
         self._requested = self._shown = 0  # generations: of the last request, of the full frame shown
@@ -118,12 +154,12 @@ class HDRVolumeActor:
         self.lens = None
         #: the Camera of the last render requested
         self.renderer_camera = None
-        # the overlay: an opaque image of the composite, on the window's next layer
+        # the overlay: an opaque image of the composite, on the layer above the scene's,
+        # drawn before the other renderers there (widgets' own renderers stay on top)
         window = plotter.render_window
-        layer = max(window.GetNumberOfLayers(), self.scene.GetLayer() + 2)
-        window.SetNumberOfLayers(layer)
         self._overlay = vtkRenderer()
-        self._overlay.SetLayer(layer - 1)
+        self._overlay.SetLayer(self.scene.GetLayer() + 1)
+        window.SetNumberOfLayers(max(window.GetNumberOfLayers(), self.scene.GetLayer() + 2))
         self._overlay.InteractiveOff()
         self._overlay.SetViewport(self.scene.GetViewport())
         self._image = vtkImageData()
@@ -135,10 +171,17 @@ class HDRVolumeActor:
         self._overlay.AddActor(self._actor)
         self._overlay.GetActiveCamera().ParallelProjectionOn()
         window.AddRenderer(self._overlay)
+        _first_of_its_layer(window, self._overlay)
+        self._annotations = []  # the scene's 2-D props, hidden while it renders, drawn on the overlay
         # the volume's box, invisible, so that reset_camera() and the clipping range see it
         self._box = _bounds_actor(self.renderer.data.bounds)
         self.scene.AddActor(self._box)
+        self._start_observer = self.scene.AddObserver("StartEvent", self._scene_starts)
         self._observer = self.scene.AddObserver("EndEvent", self._scene_rendered)
+        self.scalar_bar = None
+        if show_scalar_bar:
+            self.scalar_bar = add_scalar_bar(plotter, self.renderer.tf, _scalars_name(data, scalars),
+                                             **dict(scalar_bar_args or {}))
         self._timer = None
         if self.progressive and getattr(plotter, "iren", None) is not None:
             # a window's timer shows the frames the worker finished (off screen: wait() does)
@@ -151,6 +194,8 @@ class HDRVolumeActor:
         """A new transfer function and/or render options (``global_alpha=``...): the
         volume renders again at the next scene render (which this requests)."""
         self.renderer.set_scene(tf, **options)
+        if tf is not None and self.scalar_bar is not None:
+            self.scalar_bar.SetLookupTable(_lookup_table(self.renderer.tf))
         self._key = None
         self._render_window()
 
@@ -190,14 +235,18 @@ class HDRVolumeActor:
             self.tonemap_operator = operator
         self.tonemap_params.update(params)
         if self.hdr is not None:
-            self._display = self._mapped(self.hdr)
+            self._display = self._mapped(self.hdr, self._unoccluded)
         self._render_window()
 
     def remove(self):
         """Take the volume out of the plotter."""
         self.close()
         self.scene.RemoveObserver(self._observer)
+        self.scene.RemoveObserver(self._start_observer)
+        self._restore_annotations()
         self.scene.RemoveActor(self._box)
+        if self.scalar_bar is not None:
+            self.plotter.remove_scalar_bar(self.scalar_bar.GetTitle(), render=False)
         self.plotter.render_window.RemoveRenderer(self._overlay)
         actors = self.plotter.hdrvol._actors
         if self in actors:
@@ -214,13 +263,16 @@ class HDRVolumeActor:
         self.renderer.close()
 
     # -- the drawing ----------------------------------------------------------------------
-    def _mapped(self, image):
-        out = _tonemap(image, self.tonemap_operator, **self.tonemap_params)
+    def _mapped(self, image, unoccluded=None):
+        """``(rgb, alpha)`` of ``image``, tone-mapped with the statistics of ``unoccluded``
+        (the volume alone; None: ``image`` is)."""
+        fitted = fit(image if unoccluded is None else unoccluded, self.tonemap_operator, **self.tonemap_params)
+        out = _tonemap(image, self.tonemap_operator, fitted=fitted, **self.tonemap_params)
         alpha = np.clip(np.asarray(image.rgba[..., 3], dtype=np.float32), 0.0, 1.0)
         return out.rgb, alpha
 
     def _on_frame(self, frame):  # worker thread
-        display = self._mapped(frame.image)
+        display = self._mapped(frame.image, frame.unoccluded)
         with self._lock:
             self._arrived = (frame, display)
 
@@ -236,6 +288,7 @@ class HDRVolumeActor:
             if frame.generation != self._requested:
                 return  # a frame of a view already left (the worker drops most of them)
             self.hdr, self.level, self._display = frame.image, frame.level, display
+            self._unoccluded = frame.unoccluded
             if frame.level == "full":
                 self._shown = frame.generation
             self._render_window()
@@ -266,6 +319,26 @@ class HDRVolumeActor:
         """Whether the full render of the present view and function is shown."""
         return self._key is not None and self.level == "full" and self._shown == self._requested
 
+    def _scene_starts(self, *_):
+        """Hide the scene's 2-D annotations while it renders (the composite must not
+        hold them): the overlay draws them, above the volume."""
+        if self._busy:
+            return
+        self._restore_annotations()
+        props = self.scene.GetViewProps()
+        props.InitTraversal()
+        for _ in range(props.GetNumberOfItems()):
+            prop = props.GetNextProp()
+            if prop.IsA("vtkActor2D") and prop.GetVisibility():
+                self._annotations.append(prop)
+        for prop in self._annotations:
+            prop.VisibilityOff()
+
+    def _restore_annotations(self):
+        for prop in self._annotations:
+            prop.VisibilityOn()
+        self._annotations = []
+
     def _scene_rendered(self, *_):
         if self._busy:
             return
@@ -274,6 +347,17 @@ class HDRVolumeActor:
             self._draw()
         finally:
             self._busy = False
+            # the overlay draws the annotations, after the composite image
+            annotations = self._annotations
+            self._restore_annotations()
+            props = self._overlay.GetViewProps()
+            shown = [props.GetItemAsObject(i) for i in range(props.GetNumberOfItems())]
+            for prop in shown:
+                if prop is not self._actor and prop not in annotations:
+                    self._overlay.RemoveViewProp(prop)
+            for prop in annotations:
+                if prop not in shown:
+                    self._overlay.AddViewProp(prop)
 
     def _draw(self):
         from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
@@ -302,16 +386,18 @@ class HDRVolumeActor:
             if self.lens is not None:
                 far = None  # a lens's rays are not the camera's (see set_lens)
             if self.progressive:
-                self._requested = self.renderer.request(camera, (cols, rows), far=far, lens=self.lens)
+                self._requested = self.renderer.request(camera, (cols, rows), far=far, lens=self.lens,
+                                                        unoccluded=True)
             else:
-                (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, far=far, lens=self.lens)
-                self.hdr, self.level, self._display = frame.image, frame.level, self._mapped(frame.image)
+                (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, far=far, lens=self.lens,
+                                                unoccluded=True)
+                self.hdr, self.level, self._unoccluded = frame.image, frame.level, frame.unoccluded
+                self._display = self._mapped(frame.image, frame.unoccluded)
                 self._requested += 1
                 self._shown = self._requested
         composite = scene_rgb.astype(np.float32) / 255.0
         if self._display is not None and self._display[0].shape[:2] == (rows, cols):
-            rgb, alpha = self._display
-            composite = rgb + (1.0 - alpha[..., None]) * composite
+            composite = over_scene(*self._display, composite)
         pixels = np.round(np.clip(composite, 0.0, 1.0) * 255.0).astype(np.uint8)[::-1]
         self._image.SetDimensions(cols, rows, 1)
         self._image.GetPointData().SetScalars(numpy_to_vtk(pixels.reshape(-1, 3), deep=True))
@@ -325,6 +411,90 @@ class HDRVolumeActor:
         self._overlay.ResetCameraClippingRange()
         #: the composite shown, (rows, cols, 3) uint8, row 0 at the top
         self.composite = pixels[::-1]
+
+
+def _first_of_its_layer(window, renderer):
+    """Move ``renderer`` before the other renderers of its layer in ``window``'s list
+    (VTK draws a layer's renderers in list order): the orientation axes' and other
+    widgets' renderers on that layer draw over it."""
+    items = window.GetRenderers()
+    order = [items.GetItemAsObject(i) for i in range(items.GetNumberOfItems())]
+    order.remove(renderer)
+    at = next((i for i, r in enumerate(order) if r.GetLayer() == renderer.GetLayer()), len(order))
+    order.insert(at, renderer)
+    for i, r in enumerate(order):
+        items.ReplaceItem(i, r)
+
+
+def _scalars_name(data, scalars):
+    """The scalar bar's title: the rendered array's name, as PyVista's add_volume's."""
+    if isinstance(scalars, str):
+        return scalars
+    try:
+        name = data.active_scalars_name
+    except AttributeError:
+        name = None
+    return name or "hdrvol"
+
+
+def _lookup_table(tf, n=256):
+    """A ``pyvista.LookupTable`` of ``tf``'s colours (``n`` entries evenly spaced on its
+    axis; HDR colours divided by the brightest, as a screen shows them): log axes as
+    VTK's log scale; a symlog axis, which VTK has none of, spans the axis itself and
+    is labelled in data values by annotations (:func:`_symlog_ticks`)."""
+    import pyvista as pv
+
+    from ..data.transfer import _scale_inverse, scale_forward
+
+    a0, a1 = scale_forward([tf.values[0], tf.values[-1]], tf.scale, tf.linthresh)
+    values = _scale_inverse(np.linspace(a0, a1, n), tf.scale, tf.linthresh)
+    rgb = tf.color_at(values)
+    rgb = rgb / max(float(np.max(tf.colors)), 1e-300)
+    lut = pv.LookupTable()
+    lut.values = np.column_stack([np.round(np.clip(rgb, 0.0, 1.0) * 255.0), np.full(n, 255.0)]).astype(np.uint8)
+    if tf.scale == "symlog":
+        lut.scalar_range = (float(a0), float(a1))
+        ticks = _symlog_ticks(float(tf.values[0]), float(tf.values[-1]), tf.linthresh)
+        lut.annotations = {float(scale_forward(t, "symlog", tf.linthresh)): f"{t:.3g}" for t in ticks}
+    else:
+        lut.scalar_range = (float(tf.values[0]), float(tf.values[-1]))
+        lut.log_scale = tf.scale == "log"
+    return lut
+
+
+def _symlog_ticks(lo, hi, linthresh, most=7):
+    """Data values to label a symlog axis from ``lo`` to ``hi``: its ends, 0 when inside,
+    and powers of ten of either sign (every k-th, at most ``most`` in all)."""
+    ticks = {lo, hi}
+    if lo < 0.0 < hi:
+        ticks.add(0.0)
+    powers = []
+    top = max(abs(lo), abs(hi))
+    if top > 0:
+        for k in range(int(np.floor(np.log10(max(linthresh, 1e-300)))), int(np.floor(np.log10(top))) + 1):
+            for sign in (-1.0, 1.0):
+                v = sign * 10.0 ** k
+                if lo < v < hi:
+                    powers.append(v)
+    step = max(1, -(-len(powers) // max(1, most - len(ticks))))
+    by_size = sorted(powers, key=lambda v: (abs(v), v))[::-1]
+    keep = set()
+    for sign in (-1.0, 1.0):
+        keep.update([v for v in by_size if np.sign(v) == sign][::step])
+    return sorted(ticks | keep)
+
+
+def add_scalar_bar(plotter, tf, title="hdrvol", **scalar_bar_args):
+    """Add ``tf``'s colour bar to ``plotter`` (``plotter.add_scalar_bar`` with
+    :func:`_lookup_table`; ``scalar_bar_args`` as PyVista's). Returns the
+    ``vtkScalarBarActor``."""
+    lut = _lookup_table(tf)
+    args = dict(scalar_bar_args)
+    if tf.scale == "symlog":
+        args.setdefault("n_labels", 0)  # the annotations label it, in data values
+    args.setdefault("title", title)
+    args.setdefault("use_opacity", False)
+    return plotter.add_scalar_bar(lookup_table=lut, **args)
 
 
 def _value_at(data, point):
@@ -368,7 +538,8 @@ def _bounds_actor(bounds):
 
 
 def add_hdr_volume(plotter, data, tf=None, *, tonemap="reinhard", tonemap_params=None, progressive=None,
-                   coarse_seconds=COARSE_SECONDS, scalars=None, preference="point", **render_kwargs):
+                   coarse_seconds=COARSE_SECONDS, scalars=None, preference="point", show_scalar_bar=True,
+                   scalar_bar_args=None, **render_kwargs):
     """Draw ``data`` (an image volume or tetrahedral mesh) as an HDR volume in
     ``plotter``'s scene, from its camera, occluded by its opaque meshes.
 
@@ -385,15 +556,28 @@ def add_hdr_volume(plotter, data, tf=None, *, tonemap="reinhard", tonemap_params
         plotter with a window; off-screen plotters render at full quality at once).
     coarse_seconds : float
         The coarse frame's time budget.
+    show_scalar_bar : bool
+        Add the transfer function's colour bar (its log axis where it has one), as
+        PyVista's ``add_volume`` does (default True).
+    scalar_bar_args : dict, optional
+        Arguments of PyVista's ``add_scalar_bar`` (``title``, ``n_labels``, ``vertical``...).
 
     Returns
     -------
     HDRVolumeActor
     """
+    import pyvista as pv
+
+    if not isinstance(plotter, pv.BasePlotter):
+        kind = type(plotter).__name__
+        got = repr(plotter) if isinstance(plotter, str) else f"{'an' if kind[0] in 'AEIOU' else 'a'} {kind}"
+        raise TypeError(f"plotter must be a pyvista.Plotter (or a pyvistaqt BackgroundPlotter or QtInteractor); got "
+                        f"{got}: pass the plotter first, add_hdr_volume(plotter, data, tf)")
     as_real("coarse_seconds", coarse_seconds, low=0.0, low_open=True)
     actor = HDRVolumeActor(plotter, data, tf, tonemap=tonemap, tonemap_params=tonemap_params,
                            progressive=progressive, coarse_seconds=coarse_seconds, scalars=scalars,
-                           preference=preference, **render_kwargs)
+                           preference=preference, show_scalar_bar=show_scalar_bar,
+                           scalar_bar_args=scalar_bar_args, **render_kwargs)
     plotter.hdrvol._actors.append(actor)
     actor._render_window()
     return actor

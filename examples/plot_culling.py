@@ -21,6 +21,7 @@ Run::
 
     python3 examples/plot_culling.py      # writes docs/images/culling_buffer.png
 """
+import os
 import sys
 from pathlib import Path
 
@@ -34,11 +35,15 @@ import pv_hdrvol as hv  # noqa: E402
 from pv_hdrvol.culling.cull import block_boxes, visible_blocks  # noqa: E402
 from pv_hdrvol.culling.reference import ert_oracle  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+try:
+    REPO = Path(__file__).resolve().parents[1]
+except NameError:  # sphinx-gallery runs examples without __file__, in examples/
+    REPO = Path.cwd().resolve().parent
 sys.path.insert(0, str(REPO / "benchmarks"))
 from bench_cull_views import scenes  # noqa: E402
 
-OUT = REPO / "docs" / "images"
+# the figures go to docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+OUT = Path(os.environ.get("PV_HDRVOL_FIGURES", REPO / "docs" / "images"))
 SIZE = (256, 256)
 
 

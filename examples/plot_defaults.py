@@ -34,9 +34,13 @@ import pyvista as pv  # noqa: E402
 import pv_hdrvol as hv  # noqa: E402
 from pv_hdrvol.raycast.grid import as_volume, default_transfer_function  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+try:
+    REPO = Path(__file__).resolve().parents[1]
+except NameError:  # sphinx-gallery runs examples without __file__, in examples/
+    REPO = Path.cwd().resolve().parent
 DATA = Path(os.environ.get("PV_HDRVOL_DATA", REPO.parent / "shared" / "data"))
-OUT = REPO / "docs" / "images"
+# the figures go to docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+OUT = Path(os.environ.get("PV_HDRVOL_FIGURES", REPO / "docs" / "images"))
 FILES = ["structured/engine_256x256x128_uint8.vti", "structured/bonsai_256x256x256_uint8.vti",
          "structured/tooth_103x94x161_uint8.nrrd", "structured/ct_head_120x120x130_uint8.vtk",
          "structured/headsq_64x64x93_int16le.nhdr", "hdr/hydrogen_64x64x64_float32.vti",

@@ -28,6 +28,7 @@ a histogram of pixel luminance.
 When ``../shared/data`` is missing the analytic hydrogen ``3d`` orbital
 (:func:`pv_hdrvol.datasets.hydrogen_orbital`) is rendered instead.
 """
+import os
 import pathlib
 
 import matplotlib.pyplot as plt
@@ -121,7 +122,8 @@ for row, (prec, img) in enumerate(images.items()):
 fig.suptitle(f"{title}: float32 compositing vs an 8-bit pipeline", fontsize=12)
 fig.tight_layout()
 
-out = REPO / "docs" / "images" / "hdr_vs_8bit.png"
+# docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+out = pathlib.Path(os.environ.get("PV_HDRVOL_FIGURES", REPO / "docs" / "images")) / "hdr_vs_8bit.png"
 out.parent.mkdir(parents=True, exist_ok=True)
 fig.savefig(out, dpi=100)
 print(f"wrote {out}")

@@ -30,7 +30,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pyvista as pv  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+try:
+    ROOT = Path(__file__).resolve().parents[1]
+except NameError:  # sphinx-gallery runs examples without __file__, in examples/
+    ROOT = Path.cwd().resolve().parent
 sys.path.insert(0, str(ROOT))
 
 import pv_hdrvol as hv  # noqa: E402
@@ -38,7 +41,11 @@ from pv_hdrvol.editor.model import TransferFunctionModel  # noqa: E402
 from pv_hdrvol.viewer.notebook import editor_picture  # noqa: E402
 
 
-def main(out=ROOT / "docs" / "images" / "scene_and_editor.png"):
+# docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+OUT = Path(os.environ.get("PV_HDRVOL_FIGURES", ROOT / "docs" / "images"))
+
+
+def main(out=OUT / "scene_and_editor.png"):
     grid = hv.datasets.hydrogen_orbital(size=96)
     volume = hv.volume_from_dataset(grid)
     tf = hv.datasets.demo_transfer_function()

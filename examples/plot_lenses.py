@@ -1,6 +1,6 @@
 """
 Magic volume lenses and rendering modes: look closer without losing the context
-==============================================================================
+===============================================================================
 
 The Magic Volume Lens (Wang, Zhao, Mueller, Kaufman 2005) magnifies part of a volume
 rendering while the surround stays visible, compressed into a transition band. In
@@ -38,9 +38,13 @@ import pyvista as pv  # noqa: E402
 
 import pv_hdrvol as hv  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+try:
+    REPO = Path(__file__).resolve().parents[1]
+except NameError:  # sphinx-gallery runs examples without __file__, in examples/
+    REPO = Path.cwd().resolve().parent
 DATA = Path(os.environ.get("PV_HDRVOL_DATA", REPO.parent / "shared" / "data")) / "structured"
-OUT = REPO / "docs" / "images"
+# the figures go to docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+OUT = Path(os.environ.get("PV_HDRVOL_FIGURES", REPO / "docs" / "images"))
 SIZE = 320
 
 
@@ -81,7 +85,6 @@ def lens_gallery():
     fig.suptitle("Magic volume lenses on the engine CT (tone-mapped with Reinhard)", fontsize=11)
     fig.tight_layout()
     fig.savefig(OUT / "lenses_gallery.png", dpi=90)
-    plt.close(fig)
 
 
 def modes_gallery():
@@ -110,7 +113,6 @@ def modes_gallery():
     fig.suptitle("Rendering modes (tone-mapped with Reinhard)", fontsize=11)
     fig.tight_layout()
     fig.savefig(OUT / "modes_gallery.png", dpi=90)
-    plt.close(fig)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ Run::
 
     python3 examples/plot_proxy.py      # writes docs/images/proxy_gallery.png
 """
+import os
 from pathlib import Path
 
 import matplotlib
@@ -26,8 +27,12 @@ import pv_hdrvol as hv  # noqa: E402
 from pv_hdrvol.proxy import synthesis as S  # noqa: E402
 from pv_hdrvol.proxy.generate import ProxyPass  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "docs" / "images"
+try:
+    ROOT = Path(__file__).resolve().parents[1]
+except NameError:  # sphinx-gallery runs examples without __file__, in examples/
+    ROOT = Path.cwd().resolve().parent
+# the figures go to docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+OUT = Path(os.environ.get("PV_HDRVOL_FIGURES", ROOT / "docs" / "images"))
 
 
 def main(size=384):

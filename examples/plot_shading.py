@@ -29,9 +29,13 @@ import pyvista as pv  # noqa: E402
 
 import pv_hdrvol as hv  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+try:
+    REPO = Path(__file__).resolve().parents[1]
+except NameError:  # sphinx-gallery runs examples without __file__, in examples/
+    REPO = Path.cwd().resolve().parent
 DATA = Path(os.environ.get("PV_HDRVOL_DATA", REPO.parent / "shared" / "data"))
-OUT = REPO / "docs" / "images"
+# the figures go to docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+OUT = Path(os.environ.get("PV_HDRVOL_FIGURES", REPO / "docs" / "images"))
 SIZE = (320, 320)
 
 SCENES = [

@@ -33,9 +33,13 @@ import pyvista as pv  # noqa: E402
 
 import pv_hdrvol as hv  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+try:
+    REPO = Path(__file__).resolve().parents[1]
+except NameError:  # sphinx-gallery runs examples without __file__, in examples/
+    REPO = Path.cwd().resolve().parent
 DATA = Path(os.environ.get("PV_HDRVOL_DATA", REPO.parent / "shared" / "data")) / "unstructured"
-OUT = REPO / "docs" / "images"
+# the figures go to docs/images (PV_HDRVOL_FIGURES elsewhere: the docs build sets it)
+OUT = Path(os.environ.get("PV_HDRVOL_FIGURES", REPO / "docs" / "images"))
 MESHES = [("spx_12936tets.vtk", "scalars", "SPX (12,936 tets)"),
           ("bluntfin_187395tets.vtu", "Density", "Blunt Fin (187,395 tets), density"),
           ("fea_bracket_56786tets.vtu", None, "FEA bracket (56,786 tets), von Mises stress"),

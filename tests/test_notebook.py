@@ -1,7 +1,9 @@
 """The notebook widgets through their model (issue 21, part 5): the image is the
 render of the sliders' camera and the model's function, bit for bit; each control
 edits the model as it says; tone mapping re-maps without rendering."""
+import re
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -105,3 +107,35 @@ def test_the_editor_picture_draws_the_points_where_the_model_puts_them():
         col = int(round(float(ed.model.screen_x(v)) * 199))
         row = int(round((1 - float(ed.model.opacity_axis.forward(a))) * 99))
         assert tuple(picture[row, col]) == (255, 200, 0)
+
+
+def _wait_for_full(ed, seconds=120):
+    end = time.monotonic() + seconds
+    while not (ed.level == "full" and ed.hdr is not None) and time.monotonic() < end:
+        time.sleep(0.02)
+    assert ed.level == "full"
+
+
+def test_an_empty_render_on_the_worker_is_said_in_the_widget_not_in_later_calls():
+    # opacity 0 everywhere: every render is empty. The worker's EmptyRenderWarning used to go
+    # through the process-wide warnings machinery, into whatever the main thread ran next
+    # (a later notebook cell, an unrelated pytest.warns or catch_warnings block)
+    blank = hv.TransferFunction([0.0, 1.0], [[1.0, 1.0, 1.0]] * 2, [0.0, 0.0])
+    message = "the transfer function's opacity is 0 over the whole data range"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ed = TransferFunctionEditor(_volume(), blank, size=(48, 40), precision="float64")
+        try:
+            _wait_for_full(ed)
+            ed.azimuth.value = 30.0  # a second request, a second empty render
+            _wait_for_full(ed)
+            time.sleep(0.2)
+        finally:
+            ed.close()
+    assert [str(w.message) for w in caught if issubclass(w.category, hv.EmptyRenderWarning)] == []
+    assert message in ed.status.value  # shown where the render is
+    # rendered here (refresh), the warning is the caller's, and the status says it too
+    ed = TransferFunctionEditor(_volume(), blank, size=(48, 40), live=False, precision="float64")
+    with pytest.warns(hv.EmptyRenderWarning, match=re.escape(message)):
+        ed.refresh()
+    assert message in ed.status.value

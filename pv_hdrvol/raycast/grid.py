@@ -1,9 +1,11 @@
 """Render image volumes: validate, build tables and the block grid, call the kernel."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import sys
+import threading
 import time
 from typing import NamedTuple
 
@@ -119,9 +121,38 @@ def empty_render_reason(value_range, any_finite, tf, *, flat=False, visible=True
     return why
 
 
+_collecting = threading.local()  # .sink: the list of collected_warnings() active on this thread
+
+
+@contextlib.contextmanager
+def collected_warnings():
+    """Collect the renderer's warnings (:class:`EmptyRenderWarning`) raised on this
+    thread inside the block into the list it yields, instead of warning.
+
+    :mod:`warnings` is process-wide: its filters, ``catch_warnings`` and the printing
+    serve every thread at once, so a warning raised on a worker thread lands in
+    whatever the main thread runs then (a later notebook cell, another test's
+    ``pytest.warns``). A worker renders inside this block and hands the warnings to its
+    owner (:attr:`pv_hdrvol.viewer.progressive.Frame.warnings`), who shows them where
+    the image is. Other threads, the caller's included, warn as before.
+    """
+    previous = getattr(_collecting, "sink", None)
+    sink = []
+    _collecting.sink = sink
+    try:
+        yield sink
+    finally:
+        _collecting.sink = previous
+
+
 def warn_empty(reason):
-    """Warn (:class:`EmptyRenderWarning`) that a render is empty, when ``reason`` is given."""
+    """Warn (:class:`EmptyRenderWarning`) that a render is empty, when ``reason`` is
+    given (or collect it: :func:`collected_warnings`)."""
     if reason is not None:
+        sink = getattr(_collecting, "sink", None)
+        if sink is not None:
+            sink.append(EmptyRenderWarning(reason))
+            return
         import warnings
 
         warnings.warn(reason, EmptyRenderWarning, stacklevel=4)

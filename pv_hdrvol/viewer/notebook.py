@@ -21,6 +21,7 @@ renders synchronously (scripts, tests).
 """
 from __future__ import annotations
 
+import html
 import io
 import math
 import threading
@@ -122,6 +123,7 @@ class TransferFunctionEditor:
                                             global_alpha=self.model.global_alpha, **render_kwargs)
         self._base = Camera.fit(self.renderer.data.bounds, "iso")
         self.hdr = self.level = None
+        self.said = ()  # the renderer's warnings of the frame shown
         self.operator, self.exposure = "reinhard", 0.0
         # widgets
         # pixel for pixel: a fixed size, not stretched to the row beside it
@@ -221,6 +223,8 @@ class TransferFunctionEditor:
     def _show(self, frame):
         with self._lock:
             self.hdr, self.level = frame.image, frame.level
+            # what the renderer warned (why the image is empty): said here, with the image
+            self.said = tuple(dict.fromkeys(map(str, frame.warnings)))
         self._retone()
 
     def _retone(self, *_):
@@ -233,7 +237,8 @@ class TransferFunctionEditor:
         self.image.value = _png(self.picture)
         a = hdr.rgba[..., 3]
         self.status.value = (f"{self.level} frame, {hdr.metadata.get('render_seconds', 0.0):.2f} s; "
-                             f"opacity max {float(a.max()):.3g}")
+                             f"opacity max {float(a.max()):.3g}"
+                             + "".join(f"<br>warning: {html.escape(message, quote=False)}" for message in self.said))
 
     # -- the model ---------------------------------------------------------------------------
     def _model_changed(self, what):

@@ -20,9 +20,11 @@ scripts and tests.
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 import traceback
+import warnings
 from dataclasses import dataclass
 from typing import Optional
 
@@ -33,7 +35,7 @@ from ..data.tets import is_unstructured
 from ..image.hdr import HDRImage
 from ..image.upsample import upsample
 from ..params import RenderOptions
-from ..raycast.grid import GridPlan, as_volume
+from ..raycast.grid import EmptyRenderWarning, GridPlan, as_volume, collected_warnings
 from ..data.tets import as_tetmesh
 from ..raycast.tets import TetPlan
 from ..rays.camera import as_camera
@@ -72,6 +74,13 @@ class Frame:
         no ray stopped (the pixels ``far`` cuts rendered again, the others shared), for
         statistics that geometry in front must not change (a scene's tone mapping).
         ``None`` otherwise: then it equals ``image``.
+    warnings : tuple of Warning
+        What the renderer warned while making the frame (an
+        :class:`~pv_hdrvol.EmptyRenderWarning` saying why the image is empty). The
+        worker thread hands them over here instead of warning (:mod:`warnings` is
+        process-wide: they would surface in whatever the main thread runs next); the
+        owner shows them with the image. :meth:`ProgressiveRenderer.frames` warns them
+        too, in its caller's thread.
     """
 
     image: HDRImage
@@ -80,6 +89,7 @@ class Frame:
     generation: int
     seconds: float
     unoccluded: Optional[HDRImage] = None
+    warnings: tuple = ()
 
 
 class ProgressiveRenderer:
@@ -167,8 +177,10 @@ class ProgressiveRenderer:
             plan = self._plan
         out = []
         if coarse and _coarse_lens(lens, 0.5) is not _NO_COARSE:
-            out.append(self._coarse(plan, camera, size, lens, 0, lambda: False, far, unoccluded))
-        out.append(self._full(plan, camera, size, lens, 0, lambda: False, far, unoccluded))
+            out.append(_collecting(self._coarse, plan, camera, size, lens, 0, lambda: False, far, unoccluded))
+        out.append(_collecting(self._full, plan, camera, size, lens, 0, lambda: False, far, unoccluded))
+        for message in dict.fromkeys(w for frame in out for w in map(str, frame.warnings)):
+            warnings.warn(message, EmptyRenderWarning, stacklevel=2)  # rendered here: the caller's warnings
         return out
 
     def _coarse(self, plan, camera, size, lens, generation, stale, far=None, unoccluded=False):
@@ -276,7 +288,7 @@ class ProgressiveRenderer:
             try:
                 renders = (self._coarse, self._full) if _coarse_lens(lens, 0.5) is not _NO_COARSE else (self._full,)
                 for render in renders:
-                    frame = render(plan, camera, size, lens, generation, stale, far, unoccluded)
+                    frame = _collecting(render, plan, camera, size, lens, generation, stale, far, unoccluded)
                     if stale():
                         break
                     self.last_frame = frame
@@ -305,6 +317,14 @@ class ProgressiveRenderer:
 
 
 _NO_COARSE = object()
+
+
+def _collecting(render, *args):
+    """``render(*args)``'s frame, carrying the warnings the renderer gave meanwhile
+    (:attr:`Frame.warnings`) instead of warning them."""
+    with collected_warnings() as said:
+        frame = render(*args)
+    return dataclasses.replace(frame, warnings=tuple(said)) if said else frame
 
 
 def _coarse_lens(lens, scale):

@@ -1,6 +1,8 @@
 """Parallel sort-last rendering (pv_hdrvol.parallel): distribution along space-filling
 curves, tile culling, compositing as a pure function, the serial block-wise render
-against the single pass, and the same image under ``mpiexec -n 2`` and ``-n 3``."""
+against the single pass (orthographic and perspective), threads per rank, the same image
+under ``mpiexec -n 2`` and ``-n 3``, and the command line against ``pv-hdrvol render``."""
+import json
 import os
 import subprocess
 import sys
@@ -12,9 +14,11 @@ import pv_hdrvol as hv
 from conftest import REPO_ROOT, in_ci
 from pv_hdrvol.culling.cull import visible_blocks
 from pv_hdrvol.culling.pof import PlenopticOpacity
+from pv_hdrvol.parallel.comm import rank_threads, threads_for
 from pv_hdrvol.parallel.composite import composite, tile_grid
 from pv_hdrvol.parallel.distribute import assign, curve_order, hilbert_keys, morton_keys
-from pv_hdrvol.parallel.render import render_parallel
+from pv_hdrvol.parallel.render import block_rect, eye_visibility_order, render_parallel
+from pv_hdrvol.rays.camera import ray_box_spans
 from pv_hdrvol.raycast.grid import as_volume
 
 pytestmark = pytest.mark.core
@@ -108,14 +112,128 @@ def test_serial_block_wise_render_equals_the_single_pass(precision, limit):
 def test_render_parallel_refuses_what_it_cannot_composite():
     volume, tf = _opaque_scene()
     ortho = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)
-    with pytest.raises(ValueError, match="render_parallel needs an orthographic Camera"):
-        render_parallel(volume, tf, hv.Camera.fit(volume.bounds, "iso"), (8, 8), comm=None)
+    pof = PlenopticOpacity.compute(volume, [tf], block_size=8, threads=1)
+    with pytest.raises(ValueError, match="render_parallel with pof= needs an orthographic Camera"):
+        render_parallel(volume, tf, hv.Camera.fit(volume.bounds, "iso"), (8, 8), pof=pof, comm=None)
+    with pytest.raises(TypeError, match="render_parallel needs a Camera; got str"):
+        render_parallel(volume, tf, "iso", (8, 8), comm=None)
     with pytest.raises(ValueError, match="blending='composite' only; got 'maximum'"):
         render_parallel(volume, tf, ortho, (8, 8), comm=None, blending="maximum")
     with pytest.raises(ValueError, match=r"block_size \(6\) must be a multiple of the render's block_size option"):
         render_parallel(volume, tf, ortho, (8, 8), comm=None, block_size=6)
     with pytest.raises(TypeError, match="comm must be an mpi4py communicator, 'world' or None; got int"):
         render_parallel(volume, tf, ortho, (8, 8), comm=3)
+    with pytest.raises(ValueError, match="threads must be a positive int or None; got 0"):
+        render_parallel(volume, tf, ortho, (8, 8), comm=None, threads=0)
+
+
+def _blocks_along(eye, direction, origin, extent, shape, length):
+    """Flat indices of the blocks a ray from ``eye`` visits, in order (dense samples)."""
+    t = np.linspace(1e-6, length, 4000)
+    points = eye + t[:, None] * direction
+    k = np.floor((points - origin) / extent).astype(int)  # x, y, z
+    inside = np.all((k >= 0) & (k < np.array(shape[::-1])), axis=1)
+    flat = np.ravel_multi_index((k[inside, 2], k[inside, 1], k[inside, 0]), shape)
+    return flat[np.r_[True, np.diff(flat) != 0]] if flat.size else flat
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_eye_visibility_order_puts_every_block_before_those_behind_it_on_any_ray(seed):
+    """A perspective camera's blocks: from eyes inside, beside and far from the grid,
+    every ray meets the blocks in increasing order."""
+    rng = np.random.default_rng(seed)
+    shape = tuple(int(n) for n in rng.integers(2, 7, 3))  # (bz, by, bx)
+    extent = rng.uniform(0.5, 2.0, 3)
+    origin = rng.uniform(-3, 3, 3)
+    size = np.array(shape[::-1]) * extent
+    eye = origin + size * rng.uniform(-1.5, 2.5, 3)  # inside the grid for some seeds, outside for others
+    if seed == 0:
+        eye = origin + size * 0.37  # inside
+    order = eye_visibility_order(shape, eye, origin, extent)
+    assert sorted(order.tolist()) == list(range(int(np.prod(shape))))
+    position = np.empty_like(order)
+    position[order] = np.arange(order.size)
+    length = float(np.linalg.norm(eye - origin) + 2 * np.linalg.norm(size))
+    for direction in rng.normal(size=(300, 3)):
+        visited = _blocks_along(eye, direction / np.linalg.norm(direction), origin, extent, shape, length)
+        assert np.all(np.diff(position[visited]) > 0), (eye, direction, visited)
+
+
+def test_block_rect_covers_the_pixels_whose_rays_cross_the_box():
+    """Perspective too, and the eye inside the box (whole image) or the box behind it."""
+    lo, hi = np.array([2.0, 1.0, 0.5]), np.array([5.0, 3.0, 2.5])
+    size = (37, 29)
+    for camera in (hv.Camera((12, 9, 7), (3, 2, 1.5), (0, 0, 1)),
+                   hv.Camera((3, 2, 1.5), (9, 9, 9), (0, 0, 1), view_angle=120),
+                   hv.Camera((12, 9, 7), (3, 2, 1.5), (0, 0, 1), parallel_projection=True, parallel_scale=3)):
+        rect = block_rect(lo, hi, camera, size)
+        near, _ = ray_box_spans(camera.rays(size), lo, hi)
+        hit = np.isfinite(near).reshape(size[1], size[0])
+        rows, cols = np.nonzero(hit)
+        assert rect is not None and hit.any()
+        col, row, w, h = rect
+        assert col <= cols.min() and cols.max() < col + w and row <= rows.min() and rows.max() < row + h
+    assert block_rect(lo, hi, hv.Camera((3, 2, 1.5), (9, 9, 9), (0, 0, 1)), size) == (0, 0) + size  # eye inside
+    assert block_rect(lo, hi, hv.Camera((12, 9, 7), (20, 20, 20), (0, 0, 1)), size) is None  # behind the eye
+
+
+@pytest.mark.parametrize("view", ["iso", "zoomed", "inside"])
+@pytest.mark.parametrize("precision, limit", [("float64", 1e-12), ("float32", 1e-5)])
+def test_perspective_block_wise_render_equals_the_single_pass(view, precision, limit):
+    """Blocks composited in their order from the eye: a zoomed view (blocks off
+    screen) and an eye inside the volume (blocks on every side) too."""
+    rng = np.random.default_rng(0)
+    volume = as_volume(rng.random((40, 37, 45)))
+    tf = hv.TransferFunction([0.0, 0.5, 1.0], [[1, 0.5, 0.2], [0.2, 0.5, 1], [1, 1, 1]], [0.0, 0.05, 0.2])
+    camera = {"iso": hv.Camera.fit(volume.bounds, "iso"), "zoomed": hv.Camera.fit(volume.bounds, "xz", zoom=2.5),
+              "inside": hv.Camera((20, 18, 22), (0, 0, 0), (0, 0, 1), view_angle=100)}[view]
+    image = render_parallel(volume, tf, camera, (64, 48), comm=None, precision=precision, termination=0.0,
+                            block_size=8)
+    full = hv.render(volume, tf, camera, (64, 48), precision=precision, termination=0.0, progress_bar=False)
+    assert full.rgba[..., 3].max() > 0.5
+    assert np.abs(image.rgba.astype(np.float64) - full.rgba).max() <= limit * np.abs(full.rgba).max()
+
+
+def test_threads_per_rank_share_the_node_unless_numba_num_threads_is_set():
+    assert threads_for(16, 16, 4, 16) == (4, "16 cores, 4 processes on this node")
+    assert threads_for(2, 2, 2, 2)[0] == 1 and threads_for(2, 2, 3, 2)[0] == 1  # oversubscribed: still 1
+    assert threads_for(16, 16, 1, 8)[0] == 8  # never more than numba's pool
+    assert threads_for(4, 16, 4, 16) == (4, "bound to 4 of the node's 16 cores")  # the launcher's share
+    import numba
+
+    assert rank_threads(None, environ={"NUMBA_NUM_THREADS": "3"}) == (numba.get_num_threads(), "NUMBA_NUM_THREADS=3")
+    threads, reason = rank_threads(None, environ={})
+    assert threads == min(len(os.sched_getaffinity(0)), numba.config.NUMBA_NUM_THREADS)
+    assert "1 process on this node" in reason or "bound to" in reason
+
+
+def test_node_size_counts_the_processes_of_this_host_through_sends_and_receives():
+    """VTK's processes (a PointToPointComm) have no shared-memory split: host names."""
+    from thread_comm import run_spmd
+
+    from pv_hdrvol.parallel.comm import node_size
+
+    results, errors = run_spmd(3, node_size)
+    assert errors == [None] * 3 and results == [3, 3, 3]
+    assert node_size(None) == 1
+
+
+def test_pixels_do_not_depend_on_the_thread_count():
+    """Kernels are per pixel: one thread and two give the same bits (and the count is
+    restored after the render)."""
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba's pool has one thread")
+    before = numba.get_num_threads()
+    rng = np.random.default_rng(1)
+    volume = as_volume(rng.random((30, 27, 35)))
+    tf = hv.TransferFunction([0.0, 0.5, 1.0], [[1, 0.5, 0.2], [0.2, 0.5, 1], [1, 1, 1]], [0.0, 0.05, 0.2])
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    images = [render_parallel(volume, tf, camera, (61, 47), comm=None, threads=n, block_size=8) for n in (1, 2)]
+    assert numba.get_num_threads() == before
+    assert [im.metadata["parallel"]["per_rank"][0]["threads"] for im in images] == [1, 2]
+    np.testing.assert_array_equal(images[0].rgba, images[1].rgba)
 
 
 def _mpiexec():
@@ -158,7 +276,7 @@ def test_command_line_precomputes_and_renders(tmp_path, capsys):
     grid = pv.ImageData(dimensions=volume.dims)
     grid.point_data["v"] = volume.values.reshape(-1)
     grid.save(tmp_path / "vol.vti")
-    (tmp_path / "tf.json").write_text(__import__("json").dumps(tf.to_dict()))
+    (tmp_path / "tf.json").write_text(json.dumps(tf.to_dict()))
     assert main(["pof", str(tmp_path / "vol.vti"), "--tf", str(tmp_path / "tf.json"), "--block-size", "8",
                  "-o", str(tmp_path / "vol.pof.npz")]) == 0
     assert main(["render", str(tmp_path / "vol.vti"), "--pof", str(tmp_path / "vol.pof.npz"), "--k", "2",
@@ -170,6 +288,148 @@ def test_command_line_precomputes_and_renders(tmp_path, capsys):
     expected = render_parallel(volume, hv.TransferFunction.family([tf], [2.0]), camera, (40, 30), pof=pof, comm=None)
     saved = hv.load(tmp_path / "frame.exr")
     np.testing.assert_array_equal(saved.rgba, expected.rgba)
+
+
+def _smooth_vti(tmp_path, pv):
+    """A small image volume (a blob and noise) as a .vti, for the command lines."""
+    z, y, x = np.mgrid[0:27, 0:24, 0:30]
+    values = np.exp(-((x - 14) ** 2 + (y - 11) ** 2 + (z - 13) ** 2) / 60.0) \
+        + 0.05 * np.random.default_rng(3).random(x.shape)
+    grid = pv.ImageData(dimensions=(30, 24, 27), spacing=(1.0, 1.2, 0.9), origin=(1.0, -2.0, 0.5))
+    grid.point_data["density"] = values.reshape(-1)
+    path = tmp_path / "blob.vti"
+    grid.save(path)
+    return path, grid
+
+
+#: How far the parallel command line's image may differ from ``pv-hdrvol render``'s, in
+#: units of its brightest value: blocks composited one after another in float32 (2.4e-7
+#: without early termination) and early termination per block (1e-6 of the light).
+CLI_TOLERANCE = 2e-6
+
+
+def test_command_line_renders_what_pv_hdrvol_render_renders(tmp_path, capsys):
+    """Issue 31: the same camera (perspective), size and transfer function by default,
+    and the EXR keeps the settings, which render the image again."""
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.integrations.cli import main as cli_main
+    from pv_hdrvol.parallel.__main__ import main
+
+    path, grid = _smooth_vti(tmp_path, pv)
+    assert cli_main(["render", str(path), "-o", str(tmp_path / "serial.exr"), "--size", "40", "30",
+                     "--no-progress"]) == 0
+    assert main(["render", str(path), "--serial", "--size", "40", "30", "-o", str(tmp_path / "parallel.exr")]) == 0
+    out = capsys.readouterr().out
+    assert "40x30, perspective 30 degrees from iso, 1 ranks" in out and "rank 0: " in out
+    reference, image = hv.load(tmp_path / "serial.exr"), hv.load(tmp_path / "parallel.exr")
+    scale = float(np.abs(reference.rgba).max())
+    assert scale > 0.05
+    assert np.abs(image.rgba.astype(np.float64) - reference.rgba).max() <= CLI_TOLERANCE * scale
+    settings = image.settings()  # raised "holds no render settings" before
+    expected = reference.settings()
+    assert settings.camera == expected.camera and not settings.camera.parallel_projection
+    assert settings.size == (40, 30) and settings.options == expected.options
+    assert settings.tf.to_dict() == expected.tf.to_dict()
+    again = settings.render(grid, progress_bar=False)
+    assert np.abs(again.rgba.astype(np.float64) - image.rgba).max() <= CLI_TOLERANCE * scale
+    np.testing.assert_array_equal(again.rgba, reference.rgba)
+
+
+def test_both_command_lines_say_which_camera_they_use(capsys):
+    from pv_hdrvol.integrations.cli import main as cli_main
+    from pv_hdrvol.parallel.__main__ import main
+
+    texts = []
+    for run in (lambda: cli_main(["render", "--help"]), lambda: main(["render", "--help"])):
+        with pytest.raises(SystemExit) as done:
+            run()
+        assert done.value.code == 0
+        texts.append(" ".join(capsys.readouterr().out.split()))
+    for text in texts:
+        assert "perspective, 30-degree vertical view angle" in text, text
+        assert "orthographic" in text and "--pof" in text
+
+
+def _error_line(capsys, run):
+    with pytest.raises(SystemExit) as done:
+        run()
+    err = capsys.readouterr().err
+    assert done.value.code == 2 and "Traceback" not in err, err
+    return err.strip().splitlines()[-1]
+
+
+def test_command_line_errors_are_one_line_naming_the_file_and_the_fix(tmp_path, capsys):
+    """Issue 31, part 6: a .vtr, a damaged .pof and an output folder that does not exist
+    gave tracebacks."""
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.parallel.__main__ import main
+
+    path, _ = _smooth_vti(tmp_path, pv)
+    rect = pv.RectilinearGrid(np.arange(5.0), np.arange(4.0), np.arange(3.0))
+    rect.point_data["v"] = np.arange(rect.n_points, dtype=float)
+    rect.save(tmp_path / "grid.vtr")
+    (tmp_path / "bad.pof.npz").write_bytes(b"not a zip file")
+    prefix = "python -m pv_hdrvol.parallel render: error: "
+
+    line = _error_line(capsys, lambda: main(["render", str(tmp_path / "grid.vtr"), "--serial"]))
+    assert line.startswith(prefix) and "grid.vtr' holds a RectilinearGrid" in line and "Resample To Image" in line
+    line = _error_line(capsys, lambda: main(["render", str(path), "--serial", "--pof", str(tmp_path / "bad.pof.npz")]))
+    assert line.startswith(prefix + "--pof: ") and "bad.pof.npz" in line and "python -m pv_hdrvol.parallel pof" in line
+    missing = tmp_path / "nodir" / "frame.exr"
+    line = _error_line(capsys, lambda: main(["render", str(path), "--serial", "-o", str(missing)]))
+    assert line == prefix + f"-o/--output: cannot write {str(missing)!r}: no such folder: {str(missing.parent)!r}"
+    line = _error_line(capsys, lambda: main(["render", str(path), "--serial", "--size", "0"]))
+    assert line == prefix + "--size takes N or W H, positive; got 0"
+    (tmp_path / "tf.json").write_text("{")
+    line = _error_line(capsys, lambda: main(["pof", str(path), "--tf", str(tmp_path / "tf.json"), "-o",
+                                             str(tmp_path / "nodir" / "v.pof.npz")]))
+    assert line.startswith("python -m pv_hdrvol.parallel pof: error: -o/--output: cannot write")
+    line = _error_line(capsys, lambda: main(["pof", str(path), "--tf", str(tmp_path / "tf.json"), "-o",
+                                             str(tmp_path / "v.pof.npz")]))
+    assert "--tf" in line and "tf.json' is not a transfer function" in line
+
+
+def _mpi_env(**extra):
+    # Open MPI (Debian's Python uses /usr/bin/mpiexec) refuses root, and more ranks than
+    # cores, without these; MPICH ignores them
+    env = dict(os.environ, PYTHONPATH=str(REPO_ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1", **extra)
+    return env
+
+
+def test_mpi_command_line_shares_the_cores_and_gives_the_serial_image(tmp_path, capsys):
+    """Issue 31: each rank ran as many numba threads as the machine has cores. Now the
+    ranks on a node share its cores (NUMBA_NUM_THREADS unset); the image is the serial
+    one, bit for bit, and a user error under MPI is one line and exit status 2."""
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.parallel.__main__ import main
+
+    mpiexec = _mpiexec()
+    path, _ = _smooth_vti(tmp_path, pv)
+    env = _mpi_env()
+    env.pop("NUMBA_NUM_THREADS", None)
+    command = [mpiexec, "-n", "2", sys.executable, "-m", "pv_hdrvol.parallel", "render", str(path), "--size", "40",
+               "30", "-o", str(tmp_path / "mpi.exr")]
+    done = subprocess.run(command, env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stdout[-4000:]
+    import re
+
+    import numba
+
+    ranks = re.findall(r"rank (\d): (\d+) threads? \((\d+) cores, (\d) processes on this node\)", done.stdout)
+    assert len(ranks) == 2, done.stdout
+    for _, threads, cores, local in ranks:
+        assert local == "2" and int(threads) == min(max(1, int(cores) // 2), numba.config.NUMBA_NUM_THREADS)
+    assert main(["render", str(path), "--serial", "--size", "40", "30", "-o", str(tmp_path / "serial.exr")]) == 0
+    np.testing.assert_array_equal(hv.load(tmp_path / "mpi.exr").rgba, hv.load(tmp_path / "serial.exr").rgba)
+    done = subprocess.run(command[:-1] + [str(tmp_path / "nodir" / "mpi.exr")], env=env, cwd=REPO_ROOT,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=600)
+    assert done.returncode != 0 and "Traceback" not in done.stderr, done.stderr
+    errors = [line for line in done.stderr.splitlines() if "error:" in line]
+    assert errors == [f"python -m pv_hdrvol.parallel render: error: -o/--output: cannot write "
+                      f"{str(tmp_path / 'nodir' / 'mpi.exr')!r}: no such folder: {str(tmp_path / 'nodir')!r}"], \
+        done.stderr
 
 
 def test_simulation_accounts_for_every_block_and_pixel():

@@ -683,6 +683,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         image = piece = spacing = rays = error = None
         owned = distribution.owned
         tf = self._shared_transfer_function(distribution.comm)
+        _share_cores(distribution.comm)
         try:
             if owned[1] <= owned[0] or owned[3] <= owned[2] or owned[5] <= owned[4]:
                 raise ValueError(f"the image of extent {distribution.whole} has too few cells for "
@@ -787,6 +788,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         boxes = split_bounds(bounds, comm.size, np.concatenate([s["centres"] for s in held]),
                              np.concatenate([np.full(len(s["centres"]), s["cells"] / len(s["centres"])) for s in held]))
         tf = self._shared_transfer_function(comm)
+        _share_cores(comm)
         mine = MeshPiece(tuple(boxes[comm.rank][0]), tuple(boxes[comm.rank][1]), tuple(lo), tuple(hi))
         if any(s["changed"] for s in everyone) or self._moved[2] is None or self._moved[2][0] != mine:
             # no process's piece changed (a new camera, size or colour map): keep the
@@ -1057,6 +1059,16 @@ def _points_owned(mesh, piece):
     lo, hi = piece.world_box()
     inside = (used >= lo) & ((used < hi) | (piece.closed() & (used <= hi)))
     return int(np.count_nonzero(inside.all(axis=1)))
+
+
+def _share_cores(comm):
+    """Give this process its share of its node's cores for the render (collective):
+    ``max(1, cores // processes on the node)`` numba threads, unless ``NUMBA_NUM_THREADS``
+    is set (:func:`pv_hdrvol.parallel.comm.rank_threads`). Every pvbatch rank would
+    otherwise start one thread per core of the machine."""
+    from ..parallel.comm import use_rank_threads
+
+    use_rank_threads(comm)
 
 
 def _redistribute(mesh, boxes, comm):

@@ -5,7 +5,14 @@
 
 Transfer functions are JSON files of ``TransferFunction.to_dict()``. ``render`` without
 ``--pof`` renders every non-empty block with ``--tf`` (or the default transfer
-function) and no culling. Rank 0 writes the image and prints the per-rank times.
+function, as ``pv-hdrvol render``'s) and no culling, with ``pv-hdrvol render``'s camera
+(perspective); with ``--pof`` the camera is orthographic, as ``pv-hdrvol render
+--pof``'s. Rank 0 writes the image, with its render settings (``pv_hdrvol.load(OUT)
+.settings()``), and prints the per-rank threads and times.
+
+User errors (files that are missing or unreadable, volumes that are not image data,
+POF files that do not fit, outputs that cannot be written) end with one
+``argparse``-style line on stderr and exit status 2, without a traceback.
 """
 from __future__ import annotations
 
@@ -14,97 +21,294 @@ import json
 import pathlib
 import sys
 
+#: Views of ``--view`` (``Camera.fit``), as ``pv-hdrvol render``'s.
+VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
+#: Image formats ``render -o`` writes (``.npy`` keeps no render settings).
+OUTPUTS = (".exr", ".hdr", ".npy")
 
-def _read_volume(path, scalars):
-    from ..raycast.grid import as_volume
-
-    path = pathlib.Path(path)
-    if not path.is_file():
-        raise SystemExit(f"error: no such file: {str(path)!r}")
-    try:
-        import pyvista as pv
-
-        dataset = pv.read(path)
-    except ImportError:  # ParaView's Python has VTK but no PyVista
-        from vtkmodules.vtkIOXML import vtkXMLImageDataReader
-
-        if path.suffix.lower() != ".vti":
-            raise SystemExit("error: without PyVista only .vti files can be read") from None
-        reader = vtkXMLImageDataReader()
-        reader.SetFileName(str(path))
-        reader.Update()
-        dataset = reader.GetOutput()
-    from ..data.grid import volume_from_dataset
-
-    return as_volume(volume_from_dataset(dataset, scalars=scalars))
+RENDER_DESCRIPTION = (
+    "Render an image volume with its blocks spread over the ranks of mpiexec (or alone with --serial) to a float "
+    "image. Camera: as pv-hdrvol render's -- perspective, 30-degree vertical view angle, framing the volume's "
+    "bounding sphere from --view (default iso) -- except with --pof, where it is orthographic (POF culling assumes "
+    "parallel rays; pv-hdrvol render --pof is orthographic too). Size 512x512 and the transfer function chosen from "
+    "the data (without --tf or --pof), as pv-hdrvol render's; the image equals its render to 2e-6 of the brightest "
+    "value (blocks composited one after another, early ray termination per block). Each rank runs "
+    "max(1, cores // ranks on its node) numba threads unless NUMBA_NUM_THREADS is set. Rank 0 writes OUT with the "
+    "render settings (pv_hdrvol.load(OUT).settings(); .npy keeps none) and prints each rank's threads and times.")
 
 
-def _read_tf(path):
-    from ..data.transfer import TransferFunction
+class UserError(Exception):
+    """A problem with the command line or the files it names (exit status 2)."""
 
-    with open(path) as f:
-        return TransferFunction.from_dict(json.load(f))
+
+def build_parser():
+    """The ``argparse`` parser of ``python -m pv_hdrvol.parallel`` (``pof``, ``render``)."""
+    parser = argparse.ArgumentParser(prog="python -m pv_hdrvol.parallel", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("pof", help="precompute plenoptic opacity functions of a volume",
+                       description="Precompute the plenoptic opacity functions of an image volume for a family of "
+                                   "transfer functions (one process; --threads threads).")
+    p.add_argument("volume", help="image volume (.vti, or anything pyvista.read gives as ImageData)")
+    p.add_argument("--tf", action="append", required=True, help="a basis transfer function (JSON); repeat")
+    p.add_argument("--scalars", help="array to use (default: active scalars)")
+    p.add_argument("--block-size", type=int, default=16)
+    p.add_argument("--threads", type=int, help="threads (default: the machine's cores)")
+    p.add_argument("-o", "--output", required=True, help="the .npz file to write")
+    p.set_defaults(subparser=p)
+    r = sub.add_parser("render", help="render on the ranks of mpiexec (or alone)", description=RENDER_DESCRIPTION)
+    r.add_argument("volume", help="image volume (.vti, or anything pyvista.read gives as ImageData)")
+    r.add_argument("--pof", help="a .pof.npz file: cull with it (orthographic camera); the transfer function is its "
+                                 "bases' family")
+    r.add_argument("--k", help="the family's weights, comma-separated (default all 1)")
+    r.add_argument("--tf", help="a transfer function (JSON), without --pof (default: chosen from the data, as "
+                                "pv-hdrvol render's)")
+    r.add_argument("--scalars", help="array to render (default: active scalars)")
+    r.add_argument("--size", type=int, nargs="+", default=[512], metavar="N",
+                   help="image size: N (square) or W H (default 512)")
+    r.add_argument("--view", default="iso", choices=VIEWS, metavar="VIEW",
+                   help=f"the direction the camera looks from, one of {', '.join(VIEWS)} (default iso); perspective, "
+                        f"30-degree view angle, framing the bounding sphere (orthographic with --pof)")
+    r.add_argument("--curve", default="hilbert", choices=("hilbert", "z", "contiguous", "random"),
+                   help="how blocks are dealt to ranks (default hilbert)")
+    r.add_argument("--precision", default="float32", choices=("float32", "float64"),
+                   help="compositing precision (default float32)")
+    r.add_argument("--serial", action="store_true", help="no MPI (comm=None)")
+    r.add_argument("-o", "--output", default="frame.exr", metavar="OUT",
+                   help=f"image to write, one of {', '.join(OUTPUTS)} (default frame.exr)")
+    r.set_defaults(subparser=r)
+    return parser
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m pv_hdrvol.parallel", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("pof", help="precompute plenoptic opacity functions of a volume")
-    p.add_argument("volume")
-    p.add_argument("--tf", action="append", required=True, help="a basis transfer function (JSON); repeat")
-    p.add_argument("--scalars")
-    p.add_argument("--block-size", type=int, default=16)
-    p.add_argument("--threads", type=int)
-    p.add_argument("-o", "--output", required=True, help="the .npz file to write")
-    r = sub.add_parser("render", help="render on the ranks of mpiexec (or alone)")
-    r.add_argument("volume")
-    r.add_argument("--pof", help="a .pof.npz file: cull with it; the transfer function is its bases' family")
-    r.add_argument("--k", help="the family's weights, comma-separated (default all 1)")
-    r.add_argument("--tf", help="a transfer function (JSON), without --pof")
-    r.add_argument("--scalars")
-    r.add_argument("--size", type=int, nargs=2, default=(512, 512), metavar=("W", "H"))
-    r.add_argument("--view", default="iso")
-    r.add_argument("--curve", default="hilbert", choices=("hilbert", "z", "contiguous", "random"))
-    r.add_argument("--precision", default="float32", choices=("float32", "float64"))
-    r.add_argument("--serial", action="store_true", help="no MPI (comm=None)")
-    r.add_argument("-o", "--output", default="frame.exr")
+    """Run ``python -m pv_hdrvol.parallel`` with ``argv``. Returns 0; user errors raise
+    ``SystemExit(2)`` after one line on stderr (on rank 0 only, under MPI)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
-
-    import pv_hdrvol as hv
-
-    volume = _read_volume(args.volume, args.scalars)
     if args.command == "pof":
-        from ..culling.pof import PlenopticOpacity
-
-        pof = PlenopticOpacity.compute(volume, [_read_tf(t) for t in args.tf], block_size=args.block_size,
-                                       threads=args.threads, progress_bar=sys.stderr.isatty())
-        pof.save(args.output)
-        print(f"{args.output}: {pof.grid_shape} blocks of {pof.block_size}^3, {int(pof.nonempty.any(-1).sum())} "
-              f"non-empty, {len(pof.bases)} bases")
-        return 0
-    from ..culling.pof import PlenopticOpacity
+        try:
+            return _pof(args)
+        except UserError as exc:
+            args.subparser.error(str(exc))
+    try:
+        comm = _comm(args)
+    except UserError as exc:
+        args.subparser.error(str(exc))
+    job = error = None
+    try:
+        job = _prepare(args)
+    except UserError as exc:
+        error = str(exc)
+    # every rank prepares alike; one exchange so that none goes on to render alone
+    failed = [(rank, text) for rank, text in enumerate(comm.allgather(error)) if text is not None]
+    if failed:
+        _fail(args, comm, failed[0][1] if failed[0][0] == 0 else f"rank {failed[0][0]}: {failed[0][1]}")
+    from ..raycast.memory import RenderMemoryError
     from .render import render_parallel
 
-    pof = tf = None
-    if args.pof:
-        pof = PlenopticOpacity.load(args.pof)
-        k = None if args.k is None else [float(x) for x in args.k.split(",")]
-        tf = hv.TransferFunction.family(pof.bases, k)
-    elif args.tf:
-        tf = _read_tf(args.tf)
-    camera = hv.Camera.fit(volume.bounds, args.view, parallel_projection=True)
-    image = render_parallel(volume, tf, camera, tuple(args.size), pof=pof, comm=None if args.serial else "world",
-                            curve=args.curve, precision=args.precision)
+    volume, tf, pof, camera, size, output = job
+    try:
+        image = render_parallel(volume, tf, camera, size, pof=pof, comm=comm, curve=args.curve,
+                                precision=args.precision)
+    except (ValueError, TypeError, RenderMemoryError) as exc:  # raised alike on every rank, before any exchange
+        _fail(args, comm, str(exc))
     if image is not None:
-        image.save(args.output)
+        image.metadata["source_file"] = str(args.volume)
+        try:
+            image.save(output)
+        except OSError as exc:
+            _fail(args, comm, f"cannot write {str(output)!r}: {exc}")
         info = image.metadata["parallel"]
-        print(f"{args.output}: {args.size[0]}x{args.size[1]}, {info['ranks']} ranks, {info['visible']} of "
+        kind = "orthographic" if camera.parallel_projection else f"perspective {camera.view_angle:g} degrees"
+        print(f"{output}: {size[0]}x{size[1]}, {kind} from {args.view}, {info['ranks']} ranks, {info['visible']} of "
               f"{info['blocks']} blocks visible, {info['seconds']:.2f} s")
         for s in info["per_rank"]:
-            print(f"  rank {s['rank']}: {s['rendered']} blocks, cull {s['cull_seconds']:.3f} s, render "
+            print(f"  rank {s['rank']}: {s['threads']} thread{'s' if s['threads'] != 1 else ''} "
+                  f"({s['threads_reason']}), {s['rendered']} blocks, cull {s['cull_seconds']:.3f} s, render "
                   f"{s['render_seconds']:.3f} s, composite {s['composite_seconds']:.3f} s")
     return 0
 
 
+def _fail(args, comm, message):
+    """End with ``message`` as argparse does (exit status 2), printed by rank 0 only."""
+    if comm.rank == 0:
+        args.subparser.error(message)
+    sys.exit(2)
+
+
+def _comm(args):
+    from .comm import _communicator
+
+    if args.serial:
+        return _communicator(None)
+    try:
+        return _communicator("world")
+    except ImportError as exc:
+        raise UserError(f"{exc}; or add --serial") from None
+
+
+def _prepare(args):
+    """``(volume, tf, pof, camera, size, output)`` from the command line, each checked."""
+    import pv_hdrvol as hv
+
+    from .._validate import as_size
+
+    try:
+        size = as_size(tuple(args.size) if len(args.size) == 2 else args.size[0] if len(args.size) == 1 else None)
+    except (TypeError, ValueError):
+        raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
+    output = _output(args.output, OUTPUTS)
+    volume = _read_volume(args.volume, args.scalars)
+    pof = tf = None
+    if args.pof:
+        if args.tf:
+            raise UserError("--pof renders the family of its bases: leave out --tf")
+        pof = _read_pof(args.pof, volume)
+        k = None if args.k is None else [_number("--k", x) for x in args.k.split(",")]
+        try:
+            tf = hv.TransferFunction.family(pof.bases, k)
+        except (ValueError, TypeError) as exc:
+            raise UserError(f"--k {args.k}: {exc}") from None
+    elif args.k is not None:
+        raise UserError("--k weighs the bases of --pof; give --pof FILE.npz")
+    elif args.tf:
+        tf = _read_tf("--tf", args.tf)
+    # pv-hdrvol render's camera; orthographic with culling, as its --pof
+    camera = hv.Camera.fit(volume.bounds, args.view, parallel_projection=pof is not None)
+    return volume, tf, pof, camera, size, output
+
+
+def _pof(args):
+    from ..culling.pof import PlenopticOpacity
+
+    output = _output(args.output, (".npz",))
+    volume = _read_volume(args.volume, args.scalars)
+    tfs = [_read_tf("--tf", t) for t in args.tf]
+    try:
+        pof = PlenopticOpacity.compute(volume, tfs, block_size=args.block_size, threads=args.threads,
+                                       progress_bar=sys.stderr.isatty())
+    except (ValueError, TypeError) as exc:
+        raise UserError(str(exc)) from None
+    try:
+        pof.save(output)
+    except OSError as exc:
+        raise UserError(f"cannot write {str(output)!r}: {exc}") from None
+    print(f"{output}: {pof.grid_shape} blocks of {pof.block_size}^3, {int(pof.nonempty.any(-1).sum())} "
+          f"non-empty, {len(pof.bases)} bases")
+    return 0
+
+
+def _output(name, suffixes):
+    """``-o`` as a path, after checking its suffix and that its folder takes it."""
+    from ..image.io import check_writable
+
+    path = pathlib.Path(name)
+    if path.suffix.lower() not in suffixes:
+        raise UserError(f"-o/--output {name!r} must end in {' or '.join(suffixes)}")
+    try:
+        check_writable(path)
+    except OSError as exc:  # "cannot write 'a/b.exr': no such folder: 'a'"
+        raise UserError(f"-o/--output: {exc.strerror}: {exc.filename!r}") from None
+    return path
+
+
+def _existing_file(option, name):
+    path = pathlib.Path(name)
+    if not path.exists():
+        raise UserError(f"{option}file not found: {name!r}")
+    if not path.is_file():
+        raise UserError(f"{option}not a file: {name!r}")
+    return path
+
+
+def _read_volume(name, scalars):
+    """The image volume of ``scalars`` in file ``name``, read with PyVista (or VTK's
+    ``.vti`` reader in a Python without PyVista: ParaView's)."""
+    from ..data.grid import volume_from_dataset
+    from ..raycast.grid import as_volume
+
+    path = _existing_file("", name)
+    fix = ("resample it to image data first (pyvista: pv.ImageData(...).sample(dataset); ParaView: Resample To "
+           "Image) and save that as .vti")
+    try:
+        import pyvista as pv
+    except ImportError:  # ParaView's Python has VTK but no PyVista
+        pv = None
+    if pv is None:
+        if path.suffix.lower() != ".vti":
+            raise UserError(f"cannot read {str(path)!r}: without PyVista only .vti files are read here; "
+                            f"pip install pyvista, or save it as .vti")
+        from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+        reader = vtkXMLImageDataReader()
+        reader.SetFileName(str(path))
+        reader.Update()
+        dataset = reader.GetOutput()
+        if dataset is None or dataset.GetNumberOfPoints() == 0:
+            raise UserError(f"cannot read {str(path)!r}: VTK's reader found no image data in it")
+    else:
+        try:
+            dataset = pv.read(path)
+        except Exception as exc:  # readers raise anything from OSError to ValueError
+            raise UserError(f"cannot read {str(path)!r}: {exc}") from None
+        if not isinstance(dataset, pv.ImageData):
+            raise UserError(f"{str(path)!r} holds a {type(dataset).__name__}; python -m pv_hdrvol.parallel renders "
+                            f"image data (ImageData): {fix}")
+    try:
+        return as_volume(volume_from_dataset(dataset, scalars=scalars))
+    except (ValueError, TypeError) as exc:
+        raise UserError(f"{str(path)!r}: {exc}") from None
+
+
+def _read_tf(option, name):
+    from ..data.transfer import TransferFunction
+
+    path = _existing_file(f"{option}: ", name)
+    try:
+        with open(path) as f:
+            return TransferFunction.from_dict(json.load(f))
+    except (OSError, ValueError, TypeError, KeyError) as exc:  # json's errors are ValueErrors
+        raise UserError(f"{option} {str(path)!r} is not a transfer function (JSON of TransferFunction.to_dict()): "
+                        f"{exc}") from None
+
+
+def _read_pof(name, volume):
+    from ..culling.pof import PlenopticOpacity
+
+    path = _existing_file("--pof: ", name)
+    make = f"make it with: python -m pv_hdrvol.parallel pof VOLUME --tf TF.json -o {name}"
+    try:
+        pof = PlenopticOpacity.load(path)
+    except Exception as exc:  # ValueError naming the file; older numpy, zipfile and json errors did not
+        text = str(exc) or type(exc).__name__
+        if str(path) not in text:
+            text = f"{str(path)!r} is not a readable POF file ({text}); {make}"
+        raise UserError(f"--pof: {text}") from None
+    try:
+        pof.check_volume(volume)
+    except ValueError as exc:
+        raise UserError(f"--pof {str(path)!r} is not of this volume: {exc}; {make}") from None
+    return pof
+
+
+def _number(option, text):
+    try:
+        return float(text)
+    except ValueError:
+        raise UserError(f"{option}: {text!r} is not a number") from None
+
+
+def _quiet_openmp_threads():
+    """``OMP_WAIT_POLICY=PASSIVE`` unless set: with numba's OpenMP layer, threads that end
+    a parallel region spin for a while before they sleep, and between the many small
+    block renders that spin takes the cores the Python work needs (engine, 512^2,
+    ``--serial`` with 2 threads on 2 busy cores: 16.5 s, passive 3.3 s). Read when
+    numba starts its threads, so set before; in a program, not in :func:`main` (tests
+    call it)."""
+    import os
+
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
 if __name__ == "__main__":
+    _quiet_openmp_threads()
     sys.exit(main())

@@ -36,21 +36,56 @@ from ..data.transfer import TransferFunctionFamily
 from ..image.hdr import HDRImage
 from ..rays.camera import Camera, as_size
 from ..raycast.grid import BlockGrid, GridPlan, _grid_shape, as_volume
-from .comm import WORLD, _communicator
+from ..settings import settings_metadata
+from .comm import WORLD, _communicator, use_rank_threads
 from .composite import composite, tile_grid
 from .distribute import assign
 
 def block_rect(lo, hi, camera, size):
     """``(col, row, w, h)`` of the pixels whose centre rays can cross the box ``[lo, hi]``
-    (world), clipped to the image; ``None`` when it is off screen."""
+    (world), clipped to the image; ``None`` when it is off screen. A perspective camera
+    whose eye plane the box reaches (the eye inside or beside it) gets the whole image."""
     w, h = size
     corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    if not camera.parallel_projection:
+        depth = (corners - np.asarray(camera.position)) @ camera.basis()[2]
+        if depth.min() <= 1e-9 * max(camera.distance, float(np.abs(corners).max())):
+            if depth.max() <= 0:
+                return None  # wholly behind the eye
+            return (0, 0, w, h)  # the projection of points behind the eye is meaningless
     cr = camera.project(corners, size)
     c0 = max(0, int(np.floor(cr[:, 0].min() - 0.5)))
     c1 = min(w - 1, int(np.ceil(cr[:, 0].max() - 0.5)))
     r0 = max(0, int(np.floor(cr[:, 1].min() - 0.5)))
     r1 = min(h - 1, int(np.ceil(cr[:, 1].max() - 0.5)))
     return (c0, r0, c1 - c0 + 1, r1 - r0 + 1) if c1 >= c0 and r1 >= r0 else None
+
+
+def eye_visibility_order(shape, eye, origin, extent):
+    """Block indices (flat, z-y-x order of ``shape``) front to back as seen from the
+    point ``eye`` (x, y, z; a perspective camera's position), for blocks of ``extent``
+    world units per axis starting at ``origin`` (the last block of an axis may be
+    shorter).
+
+    Along a ray leaving ``eye`` each coordinate moves away from the eye's, so the number
+    of blocks between a block and the eye's block (``|k_i - e_i|``, the eye's index
+    ``e_i`` taken from the block boundaries, clipped to ``-1 .. n_i``) never decreases
+    along the ray on any axis, and grows on the axis it steps along: every positive
+    weighting of those counts orders a block before those behind it on any ray. The
+    weights are the blocks' extents (an L1 distance in world units); ties go to the
+    plain sum, and remaining ties are blocks no ray crosses both of.
+    """
+    eye, origin, extent = (np.asarray(v, dtype=np.float64) for v in (eye, origin, extent))
+    bz, by, bx = shape
+    kz, ky, kx = np.meshgrid(np.arange(bz), np.arange(by), np.arange(bx), indexing="ij")
+    key = np.zeros(shape, dtype=np.int64)
+    depth = np.zeros(shape)
+    for axis, (idx, n) in enumerate(((kx, bx), (ky, by), (kz, bz))):
+        e = int(np.clip(np.floor((eye[axis] - origin[axis]) / extent[axis]), -1, n))
+        counted = np.abs(idx - e)
+        key += counted
+        depth += extent[axis] * counted
+    return np.lexsort((key.reshape(-1), depth.reshape(-1)))
 
 
 def block_partials(plan, volume, camera, size, block_size, blocks):
@@ -71,17 +106,18 @@ def block_partials(plan, volume, camera, size, block_size, blocks):
 
 
 def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD, curve="hilbert", block_size=None,
-                    threshold=DEFAULT_THRESHOLD, root=0, **options):
+                    threshold=DEFAULT_THRESHOLD, root=0, threads=None, **options):
     """Render ``volume`` with the blocks spread over the ranks of ``comm``.
 
     Parameters
     ----------
     volume, tf, camera, size, **options
-        As :func:`pv_hdrvol.render` (an orthographic :class:`Camera`; ``tf`` a family
-        of ``pof``'s bases when ``pof`` is given).
+        As :func:`pv_hdrvol.render`: ``tf`` ``None`` for the default transfer function
+        (a family of ``pof``'s bases when ``pof`` is given); ``camera`` a
+        :class:`Camera`, perspective or orthographic (orthographic with ``pof``).
     pof : PlenopticOpacity, optional
         Cull hidden blocks (per tile, then shared). Without it every non-empty block is
-        rendered.
+        rendered. POF culling assumes parallel rays: an orthographic camera only.
     comm : mpi4py communicator, ``"world"`` (default: ``MPI.COMM_WORLD``) or None (serial)
     curve : {"hilbert", "z", "contiguous", "random"}
         How blocks are dealt to ranks.
@@ -92,21 +128,53 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
         The culling threshold (the paper's 0.95).
     root : int or None
         The rank that gets the image; ``None``: every rank does.
+    threads : int, optional
+        numba threads of this process for the render (restored on return). Default:
+        the node's cores shared by the processes of ``comm`` on it,
+        ``max(1, cores // node_processes)`` (:func:`~pv_hdrvol.parallel.comm.rank_threads`),
+        or numba's count as it is when ``NUMBA_NUM_THREADS`` is set. Pixels do not
+        depend on it.
 
     Returns
     -------
     HDRImage or None
         On ``root`` (every rank for ``root=None``): RGBA composited front to back,
         ``depth`` all ``inf`` (not composited yet), and ``metadata["parallel"]`` with
-        per-rank counts and times (cull, render, composite). ``None`` elsewhere.
+        per-rank counts, threads and times (cull, render, composite), and
+        ``metadata["settings"]`` (:meth:`HDRImage.settings`: ``settings.render(volume)``
+        gives this image to rounding; with ``pof`` the culling is not stored, as for
+        :func:`pv_hdrvol.render` with ``cull=``). ``None`` elsewhere.
+
+    Notes
+    -----
+    Blocks are composited in visibility order: for an orthographic camera by their
+    depth along the view (:func:`~pv_hdrvol.culling.cull.visibility_order`), for a
+    perspective one by their distance from the eye in blocks
+    (:func:`eye_visibility_order`); either orders every block before those behind it
+    on every ray, so the image is the single pass's to rounding (early termination is
+    per block: ``termination`` of the light may pass where the single pass stops).
     """
     comm = _communicator(comm)
+    threads, reason, previous = use_rank_threads(comm, threads)
+    try:
+        return _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, root, reason, options)
+    finally:
+        import numba
+
+        numba.set_num_threads(previous)
+
+
+def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, root, threads_reason, options):
+    import numba
+
     rank, n_ranks = comm.rank, comm.size
     t_start = time.perf_counter()
     volume = as_volume(volume)
-    if not isinstance(camera, Camera) or not camera.parallel_projection:
-        raise ValueError("render_parallel needs an orthographic Camera (parallel_projection=True): the visibility "
-                         "order of blocks is the orthographic one")
+    if not isinstance(camera, Camera):
+        raise TypeError(f"render_parallel needs a Camera; got {type(camera).__name__}")
+    if pof is not None and not camera.parallel_projection:
+        raise ValueError("render_parallel with pof= needs an orthographic Camera (parallel_projection=True): POF "
+                         "culling assumes parallel rays; without pof= any camera renders")
     size = as_size(size)
     plan = GridPlan(volume, tf, **options)
     opts = plan.options
@@ -125,7 +193,6 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
     shape = _grid_shape(volume.dims, bs)
     tiles = tile_grid(n_ranks, *size)
     tile = tiles[rank]
-    cam = camera.kernel_array(size)
     owner = assign(shape, n_ranks, curve)
 
     # -- visibility: this rank's tile, then the union over ranks
@@ -145,7 +212,10 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
 
     # -- render this rank's visible blocks, each over its own rectangle
     t = time.perf_counter()
-    order = visibility_order(shape, cam[9:12], volume.spacing)
+    if camera.parallel_projection:
+        order = visibility_order(shape, camera.basis()[2], volume.spacing)
+    else:
+        order = eye_visibility_order(shape, camera.position, volume.origin, bs * np.asarray(volume.spacing))
     position = np.empty(order.size, dtype=np.int64)
     position[order] = np.arange(order.size)
     outgoing = [[] for _ in range(n_ranks)]
@@ -171,18 +241,27 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
     t_composite = time.perf_counter() - t
     stats = {"rank": rank, "tile": list(tile), "owned": int((owner == rank).sum()), "rendered": rendered,
              "pieces_sent": sum(len(x) for x in outgoing), "pieces_received": len(pieces), "samples": samples,
-             "cull_seconds": t_cull, "render_seconds": t_render, "composite_seconds": t_composite}
+             "threads": numba.get_num_threads(), "threads_reason": threads_reason, "cull_seconds": t_cull,
+             "render_seconds": t_render, "composite_seconds": t_composite}
     gathered = comm.gather((mine_rgba, stats), root=0 if root is None else root)
     image = None
     if gathered is not None and (root is None or rank == root):
         rgba = np.zeros((size[1], size[0], 4), dtype=dtype)
         for (col, row, w, h), (part, _) in zip(tiles, gathered):
             rgba[row:row + h, col:col + w] = part
-        meta = {"renderer": "pv_hdrvol parallel grid ray caster", "precision": opts.precision,
+        per_rank = [s for _, s in gathered]
+        # the keys of a single pass's metadata (GridPlan.execute), so that tools reading
+        # one read the other
+        meta = {"renderer": "pv_hdrvol parallel grid ray caster", "scalars": volume.name,
+                "precision": opts.precision, "step_voxels": opts.step, "step_world": plan.step_world,
+                "global_alpha": opts.global_alpha, "opacity_unit_distance": plan.unit,
+                "termination": opts.termination, "depth_threshold": opts.depth_threshold,
                 "transfer_function": repr(plan.tf), "camera": repr(camera),
+                "settings": settings_metadata(plan.tf, camera, size, opts, cull=pof),
+                "samples": int(sum(s["samples"] for s in per_rank)),
                 "parallel": {"ranks": n_ranks, "curve": curve, "block_size": bs, "blocks": int(np.prod(shape)),
                              "visible": int(visible.sum()), "culled_by_pof": pof is not None,
-                             "threshold": threshold, "per_rank": [s for _, s in gathered],
+                             "threshold": threshold, "per_rank": per_rank,
                              "seconds": time.perf_counter() - t_start}}
         image = HDRImage(rgba, np.full((size[1], size[0]), np.inf), metadata=meta)
     if root is None:

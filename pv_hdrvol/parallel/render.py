@@ -32,10 +32,10 @@ from .._validate import as_int
 from ..culling.cull import (DEFAULT_THRESHOLD, block_boxes, single_block_mask, visibility_order,
                             visible_blocks)
 from ..culling.pof import PlenopticOpacity, _nonempty
-from ..data.transfer import TransferFunctionFamily
+from ..data.transfer import TF_KEYWORDS, TransferFunctionFamily
 from ..image.hdr import HDRImage
 from ..rays.camera import Camera, as_size
-from ..raycast.grid import BlockGrid, GridPlan, _grid_shape, as_volume
+from ..raycast.grid import BlockGrid, GridPlan, _grid_shape, as_volume, default_transfer_function
 from ..settings import settings_metadata
 from .comm import WORLD, _communicator, use_rank_threads
 from .composite import composite, tile_grid
@@ -45,20 +45,39 @@ def block_rect(lo, hi, camera, size):
     """``(col, row, w, h)`` of the pixels whose centre rays can cross the box ``[lo, hi]``
     (world), clipped to the image; ``None`` when it is off screen. A perspective camera
     whose eye plane the box reaches (the eye inside or beside it) gets the whole image."""
+    return block_rects(np.asarray(lo, dtype=np.float64)[None], np.asarray(hi, dtype=np.float64)[None], camera,
+                       size)[0]
+
+
+def block_rects(lo, hi, camera, size):
+    """:func:`block_rect` of each box ``[lo[i], hi[i]]`` (``(n, 3)`` world corners), in
+    one pass over all their corners."""
     w, h = size
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    pick = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=bool)  # (8, 3)
+    corners = np.where(pick[None], hi[:, None], lo[:, None])  # (n, 8, 3)
+    whole = np.zeros(len(lo), dtype=bool)
+    behind = np.zeros(len(lo), dtype=bool)
     if not camera.parallel_projection:
         depth = (corners - np.asarray(camera.position)) @ camera.basis()[2]
-        if depth.min() <= 1e-9 * max(camera.distance, float(np.abs(corners).max())):
-            if depth.max() <= 0:
-                return None  # wholly behind the eye
-            return (0, 0, w, h)  # the projection of points behind the eye is meaningless
-    cr = camera.project(corners, size)
-    c0 = max(0, int(np.floor(cr[:, 0].min() - 0.5)))
-    c1 = min(w - 1, int(np.ceil(cr[:, 0].max() - 0.5)))
-    r0 = max(0, int(np.floor(cr[:, 1].min() - 0.5)))
-    r1 = min(h - 1, int(np.ceil(cr[:, 1].max() - 0.5)))
-    return (c0, r0, c1 - c0 + 1, r1 - r0 + 1) if c1 >= c0 and r1 >= r0 else None
+        near = 1e-9 * np.maximum(camera.distance, np.abs(corners).max(axis=(1, 2)))
+        behind = depth.max(axis=1) <= 0  # wholly behind the eye
+        whole = (depth.min(axis=1) <= near) & ~behind  # the projection of points behind the eye is meaningless
+    cr = camera.project(corners.reshape(-1, 3), size).reshape(len(lo), 8, 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c0 = np.maximum(0, np.floor(cr[..., 0].min(axis=1) - 0.5))
+        c1 = np.minimum(w - 1, np.ceil(cr[..., 0].max(axis=1) - 0.5))
+        r0 = np.maximum(0, np.floor(cr[..., 1].min(axis=1) - 0.5))
+        r1 = np.minimum(h - 1, np.ceil(cr[..., 1].max(axis=1) - 0.5))
+    out = []
+    for i in range(len(lo)):
+        if whole[i]:
+            out.append((0, 0, w, h))
+        elif behind[i] or not (c1[i] >= c0[i] and r1[i] >= r0[i]):
+            out.append(None)
+        else:
+            out.append((int(c0[i]), int(r0[i]), int(c1[i] - c0[i]) + 1, int(r1[i] - r0[i]) + 1))
+    return out
 
 
 def eye_visibility_order(shape, eye, origin, extent):
@@ -97,8 +116,7 @@ def block_partials(plan, volume, camera, size, block_size, blocks):
     render_shape = BlockGrid.of(plan.source, opts.block_size).shape
     blocks = np.asarray(blocks, dtype=np.int64).reshape(-1)
     lo, hi = block_boxes(volume, block_size, blocks)
-    for b, box_lo, box_hi in zip(blocks, lo, hi):
-        rect = block_rect(box_lo, box_hi, camera, size)
+    for b, rect in zip(blocks, block_rects(lo, hi, camera, size)):
         if rect is None:
             continue
         mask = single_block_mask(b, shape, block_size, opts.block_size, render_shape)
@@ -176,7 +194,11 @@ def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, r
         raise ValueError("render_parallel with pof= needs an orthographic Camera (parallel_projection=True): POF "
                          "culling assumes parallel rays; without pof= any camera renders")
     size = as_size(size)
+    default = tf is None
+    if default and n_ranks > 1 and not any(options.get(k) is not None for k in TF_KEYWORDS):
+        tf = _default_on_root(comm, volume)
     plan = GridPlan(volume, tf, **options)
+    plan.default_tf = default
     opts = plan.options
     if opts.blending != "composite":
         raise ValueError(f"render_parallel composites blocks front to back: blending='composite' only; got "
@@ -267,6 +289,21 @@ def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, r
     if root is None:
         image = comm.bcast(image, root=0)
     return image
+
+
+def _default_on_root(comm, volume):
+    """The default transfer function, chosen on rank 0 (it reads every value: 0.5 s of
+    a 2.7 s engine render) and sent to the others; a failure there raises everywhere."""
+    chosen = None
+    if comm.rank == 0:
+        try:
+            chosen = default_transfer_function(volume)
+        except Exception as e:  # sent on, so that no rank waits for a function that will not come
+            chosen = e
+    chosen = comm.bcast(chosen, root=0)
+    if isinstance(chosen, Exception):
+        raise chosen
+    return chosen
 
 
 def _overlaps(a, b):

@@ -167,21 +167,59 @@ def view_rectangle(shot):
     return rows[0], cols[0], rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1
 
 
-def find_image(shot, image, opaque, search=6):
-    """Where ``image`` (rows, cols, 3 uint8) lies in ``shot``, matched on its ``opaque``
-    pixels: ``(top, left, fraction of opaque pixels within 2 levels)`` of the best
-    offset near the render view's rectangle."""
+def screen_model(reference, operator="reinhard"):
+    """What the render view shows of HDR Volume Render's 'In View' surface for the
+    HDRImage ``reference``: ``(expected, covered)``, expected (rows, cols, 3) float
+    screen levels and covered (rows, cols) bool, the pixels the surface draws.
+
+    The tone-mapped picture over black (sRGB, 8 bits) is drawn as quads of straight
+    alpha, ``colors / alpha`` clipped to 255 with alpha in 8 bits
+    (pv_hdrvol.integrations.vtk_surface), blended over the view's background; pixels
+    with less alpha than half a level are not drawn (the background shows)."""
+    import pv_hdrvol as hv
+    from pv_hdrvol.integrations.vtk_surface import MIN_ALPHA
+
+    colors = hv.tonemap(reference, operator, encoding="srgb").rgb8.astype(np.float64)
+    alpha = np.nan_to_num(reference.rgba[..., 3].astype(np.float64), nan=0.0)
+    covered = alpha >= MIN_ALPHA
+    straight = np.clip(np.rint(colors / np.maximum(alpha, MIN_ALPHA)[..., None]), 0, 255)
+    a8 = (np.clip(np.rint(alpha * 255.0), 0, 255) / 255.0)[..., None]
+    expected = np.where(covered[..., None], straight * a8 + (1 - a8) * np.array(BACKGROUND, float),
+                        np.array(BACKGROUND, float))
+    return expected, covered
+
+
+def screen_match(shot, expected, covered, at=None, search=6):
+    """Where ``expected`` (:func:`screen_model`) lies in ``shot``: ``(top, left, same,
+    near)`` over the ``covered`` pixels: ``same`` the fraction whose three levels are
+    within 1 of the expected (rounded) at that pixel, ``near`` the fraction within 1
+    level of the range of the expected 3x3 neighbourhood, channel by channel (a pixel
+    at a sharp edge of the picture may show a mix of its neighbours: the quads the view
+    draws lie at the volume's depth and meet to within rounding). At ``at``, or at the
+    offset within ``search`` pixels of the render view's rectangle with the largest
+    ``same``."""
+    rows, cols = expected.shape[:2]
+    target = np.rint(expected)
+    padded = np.pad(target, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    around = np.stack([padded[dr:dr + rows, dc:dc + cols] for dr in range(3) for dc in range(3)])
+    low, high = around.min(axis=0) - 1, around.max(axis=0) + 1
+    ii, jj = np.nonzero(covered)
+
+    def score(t, l):
+        if t < 0 or l < 0 or t + rows > shot.shape[0] or l + cols > shot.shape[1] or ii.size == 0:
+            return -1.0, -1.0
+        seen = shot[t + ii, l + jj].astype(np.float64)
+        same = np.abs(seen - target[ii, jj]).max(axis=1) <= 1
+        near = np.all((seen >= low[ii, jj]) & (seen <= high[ii, jj]), axis=1)
+        return float(same.mean()), float(near.mean())
+
+    if at is not None:
+        return (at[0], at[1], *score(*at))
     top, left, _, _ = view_rectangle(shot)
-    rows, cols = image.shape[:2]
-    best = (top, left, -1.0)
-    ii, jj = np.nonzero(opaque)
+    best = (top, left, -1.0, -1.0)
     for dt in range(-search, search + 1):
         for dl in range(-search, search + 1):
-            t, l = top + dt, left + dl
-            if t < 0 or l < 0 or t + rows > shot.shape[0] or l + cols > shot.shape[1]:
-                continue
-            diff = np.abs(shot[t + ii, l + jj].astype(int) - image[ii, jj].astype(int)).max(axis=1)
-            fraction = float((diff <= 2).mean()) if diff.size else 0.0
-            if fraction > best[2]:
-                best = (t, l, fraction)
+            same = score(top + dt, left + dl)
+            if same[0] > best[2]:
+                best = (top + dt, left + dl, *same)
     return best

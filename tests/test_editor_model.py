@@ -396,3 +396,18 @@ def test_load_reads_the_editors_json_and_paraview_preset_files(tmp_path):
 
 def test_the_editor_model_is_a_public_name():
     assert hv.TransferFunctionModel is TransferFunctionModel and "TransferFunctionModel" in hv.__all__
+
+
+def test_a_truncated_preset_file_names_itself_and_the_fix(tmp_path):
+    """from_paraview_preset(path) of a cut file: a ValueError naming it (was a raw
+    JSONDecodeError without the path; load(path) already named it)."""
+    import re
+
+    path = tmp_path / "cut.json"
+    path.write_text(json.dumps([RGB_PRESET])[:40])
+    with pytest.raises(ValueError, match=re.escape(f"{str(path)!r} is not valid JSON (truncated or not a ParaView "
+                                                   "preset file: export it again from ParaView's Choose Preset "
+                                                   "dialog): ")):
+        TransferFunctionModel.from_paraview_preset(path)
+    with pytest.raises(ValueError, match=r"the preset text is not valid JSON: "):
+        TransferFunctionModel.from_paraview_preset('[{"Name": "x", ')

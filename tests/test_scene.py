@@ -323,3 +323,22 @@ def test_a_plotter_that_is_not_one_is_named():
         add_hdr_volume("not a plotter", _volume())
     with pytest.raises(TypeError, match=message):
         hv.add_hdr_volume("not a plotter", _volume())
+
+
+@pytest.mark.parametrize("progressive", [False, True], ids=["at once", "progressive"])
+def test_an_empty_volume_says_why_in_the_thread_that_shows_it(progressive):
+    """A transfer function with no opacity over the data: the EmptyRenderWarning comes
+    once, where the frame is shown (the worker hands it over: warnings is process-wide),
+    and stays on the actor."""
+    pl = _plotter()
+    _view(pl)
+    clear = hv.TransferFunction.ramp(0.0, 1.0, cmap="gray", opacity=(0.0, 0.0))
+    with pytest.warns(hv.EmptyRenderWarning) as said:
+        actor = pl.hdrvol.add_volume(_volume(), clear, precision="float64", progressive=progressive,
+                                     show_scalar_bar=False)
+        pl.screenshot(return_img=True)
+        assert actor.wait(120)
+    messages = [str(w.message) for w in said if issubclass(w.category, hv.EmptyRenderWarning)]
+    assert len(messages) == 1 and "opacity" in messages[0], messages
+    assert [str(w) for w in actor.warnings] == messages
+    pl.close()

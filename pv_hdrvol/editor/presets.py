@@ -56,9 +56,16 @@ def read_paraview_presets(source):
     preset) or a list of them. Returns a list of dicts."""
     if isinstance(source, (str, os.PathLike)) and not str(source).lstrip().startswith(("[", "{")):
         with open(os.fspath(source), encoding="utf-8") as fh:
-            data = json.load(fh)
+            try:
+                data = json.load(fh)
+            except json.JSONDecodeError as exc:
+                raise ValueError(f"{os.fspath(source)!r} is not valid JSON (truncated or not a ParaView preset "
+                                 f"file: export it again from ParaView's Choose Preset dialog): {exc}") from None
     elif isinstance(source, str):
-        data = json.loads(source)
+        try:
+            data = json.loads(source)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"the preset text is not valid JSON: {exc}") from None
     else:
         data = source
     presets = [data] if hasattr(data, "keys") else data

@@ -41,6 +41,7 @@ renders.
 from __future__ import annotations
 
 import threading
+import warnings
 import zlib
 
 import numpy as np
@@ -48,6 +49,7 @@ import numpy as np
 from .._validate import as_real
 from ..image.tonemap import OPERATORS, fit
 from ..image.tonemap import tonemap as _tonemap
+from ..raycast.grid import EmptyRenderWarning
 from ..rays.camera import Camera
 from .progressive import COARSE_SECONDS, ProgressiveRenderer
 
@@ -146,6 +148,8 @@ class HDRVolumeActor:
                                             preference=preference, on_frame=self._on_frame,
                                             on_error=self._on_error, **render_kwargs)
         self.hdr, self.level, self.error, self.far = None, None, None, None
+        #: what the renderer warned about the full frame shown (an EmptyRenderWarning's reason)
+        self.warnings = ()
         self._unoccluded = None  # self.hdr without the scene's meshes (None: the same), for the statistics
         self._display = None  # (tone-mapped rgb float32 (rows, cols, 3), alpha (rows, cols)) of self.hdr
         self._key = None
@@ -291,6 +295,11 @@ class HDRVolumeActor:
             self._unoccluded = frame.unoccluded
             if frame.level == "full":
                 self._shown = frame.generation
+                self.warnings = frame.warnings
+                for message in dict.fromkeys(map(str, frame.warnings)):
+                    # the worker hands its warnings over (warnings is process-wide): said here, on
+                    # the thread that shows the frame, once per full frame
+                    warnings.warn(message, EmptyRenderWarning, stacklevel=2)
             self._render_window()
 
     def _render_window(self):
@@ -392,6 +401,7 @@ class HDRVolumeActor:
                 (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, far=far, lens=self.lens,
                                                 unoccluded=True)
                 self.hdr, self.level, self._unoccluded = frame.image, frame.level, frame.unoccluded
+                self.warnings = frame.warnings  # frames() warned them already, here
                 self._display = self._mapped(frame.image, frame.unoccluded)
                 self._requested += 1
                 self._shown = self._requested

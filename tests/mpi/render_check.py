@@ -4,6 +4,7 @@ rounding; printed by rank 0 as ``OK ...`` lines (tests/test_parallel.py reads th
 Any failure raises, and the whole job aborts (MPI.COMM_WORLD.Abort), never hangs."""
 import os
 import sys
+import time
 import traceback
 
 import numpy as np
@@ -79,4 +80,7 @@ if __name__ == "__main__":
         traceback.print_exc()
         sys.stdout.flush()
         sys.stderr.flush()
+        # Abort ends every process at once: give mpiexec a moment to forward what this
+        # one printed (without it the message was lost in about 1 run in 10 here)
+        time.sleep(0.5)
         MPI.COMM_WORLD.Abort(1)

@@ -151,7 +151,10 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
         the node's cores shared by the processes of ``comm`` on it,
         ``max(1, cores // node_processes)`` (:func:`~pv_hdrvol.parallel.comm.rank_threads`),
         or numba's count as it is when ``NUMBA_NUM_THREADS`` is set. Pixels do not
-        depend on it.
+        depend on it. With numba's OpenMP layer and more than one thread, set
+        ``OMP_WAIT_POLICY=PASSIVE`` before numba starts its threads (the command line
+        does): threads that spin after each of the many small block renders take the
+        cores the Python work needs (4× the time on the engine at 512², 2 cores).
 
     Returns
     -------

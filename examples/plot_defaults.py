@@ -13,7 +13,13 @@ render FILE``) chooses the transfer function from the data
   proportion to the value (a density's faint decades stay faint, and the HDR image
   keeps them);
 - the opacity is as high as keeps the densest rays (the 95th percentile of a grid's
-  columns; a mesh's average ray) at a transmittance of 0.25.
+  columns; a mesh's average ray) at a transmittance of 0.25;
+- CT-like (integer) data: the most voluminous class above the air (soft tissue,
+  dentin) is a dim veil keeping a transmittance of 0.8, the denser classes take the
+  colours and the opacity;
+- a signed field (here the hydrogen 3d_z2 wavefunction psi, both signs over eight
+  decades): a symmetric symlog range, diverging colours, opacity by magnitude and
+  zero transparent.
 
 This example renders each volume and mesh with that default, unshaded and shaded, and
 tone maps with Reinhard's operator.
@@ -29,6 +35,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pyvista as pv  # noqa: E402
 
 import pv_hdrvol as hv  # noqa: E402
@@ -50,11 +57,25 @@ FILES = ["structured/engine_256x256x128_uint8.vti", "structured/bonsai_256x256x2
 SIZE = (200, 200)
 
 
+def signed_field():
+    """The hydrogen 3d_z2 wavefunction psi (signed: the sign of 3 z^2 - r^2 times
+    sqrt(|psi|^2)), a signed field spanning eight decades, on a 64^3 grid."""
+    values, spacing, origin = hv.datasets.hydrogen_orbital_array(3, 2, 0, size=64)
+    n = values.shape[0]
+    c = origin[0] + spacing[0] * np.arange(n)
+    z, y, x = np.meshgrid(c, c, c, indexing="ij")
+    return hv.volume_from_array(np.sign(3 * z * z - (x * x + y * y + z * z)) * np.sqrt(values), spacing=spacing,
+                                origin=origin)
+
+
 def main():
     fig, axes = plt.subplots(4, 6, figsize=(15, 10.8))
-    for k, path in enumerate(FILES):
-        ds = pv.read(DATA / path)
-        data = as_volume(ds) if isinstance(ds, pv.ImageData) else hv.tetmesh_from_dataset(ds)
+    for k, path in enumerate(FILES + ["psi_3dz2 (signed)"]):
+        if path in FILES:
+            ds = pv.read(DATA / path)
+            data = as_volume(ds) if isinstance(ds, pv.ImageData) else hv.tetmesh_from_dataset(ds)
+        else:
+            data = ds = signed_field()
         tf = default_transfer_function(data)
         camera = hv.Camera.fit(data.bounds, "iso")
         for j, shade in enumerate((False, True)):

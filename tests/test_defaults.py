@@ -172,3 +172,97 @@ def test_log_default_of_a_density_spans_its_decades():
     assert tf.scale == "log"
     assert tf.opacity_at(1e-6) == 0.0 and tf.vmin > 1e-6
     assert scale_forward([tf.vmax], "log")[0] > -0.1  # the top decade is in the range
+
+
+# -- issue 31: signed fields, and the classes of CT-like data ---------------------------------
+def signed_blobs(n=32, span=8):
+    """A positive blob (x < centre) and a negative one (x > centre), each spanning
+    ``span`` decades from its peak (a shock's compression and rarefaction)."""
+    z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(np.float64)
+    r2 = lambda cx: ((x - cx) ** 2 + (y - n / 2) ** 2 + (z - n / 2) ** 2) / (n / 6) ** 2  # noqa: E731
+    return 9e10 * np.exp(-span * np.log(10) * r2(n / 4) / 4) - 2.4e10 * np.exp(-span * np.log(10) * r2(3 * n / 4) / 4)
+
+
+def test_a_signed_field_shows_both_signs_with_zero_transparent():
+    """Both signs: symmetric range, diverging colours (blue below zero, red above),
+    opacity in proportion to the magnitude (0 at zero, equal at +-v), and a render shows
+    the negative blob as well as the positive one (the old default started at the
+    positive 5th percentile: the negative side was transparent)."""
+    values = signed_blobs()
+    volume = hv.volume_from_array(values)
+    tf = default_transfer_function(volume)
+    assert tf.scale == "symlog"
+    assert tf.vmin == -tf.vmax and tf.vmax == pytest.approx(np.percentile(np.abs(values), 99.9))
+    assert tf.opacity_at(0.0) == 0.0
+    probe = np.array([1e4, 1e7, 1e9, 1e10])
+    probe = probe[probe < tf.vmax]
+    np.testing.assert_allclose(tf.opacity_at(-probe), tf.opacity_at(probe), rtol=1e-12)
+    assert np.all(np.diff(tf.opacity_at(probe)) > 0)  # rising with the magnitude
+    # in proportion to it at the control points (the ramp interpolates on the axis between them)
+    nonzero = tf.values != 0
+    ratio = tf.opacities[nonzero] / (np.abs(tf.values[nonzero]) / tf.vmax)
+    np.testing.assert_allclose(ratio, tf.opacities.max(), rtol=1e-9)
+    blue, red = tf.color_at(-1e9), tf.color_at(1e9)
+    assert blue[2] > blue[0] and red[0] > red[2]
+    img = hv.render(volume, tf, hv.Camera.fit(volume.bounds, "xy"), (64, 64), precision="float64")
+    alpha = img.rgba[..., 3]
+    left, right = alpha[:, :32].max(), alpha[:, 32:].max()  # x grows to the right in the xy view
+    assert left > 0.3 and right > 0.3, (left, right)
+
+
+def test_a_signed_field_of_few_decades_is_linear_and_noise_is_not_a_sign():
+    rng = np.random.default_rng(2)
+    velocity = rng.normal(0.0, 3.0, (20, 20, 20))
+    tf = default_transfer_function(hv.volume_from_array(velocity))
+    assert tf.scale == "linear" and tf.vmin == -tf.vmax and tf.opacity_at(0.0) == 0.0
+    density = rng.uniform(1.0, 2.0, 4000)
+    density[:20] = -1e-6  # 0.5 % of round-off below zero: not a signed field
+    tf = auto_transfer_function(density, 10)
+    assert tf.vmin > 0 and tf.opacity_at(tf.vmin) == 0.0
+    # integer data with both signs are an offset scale (Hounsfield units), not a signed field
+    hu = np.concatenate([np.full(3000, -1000.0), rng.integers(-100, 100, 3000), rng.integers(300, 1500, 1000)])
+    tf = auto_transfer_function(hu.astype(float), 10, integer=True)
+    assert tf.vmin > -1000 and tf.vmin != -tf.vmax
+
+
+def ct_phantom(n=48, seed=3):
+    """Air (0-10), a head of soft tissue (55-65) filling a sphere, a skull shell of
+    bone (140-200) around it: the CT head's classes."""
+    rng = np.random.default_rng(seed)
+    z, y, x = np.mgrid[0:n, 0:n, 0:n] - (n - 1) / 2
+    r = np.sqrt(x * x + y * y + z * z) / (n / 2)
+    values = rng.integers(0, 11, (n, n, n)).astype(np.float64)
+    soft, bone = r < 0.8, (r >= 0.8) & (r < 0.9)
+    values[soft] = rng.integers(55, 66, int(soft.sum()))
+    values[bone] = rng.integers(140, 201, int(bone.sum()))
+    return values.astype(np.uint8), soft, bone
+
+
+def test_ct_classes_the_soft_one_a_dim_veil_the_dense_ones_opaque():
+    """Integer data: the most voluminous class above the air is a veil whose own
+    columns keep a transmittance of 0.8 (95th percentile), dimmed to 0.05 of the
+    colormap's first colour; the bone above it takes the opacity, and the whole still
+    keeps the 0.25 rule."""
+    from pv_hdrvol.data.transfer import CONTEXT_TRANSMITTANCE, VEIL_BRIGHTNESS
+
+    values, soft, bone = ct_phantom()
+    volume = hv.volume_from_array(values)
+    assert volume.integer
+    tf = default_transfer_function(volume)
+    op = lambda v: np.interp(v, tf.values, tf.opacities)  # noqa: E731
+    kink = int(np.argmax(np.abs(np.diff(tf.opacities, 2)))) + 1  # where the veil ends and the bone's ramp starts
+    c, end = tf.opacities[kink], tf.values[kink]
+    assert 65.0 <= end < 140.0  # past the tissue's values, below the bone's
+    assert op(float(np.median(values[bone]))) > 10 * c  # the bone far above the tissue
+    veil = np.minimum(op(values.astype(float)), c)  # the veil's part of the opacity
+    veil_depths = np.concatenate([veil.sum(axis=k).ravel() for k in range(3)])
+    assert math.isclose(np.percentile(veil_depths, 95.0), -math.log(CONTEXT_TRANSMITTANCE), rel_tol=0.05)
+    whole = op(values.astype(float))
+    depths = np.concatenate([whole.sum(axis=k).ravel() for k in range(3)])
+    assert math.isclose(np.percentile(depths, 95.0), -math.log(DEFAULT_TRANSMITTANCE), rel_tol=0.05)
+    dim = tf.color_at(float(np.median(values[soft])))
+    first_dense = tf.color_at(float(tf.vmax))  # brightest; the first dense colour is darker still
+    assert dim.max() <= VEIL_BRIGHTNESS * first_dense.max() + 1e-12
+    # the same values as floats (not integer samples): no classes, the plain ramp
+    plain = auto_transfer_function(values.astype(np.float64), 48.0, spacing=(1.0, 1.0, 1.0))
+    assert np.interp(60.0, plain.values, plain.opacities) > 3 * c

@@ -473,7 +473,7 @@ from pv_hdrvol.raycast.grid import default_transfer_function  # noqa: E402
 
 def _grid(pv):
     grid = pv.ImageData(dimensions=(8, 9, 10))
-    grid["v"] = np.linspace(-2.0, 6.0, grid.n_points)
+    grid["v"] = np.linspace(0.5, 6.0, grid.n_points)  # one sign: a signed field's default is tested below
     return grid
 
 
@@ -506,6 +506,26 @@ def test_each_keyword_replaces_one_choice_of_the_default():
     expected = np.interp(np.linspace(0, 1, 64), [0.0, 0.5, 1.0], [0.0, 1.0, 0.5])
     np.testing.assert_array_equal(spread.opacities, expected)
     assert default_transfer_function(vol, scale="symlog").scale == "symlog"
+
+
+def test_the_keywords_replace_single_choices_of_a_signed_default_too():
+    """A signed field's default (symmetric range, diverging colours, opacity by
+    magnitude, 129 points) keeps its other choices when one keyword replaces one."""
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.data.transfer import colormap_rgb
+
+    grid = _grid(pv)
+    grid["v"] = np.linspace(-4.0, 6.0, grid.n_points)
+    vol = hv.volume_from_dataset(grid)
+    auto = default_transfer_function(vol)
+    assert auto.values.size == 129 and auto.vmin == -auto.vmax and auto.opacity_at(0.0) == 0.0
+    cmap = default_transfer_function(vol, cmap="viridis")
+    np.testing.assert_array_equal(cmap.opacities, auto.opacities)
+    np.testing.assert_array_equal(cmap.colors, colormap_rgb("viridis", np.linspace(0, 1, 129)))
+    np.testing.assert_array_equal(default_transfer_function(vol, opacity=0.25).opacities, np.full(129, 0.25))
+    assert (default_transfer_function(vol, clim=3).vmin, default_transfer_function(vol, clim=3).vmax) == (-3.0, 3.0)
+    high = default_transfer_function(vol, clim=(None, 5.0))
+    assert (high.vmin, high.vmax) == (auto.vmin, 5.0)
 
 
 def test_the_keywords_work_on_meshes_too():

@@ -580,6 +580,17 @@ _CMAP_START = 0.125
 #: Transmittance left by a ray through the whole volume if every voxel it crossed were
 #: an average voxel of the data: the default opacity keeps the average ray from saturating.
 DEFAULT_TRANSMITTANCE = 0.25
+#: The transmittance the context class of integer (CT-like) data keeps on its own:
+#: the most voluminous class above the background (soft tissue, dentin) stays a veil
+#: over the denser classes, which take the rest of the opacity.
+CONTEXT_TRANSMITTANCE = 0.8
+#: The veil's emission relative to the colormap's first colour: it absorbs (it dims
+#: what lies behind it, as tissue does) but hardly glows, so the tone mapper does not
+#: make a bright fog of its large volume.
+VEIL_BRIGHTNESS = 0.05
+#: The colormap of a signed field's default: diverging about zero (ParaView's default
+#: "Cool to Warm").
+SIGNED_CMAP = "coolwarm"
 #: The default opacity never makes one unit distance fully opaque: at most 0.99
 #: (extinction 4.6 per unit). At 1 the extinction jumps to 36 per unit (the float
 #: limit), and no table interpolates that jump well for the short segments of fine
@@ -589,7 +600,7 @@ _HIST_BINS = 256
 
 
 def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, scale=None, clim=None, cmap=None,
-                           opacity=None):
+                           opacity=None, integer=False):
     """The default transfer function of ``values``: what a careful user would set by hand.
 
     - **Axis**: ``log`` when the data are not negative and their positive values span
@@ -624,6 +635,27 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
       Elsewhere a ray of ``ray_length`` through average voxels is:
       ``ray_length * mean(-ln(1 - a s(v))) = -ln(0.25)`` (weighted by ``weights``).
       ``a`` is at most :data:`DEFAULT_MAX_OPACITY` (0.99).
+    - **Classes of CT-like data** (``integer=True``, a linear axis, a grid): the most
+      voluminous class above the background (soft tissue under bone, dentin under
+      enamel) is found as the background is, a peak in the lower half of the
+      structure's range, and becomes a veil: its own columns keep a transmittance of
+      :data:`CONTEXT_TRANSMITTANCE` (0.8), an opacity ``c`` reached at the class's end;
+      the denser classes above it take an opacity rising from ``c`` to ``c + a`` at
+      ``vmax``, ``a`` chosen so that the columns of the whole still keep 0.25 (the rule
+      above). The colormap spans the denser classes; the veil takes its first colour
+      times :data:`VEIL_BRIGHTNESS` (0.05): it dims what lies behind it and hardly
+      glows. A linear ramp gave the class most of the opacity and light: the CT head's
+      brain and skin were a pink fog over the skull.
+    - **Signed fields** (both signs, each at least 1 % of the values, the lesser
+      side's 99.9th-percentile magnitude at least 1e-3 of the other's; not integer
+      data, where a sign is an offset, e.g. Hounsfield units): both signs show. The
+      range is symmetric, ``[-M, M]`` with ``M`` the 99.9th percentile of ``|v|``; the
+      colormap diverges about zero (:data:`SIGNED_CMAP`); the opacity is in
+      proportion to the magnitude, 0 at zero, ``a`` at either end (``a`` by the rule
+      above; as a log axis's density, the faint decades get little opacity and stay
+      visible in the HDR image: opacity linear in the symlog axis fogged the view). A
+      symlog axis then has ``linthresh`` at the 5th percentile of the non-zero
+      magnitudes, so the axis is spent on the decades the data fill.
 
     Parameters
     ----------
@@ -647,6 +679,9 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
         :func:`opacity_curve`: a PyVista curve name, a number, or values spread
         evenly along the axis from ``vmin`` to ``vmax``), reached over one opacity
         unit distance and not rescaled.
+    integer : bool
+        The values are integer samples of a measurement (CT, MRI): the classes above
+        the background are separated, and a sign is not a signed field's.
 
     Returns
     -------
@@ -677,9 +712,12 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
     if v.size == 0:
         return TransferFunction.ramp(0.0, 1.0, cmap=_cmap_colors(cmap), opacity=(0.0, 0.0))
     lo, hi = float(v.min()), float(v.max())
+    signed = not integer and _is_signed(v, w)
     if scale is None:
         scale = _default_scale(v, lo, hi)
     scale = as_choice("scale", scale, SCALES)
+    if signed and scale != "log":
+        return _signed_default(values, v, w, scale, vmin, vmax, cmap, opacity, float(ray_length), spacing)
     linthresh = 1.0
     if scale == "log":
         positive = v > 0
@@ -737,7 +775,20 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
             if np.any(notched > 0):
                 points = notched
         raw = np.asarray(values)
-        if spacing is not None and raw.ndim == 3:
+        soft = None
+        if integer and scale == "linear" and notch is None and spacing is not None and raw.ndim == 3:
+            soft = _soft_class(axis, float(axis_points[0]), float(axis_points[-1]), w)
+        if soft is not None:
+            # the context class a veil, the denser ones the rest (256 points: the kink at its end)
+            n = 256
+            axis_points = np.linspace(axis_points[0], axis_points[-1], n)
+            veil = np.clip((axis_points - axis_points[0]) / (soft - axis_points[0]), 0.0, 1.0)
+            dense = np.clip((axis_points - soft) / (axis_points[-1] - soft), 0.0, 1.0)
+            c, a = _class_opacity(raw, scale, linthresh, axis_points, veil, dense, spacing)
+            # the colormap spans the denser classes; the veil has its first colour, dimmed
+            rgb = _cmap_rgb(cmap, dense) * np.where(axis_points < soft, VEIL_BRIGHTNESS, 1.0)[:, None]
+            return TransferFunction(axis_points, rgb, c * veil + a * dense)
+        elif spacing is not None and raw.ndim == 3:
             opacity = _column_opacity(raw, scale, linthresh, axis_points, points, spacing) * points
         else:
             shape = np.interp(axis, axis_points, points)
@@ -911,6 +962,108 @@ def _structure_range(axis, a_lo, a_hi, weights=None):
     return t0, max(t1, t0), notch
 
 
+def _is_signed(v, w=None):
+    """Whether finite values ``v`` (weights ``w``) are a signed field: both signs, each at
+    least 1 % of the values (of the weight), the lesser side's 99.9th-percentile
+    magnitude at least 1e-3 of the other's (noise about zero is not a sign)."""
+    neg, pos = v < 0, v > 0
+    if not (neg.any() and pos.any()):
+        return False
+    total = float(v.size if w is None else w.sum())
+    shares = [float(m.sum() if w is None else w[m].sum()) / total if total > 0 else 0.0 for m in (neg, pos)]
+    if min(shares) < 0.01:
+        return False
+    tops = [float(np.percentile(np.abs(v[m]), 99.9)) for m in (neg, pos)]
+    return min(tops) >= 1e-3 * max(tops)
+
+
+def _signed_default(values, v, w, scale, vmin, vmax, cmap, opacity, ray_length, spacing):
+    """The default transfer function of a signed field (see
+    :func:`auto_transfer_function`): symmetric range, diverging colours, opacity in
+    proportion to the magnitude, 0 at zero."""
+    mags = np.abs(v[v != 0])
+    linthresh = float(np.percentile(mags, 5.0)) if scale == "symlog" else 1.0
+    top = float(np.percentile(np.abs(v), 99.9))
+    if not top > 0:
+        top = float(mags.max())
+    vmin = -top if vmin is None else vmin
+    vmax = top if vmax is None else vmax
+    if vmax <= vmin:
+        raise ValueError(f"clim {(vmin, vmax)!r} (the ends not given are the default's) must have high > low; "
+                         "give both ends")
+    n = 129  # odd: zero is a control point of a symmetric range
+    if opacity is not None:
+        n = min(max(n, opacity.size), 4096)
+    else:
+        a0, a1 = scale_forward([vmin, vmax], scale, linthresh)
+        axis_points = np.linspace(a0, a1, n)
+        # in proportion to the magnitude, 0 at zero (on a symlog axis, as a log axis's density:
+        # faint decades get little opacity and stay visible in the HDR image, not a fog)
+        magnitude = np.abs(_scale_inverse(axis_points, scale, linthresh))
+        points = magnitude / magnitude.max()
+        raw = np.asarray(values)
+        if spacing is not None and raw.ndim == 3:
+            opacity = _column_opacity(raw, scale, linthresh, axis_points, points, spacing) * points
+        else:
+            shape = np.interp(scale_forward(v, scale, linthresh), axis_points, points)
+            opacity = _ray_opacity(shape, ray_length, w) * points
+    return TransferFunction.ramp(vmin, vmax, scale=scale, cmap=SIGNED_CMAP if cmap is None else cmap,
+                                 opacity=opacity, n_colors=n, linthresh=linthresh)
+
+
+def _class_opacity(values, scale, linthresh, axis_points, veil, dense, spacing):
+    """``(c, a)`` of the opacity ``c veil(v) + a dense(v)`` on a grid: the veil's columns
+    alone keep :data:`CONTEXT_TRANSMITTANCE` at their 95th percentile, the whole's
+    :data:`DEFAULT_TRANSMITTANCE` (column depths are linear in ``c`` and ``a``: one pass
+    each, then a bisection on the sums)."""
+    def depths(points):
+        shape = np.interp(scale_forward(values, scale, linthresh), axis_points, points)
+        shape[~np.isfinite(shape)] = 0.0
+        return np.concatenate([shape.sum(axis=2).ravel() * spacing[0], shape.sum(axis=1).ravel() * spacing[1],
+                               shape.sum(axis=0).ravel() * spacing[2]])
+
+    d_veil, d_dense = depths(veil), depths(dense)
+    p95 = float(np.percentile(d_veil, 95.0))
+    c = min(-np.log(CONTEXT_TRANSMITTANCE) / p95, DEFAULT_MAX_OPACITY) if p95 > 0 else 0.0
+    target = -np.log(DEFAULT_TRANSMITTANCE)
+    top = DEFAULT_MAX_OPACITY - c
+    if float(np.percentile(c * d_veil + top * d_dense, 95.0)) <= target:
+        return c, top
+    lo, hi = 0.0, top
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if float(np.percentile(c * d_veil + mid * d_dense, 95.0)) <= target else (lo, mid)
+    return c, lo
+
+
+def _soft_class(axis, t0, t1, weights=None):
+    """The end of the most voluminous class of the structure ``[t0, t1]`` on the axis
+    when it is a peak in the lower half of it (soft tissue above the air of a CT), else
+    None."""
+    inside = (axis >= t0) & (axis <= t1)
+    if not t1 > t0 or inside.sum() < 16:
+        return None
+    sample = axis[inside]
+    bins = _HIST_BINS
+    if np.array_equal(sample, np.round(sample)) and t1 - t0 < 2 * _HIST_BINS:
+        bins = max(8, int(np.ceil(t1 - t0)))  # integer data: no bin without a value in it (a comb of valleys)
+    counts, edges = np.histogram(sample, bins=bins, range=(t0, t1),
+                                 weights=None if weights is None else weights[inside])
+    smooth = np.convolve(counts, np.ones(5) / 5.0, mode="same")
+    mode = int(np.argmax(smooth))
+    peak = smooth[mode]
+    typical = float(np.median(smooth[smooth > 0]))
+    if mode >= bins // 2 or not peak > 3.0 * typical:
+        return None
+    end = mode + 1
+    while end < bins - 1 and smooth[end] >= 0.05 * peak and not (
+            smooth[end] < 0.5 * peak and smooth[end] < smooth[end - 1] and smooth[end] <= smooth[end + 1]):
+        end += 1
+    if end - mode > bins // 4:
+        return None
+    return float(edges[end])
+
+
 def _ray_opacity(shape, ray_length, weights=None):
     """The largest opacity ``a`` (per unit distance) with
     ``ray_length * mean(-ln(1 - a shape)) <= -ln(DEFAULT_TRANSMITTANCE)``, by bisection
@@ -951,6 +1104,12 @@ def _column_opacity(values, scale, linthresh, axis_points, points, spacing):
     if not d95 > 0:
         return DEFAULT_MAX_OPACITY
     return float(min(-np.log(DEFAULT_TRANSMITTANCE) / d95, DEFAULT_MAX_OPACITY))
+
+
+def _cmap_rgb(cmap, t):
+    """RGB at ``t`` in [0, 1] of ``cmap`` (None: the default colormap, as :func:`_cmap_colors`)."""
+    colors = _cmap_colors(cmap)
+    return colors(t) if callable(colors) and not isinstance(colors, str) and cmap is None else colormap_rgb(colors, t)
 
 
 def _cmap_colors(cmap):

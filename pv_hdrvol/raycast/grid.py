@@ -52,7 +52,8 @@ def default_transfer_function(volume, *, cmap=None, clim=None, opacity=None, sca
     """The default transfer function of an image volume or a tetrahedral mesh:
     :func:`~pv_hdrvol.data.transfer.auto_transfer_function` of its values, for a ray
     as long as the bounding box's diagonal in unit distances (the smallest spacing; a
-    mesh's typical cell size). Integer data (CT) keeps a linear axis.
+    mesh's typical cell size). Integer data (CT) keeps a linear axis and gets its
+    classes separated (``integer=True``).
 
     ``cmap``, ``clim``, ``opacity`` (PyVista's ``add_volume`` keywords, with its
     meanings) and ``scale`` (the axis) each replace one choice; what is not given
@@ -64,7 +65,8 @@ def default_transfer_function(volume, *, cmap=None, clim=None, opacity=None, sca
         unit = float(volume.spacing.min())
         if volume.integer and scale is None:
             keywords["scale"] = "linear"
-        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit, **keywords)
+        return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit,
+                                      integer=volume.integer, **keywords)
     # a mesh's values weighted by the volume they stand for: what fills space, not where
     # the mesh is fine, is its background
     volumes = np.abs(volume.cell_volumes())

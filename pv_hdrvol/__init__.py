@@ -130,14 +130,7 @@ def add_hdr_volume(plotter, data, tf=None, **kwargs):
     TypeError
         ``plotter`` is not a PyVista plotter.
     """
-    import pyvista as pv
-
-    if not isinstance(plotter, pv.BasePlotter):
-        kind = type(plotter).__name__
-        got = repr(plotter) if isinstance(plotter, str) else f"{'an' if kind[0] in 'AEIOU' else 'a'} {kind}"
-        raise TypeError(f"plotter must be a pyvista.Plotter (or a pyvistaqt BackgroundPlotter or QtInteractor); got "
-                        f"{got}: pass the plotter first, add_hdr_volume(plotter, data, tf)")
-    from .viewer.scene import add_hdr_volume as _add
+    from .viewer.scene import add_hdr_volume as _add  # which checks the plotter
 
     return _add(plotter, data, tf, **kwargs)
 

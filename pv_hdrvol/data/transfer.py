@@ -929,37 +929,43 @@ def _structure_range(axis, a_lo, a_hi, weights=None):
     headsq CT, so values below a low mode stay hidden.)"""
     if not a_hi > a_lo:
         return a_lo, a_hi, None
-    counts, edges = np.histogram(axis, bins=_HIST_BINS, range=(a_lo, a_hi), weights=weights)
-    smooth = np.convolve(counts, np.ones(5) / 5.0, mode="same")
-    mode = int(np.argmax(smooth))
-    peak = smooth[mode]
-
-    def walk(step):
-        # the mode ends where the histogram falls below 5 % of its peak, or at a valley
-        # below half of it (a plateau of noise has no such valley inside)
-        end = mode + step
-        while 0 < end < _HIST_BINS - 1 and smooth[end] >= 0.05 * peak and not (
-                smooth[end] < 0.5 * peak and smooth[end] < smooth[end - step] and smooth[end] <= smooth[end + step]):
-            end += step
-        return end
-
-    # a background is a peak: well above the typical bin, and narrow (evenly spread
-    # data has no background to hide)
-    typical = float(np.median(smooth[smooth > 0]))
+    smooth, edges, mode, is_peak = _histogram_mode(axis, a_lo, a_hi, weights, _HIST_BINS)
     t0 = float(np.percentile(axis, 0.5))
     notch = None
-    end = walk(1)
+    end = _mode_end(smooth, mode, 1)
     if mode < _HIST_BINS // 2:
-        if peak > 3.0 * typical and end - mode <= _HIST_BINS // 4:
+        if is_peak and end - mode <= _HIST_BINS // 4:
             t0 = float(edges[end])  # the structure starts past the mode: all below it is hidden
     else:
-        start = walk(-1)
-        if peak > 3.0 * typical and end - start <= _HIST_BINS // 4:
+        start = _mode_end(smooth, mode, -1)
+        if is_peak and end - start <= _HIST_BINS // 4:
             # a walk that reached an end of the axis takes the mode to that end
             notch = (float(edges[start + 1]), float(edges[-1] if end == _HIST_BINS - 1 else edges[end]))
     above = axis[axis > t0]
     t1 = float(np.percentile(above, 99.9)) if above.size else a_hi
     return t0, max(t1, t0), notch
+
+
+def _histogram_mode(axis, lo, hi, weights, bins):
+    """``(smooth, edges, mode, is_peak)``: the histogram of ``axis`` over ``[lo, hi]`` in
+    ``bins`` bins smoothed over 5, its dominant bin, and whether that is a peak (over 3
+    times the median non-empty bin: evenly spread data has none)."""
+    counts, edges = np.histogram(axis, bins=bins, range=(lo, hi), weights=weights)
+    smooth = np.convolve(counts, np.ones(5) / 5.0, mode="same")
+    mode = int(np.argmax(smooth))
+    return smooth, edges, mode, bool(smooth[mode] > 3.0 * float(np.median(smooth[smooth > 0])))
+
+
+def _mode_end(smooth, mode, step):
+    """The bin where the mode at ``mode`` ends going by ``step`` (+1 or -1): where the
+    histogram falls below 5 % of its peak, or at a valley below half of it (a plateau
+    of noise has no such valley inside); an end of the histogram at the latest."""
+    peak = smooth[mode]
+    end = mode + step
+    while 0 < end < smooth.size - 1 and smooth[end] >= 0.05 * peak and not (
+            smooth[end] < 0.5 * peak and smooth[end] < smooth[end - step] and smooth[end] <= smooth[end + step]):
+        end += step
+    return end
 
 
 def _is_signed(v, w=None):
@@ -1016,13 +1022,7 @@ def _class_opacity(values, scale, linthresh, axis_points, veil, dense, spacing):
     alone keep :data:`CONTEXT_TRANSMITTANCE` at their 95th percentile, the whole's
     :data:`DEFAULT_TRANSMITTANCE` (column depths are linear in ``c`` and ``a``: one pass
     each, then a bisection on the sums)."""
-    def depths(points):
-        shape = np.interp(scale_forward(values, scale, linthresh), axis_points, points)
-        shape[~np.isfinite(shape)] = 0.0
-        return np.concatenate([shape.sum(axis=2).ravel() * spacing[0], shape.sum(axis=1).ravel() * spacing[1],
-                               shape.sum(axis=0).ravel() * spacing[2]])
-
-    d_veil, d_dense = depths(veil), depths(dense)
+    d_veil, d_dense = (_column_depths(values, scale, linthresh, axis_points, p, spacing) for p in (veil, dense))
     p95 = float(np.percentile(d_veil, 95.0))
     c = min(-np.log(CONTEXT_TRANSMITTANCE) / p95, DEFAULT_MAX_OPACITY) if p95 > 0 else 0.0
     target = -np.log(DEFAULT_TRANSMITTANCE)
@@ -1047,18 +1047,10 @@ def _soft_class(axis, t0, t1, weights=None):
     bins = _HIST_BINS
     if np.array_equal(sample, np.round(sample)) and t1 - t0 < 2 * _HIST_BINS:
         bins = max(8, int(np.ceil(t1 - t0)))  # integer data: no bin without a value in it (a comb of valleys)
-    counts, edges = np.histogram(sample, bins=bins, range=(t0, t1),
-                                 weights=None if weights is None else weights[inside])
-    smooth = np.convolve(counts, np.ones(5) / 5.0, mode="same")
-    mode = int(np.argmax(smooth))
-    peak = smooth[mode]
-    typical = float(np.median(smooth[smooth > 0]))
-    if mode >= bins // 2 or not peak > 3.0 * typical:
+    smooth, edges, mode, is_peak = _histogram_mode(sample, t0, t1, None if weights is None else weights[inside], bins)
+    if mode >= bins // 2 or not is_peak:
         return None
-    end = mode + 1
-    while end < bins - 1 and smooth[end] >= 0.05 * peak and not (
-            smooth[end] < 0.5 * peak and smooth[end] < smooth[end - 1] and smooth[end] <= smooth[end + 1]):
-        end += 1
+    end = _mode_end(smooth, mode, 1)
     if end - mode > bins // 4:
         return None
     return float(edges[end])
@@ -1094,22 +1086,26 @@ def _ray_opacity(shape, ray_length, weights=None):
 def _column_opacity(values, scale, linthresh, axis_points, points, spacing):
     """The opacity ``a`` (per unit distance) whose 95th percentile of column optical
     depths ``sum a s(v) spacing`` along the grid's three axes is ``-ln(r)``."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        axis = scale_forward(values, scale, linthresh)
-    shape = np.interp(axis, axis_points, points)
-    shape[~np.isfinite(axis)] = 0.0  # NaN, and values <= 0 on a log axis: empty
-    depths = [shape.sum(axis=2).ravel() * spacing[0], shape.sum(axis=1).ravel() * spacing[1],
-              shape.sum(axis=0).ravel() * spacing[2]]
-    d95 = float(np.percentile(np.concatenate(depths), 95.0))
+    d95 = float(np.percentile(_column_depths(values, scale, linthresh, axis_points, points, spacing), 95.0))
     if not d95 > 0:
         return DEFAULT_MAX_OPACITY
     return float(min(-np.log(DEFAULT_TRANSMITTANCE) / d95, DEFAULT_MAX_OPACITY))
 
 
+def _column_depths(values, scale, linthresh, axis_points, points, spacing):
+    """The optical depths ``sum s(v) spacing`` (per unit of opacity) of a grid's columns
+    along its three axes, one array, for the shape ``s`` given at ``axis_points``."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        axis = scale_forward(values, scale, linthresh)
+    shape = np.interp(axis, axis_points, points)
+    shape[~np.isfinite(axis)] = 0.0  # NaN, and values <= 0 on a log axis: empty
+    return np.concatenate([shape.sum(axis=2).ravel() * spacing[0], shape.sum(axis=1).ravel() * spacing[1],
+                           shape.sum(axis=0).ravel() * spacing[2]])
+
+
 def _cmap_rgb(cmap, t):
     """RGB at ``t`` in [0, 1] of ``cmap`` (None: the default colormap, as :func:`_cmap_colors`)."""
-    colors = _cmap_colors(cmap)
-    return colors(t) if callable(colors) and not isinstance(colors, str) and cmap is None else colormap_rgb(colors, t)
+    return _cmap_colors(None)(t) if cmap is None else colormap_rgb(cmap, t)
 
 
 def _cmap_colors(cmap):

@@ -82,6 +82,17 @@ def _simplify(axis, values, tolerance):
     return np.array(keep)
 
 
+def read_json(path, fix):
+    """The JSON of the file at ``path``; a file that is not JSON (truncated, say, or not
+    text) is a ``ValueError`` naming it, with ``fix`` (what the user can do) in it."""
+    name = os.fspath(path)
+    with open(name, encoding="utf-8") as fh:
+        try:
+            return json.load(fh)
+        except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError: name the file, not only the line
+            raise ValueError(f"{name!r} is not valid JSON ({fix}): {exc}") from None
+
+
 class TransferFunctionModel:
     """The edited transfer function, its display axes and its undo history.
 
@@ -723,13 +734,7 @@ class TransferFunctionModel:
             The file is not JSON (truncated, say) or not one of those; the message
             names it.
         """
-        name = os.fspath(path)
-        with open(name, encoding="utf-8") as fh:
-            try:
-                data = json.load(fh)
-            except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError: name the file, not only the line
-                raise ValueError(f"{name!r} is not valid JSON (truncated or not a transfer function file: save it "
-                                 f"again): {exc}") from None
+        data = read_json(path, "truncated or not a transfer function file: save it again")
         if isinstance(data, list):
             first = data[0] if data and hasattr(data[0], "get") else {}
             return cls.from_paraview_preset(data, first.get("Name"), values, rescale=rescale)

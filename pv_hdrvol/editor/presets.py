@@ -36,7 +36,7 @@ import numpy as np
 
 from .._validate import as_int
 from ..data.transfer import TransferFunction, _scale_inverse
-from .model import TransferFunctionModel, _simplify
+from .model import TransferFunctionModel, _simplify, read_json
 
 #: Points sampled over the range for colour spaces and opacity curves read through VTK.
 SAMPLES = 4096
@@ -55,12 +55,8 @@ def read_paraview_presets(source):
     """The presets in ``source``: a path to ParaView's JSON, a JSON string, a dict (one
     preset) or a list of them. Returns a list of dicts."""
     if isinstance(source, (str, os.PathLike)) and not str(source).lstrip().startswith(("[", "{")):
-        with open(os.fspath(source), encoding="utf-8") as fh:
-            try:
-                data = json.load(fh)
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"{os.fspath(source)!r} is not valid JSON (truncated or not a ParaView preset "
-                                 f"file: export it again from ParaView's Choose Preset dialog): {exc}") from None
+        data = read_json(source, "truncated or not a ParaView preset file: export it again from ParaView's "
+                                 "Choose Preset dialog")
     elif isinstance(source, str):
         try:
             data = json.loads(source)

@@ -390,12 +390,6 @@ def leap_radius(active, cap=255):
     return np.ascontiguousarray(radius)
 
 
-def _axis_position(values, params):
-    """``_kernels.table_position`` in numpy, unclipped (float64)."""
-    axis = scale_forward(values, SCALES[params.scale], params.linthresh)
-    return (axis - params.axis_lo) * params.axis_inv_range
-
-
 def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *, block_mask=None, cull=None,
                   lens=None, labels=None, label_styles=None, progress=None, progress_bar=None, cmap=None, clim=None,
                   opacity=None, scale=None, **option_kwargs):

@@ -105,6 +105,10 @@ def _as_lights(value):
     return tuple(x if isinstance(x, Light) else Light(x) for x in items)
 
 
+#: the options ``tolerance=`` chooses (they must stay at their defaults beside it)
+TOLERANCE_KNOBS = ("step", "termination", "precision")
+
+
 @dataclass(frozen=True)
 class RenderOptions:
     """How a volume is sampled and composited.
@@ -183,6 +187,18 @@ class RenderOptions:
         on the axis, so a log axis measures relative change), and fades linearly to
         none where it does not change. Default 0.01; ``0`` shades wherever the gradient
         is non-zero.
+    tolerance : float or None
+        The accuracy you accept, instead of the knobs: the RMS error of the linear,
+        premultiplied RGB image against the converged render (over every pixel and
+        channel), relative to the image's brightest value, in ``(0, 0.5]``. The
+        renderer then chooses ``step`` (meshes: ``tau_max``), ``termination``, the
+        table size and ``precision`` to meet it in the least time it finds: a pilot
+        of about 4,096 pixels of the same view rendered at halving steps gives the
+        sampling error's order and size (Richardson extrapolation), and the chosen
+        termination and table are measured on it against none and the function's own
+        (:mod:`pv_hdrvol.raycast.tolerance`). ``step``, ``termination`` and
+        ``precision`` must then stay at their defaults. The choices and the estimated
+        error are in ``metadata["tolerance"]``. ``None`` (default): the knobs as given.
     """
 
     step: float = 0.5
@@ -203,6 +219,7 @@ class RenderOptions:
     lights: object = None
     shade_gradient: str = "sampled"
     shade_threshold: float = 0.01
+    tolerance: Optional[float] = None
 
     def __post_init__(self):
         object.__setattr__(self, "step", as_real("step", self.step, low=0, low_open=True))
@@ -255,6 +272,14 @@ class RenderOptions:
         object.__setattr__(self, "shade_threshold", as_real("shade_threshold", self.shade_threshold, low=0))
         if self.shade and self.blending != "composite":
             raise ValueError(f"shade applies to blending='composite' only; got blending={self.blending!r}")
+        if self.tolerance is not None:
+            object.__setattr__(self, "tolerance",
+                               as_real("tolerance", self.tolerance, low=0, high=0.5, low_open=True))
+            chosen = {name: getattr(self, name) for name in TOLERANCE_KNOBS
+                      if getattr(self, name) != _DEFAULTS[name]}
+            if chosen:
+                raise ValueError(f"tolerance= chooses {', '.join(TOLERANCE_KNOBS)}: leave them at their defaults or "
+                                 f"drop tolerance; got {', '.join(f'{k}={v!r}' for k, v in chosen.items())}")
 
     @property
     def light_list(self):
@@ -279,3 +304,7 @@ class RenderOptions:
             raise TypeError(f"unknown render option(s) {unknown}; allowed: {sorted(names)}")
         base = options if options is not None else cls()
         return dataclasses.replace(base, **kwargs) if kwargs else base
+
+
+#: the defaults of :class:`RenderOptions` (``tolerance=`` checks its knobs against them)
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(RenderOptions)}

@@ -253,7 +253,13 @@ def test_skip_structures_are_reused_per_transfer_function_and_mask():
     half[:, :, :2] = True
     masked = hv.render(vol, upper, cam, 16, block_size=4, block_mask=half, precision="float64")
     assert masked.metadata["samples"] < first.metadata["samples"]
+    # only which entries are transparent matter: other opacities (or steps) share a structure
     for opacity in (0.1, 0.2, 0.4):
         tf = hv.TransferFunction.ramp(0.5, 1.0, cmap="gray", opacity=(0.0, opacity))
+        hv.render(vol, tf, cam, 16, block_size=4, precision="float64")
+    hv.render(vol, upper, cam, 16, block_size=4, precision="float64", step=1.5)
+    assert len(vol.cache["skip_structures"]) == 3
+    for start in (0.6, 0.7):
+        tf = hv.TransferFunction.ramp(start, 1.0, cmap="gray", opacity=(0.0, 0.3))
         hv.render(vol, tf, cam, 16, block_size=4, precision="float64")
     assert len(vol.cache["skip_structures"]) == 4

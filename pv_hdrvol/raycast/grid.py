@@ -278,7 +278,7 @@ def _base_active(volume, blocks, opts, styles, table, params):
     if styles is not None:
         return build()
     key = (blocks.block_size, opts.blending, opts.skip_empty, params.scale, params.axis_lo, params.axis_inv_range,
-           params.linthresh, params.precision, table.shape[0], content_digest(table[:, 3]))
+           params.linthresh, params.precision, table.shape[0], content_digest(table[:, 3] > 0))
     return cached(volume.cache, "active_blocks", key, build, _SKIP_CACHE)
 
 
@@ -287,9 +287,10 @@ def _skip_structure(volume, blocks, opts, styles, table, params, mask):
     (``leap_radius``, flat), cached on the volume for the last few transfer functions.
 
     A render that changes only the camera (the common case: orbiting, an animation)
-    then skips both. The key holds everything ``_active_blocks`` reads, with the opacity
-    column and the mask as ``content_digest``s (a table may have 2**24 entries: the cache
-    keeps no copy); labelled renders are not cached.
+    then skips both. The key holds everything ``_active_blocks`` reads, with which
+    entries of the opacity column are non-zero (all it reads of them: renders at other
+    steps share the structure) and the mask as ``content_digest``s (a table may have
+    2**24 entries: the cache keeps no copy); labelled renders are not cached.
     """
     def build():
         active = _base_active(volume, blocks, opts, styles, table, params)
@@ -303,7 +304,7 @@ def _skip_structure(volume, blocks, opts, styles, table, params, mask):
     if styles is not None:
         return build()
     key = (blocks.block_size, opts.blending, opts.skip_empty, params.scale, params.axis_lo, params.axis_inv_range,
-           params.linthresh, params.precision, table.shape[0], content_digest(table[:, 3]),
+           params.linthresh, params.precision, table.shape[0], content_digest(table[:, 3] > 0),
            None if mask is None else content_digest(mask))
     return cached(volume.cache, "skip_structures", key, build, _SKIP_CACHE)
 
@@ -625,6 +626,15 @@ class GridPlan:
         labels, no culling, no level-of-detail lens.
         """
         tf, opts, table, sigma = self.tf, self.options, self.table, self.sigma
+        if opts.tolerance is not None:
+            if piece is not None:
+                raise ValueError("tolerance= chooses the knobs per render; a piece of a distributed volume needs the "
+                                 "whole render's: choose them once (metadata['tolerance'] of a render of the whole) "
+                                 "and give step=, termination= and precision=")
+            from .tolerance import execute_grid
+
+            return execute_grid(self, camera, size, lens=lens, block_mask=block_mask, cull=cull, window=window,
+                                progress=progress, progress_bar=progress_bar, chunk_seconds=chunk_seconds, far=far)
         if piece is not None:
             if self.labels is not None or cull is not None or block_mask is not None:
                 raise ValueError("a piece of a distributed volume renders without labels, cull= and block_mask=")

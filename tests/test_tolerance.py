@@ -176,3 +176,37 @@ def test_renders_at_other_steps_share_the_skip_structure():
     for step in (0.5, 1.0, 2.0):
         hv.render(vol, tf, "iso", (8, 8), step=step, progress_bar=False)
     assert len(vol.cache["skip_structures"]) == 1
+
+
+def radial_mesh():
+    from meshes import box_mesh
+
+    pts, tets, values = box_mesh((6, 6, 6), spacing=1.0, field=lambda p: np.linalg.norm(p - 3.0, axis=1))
+    return hv.tetmesh_from_arrays(pts, tets, values)
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-4])
+def test_mesh_render_meets_the_tolerance_against_the_converged_render(tol):
+    mesh = radial_mesh()
+    tf = hv.TransferFunction([0.0, 1.5, 3.0, 5.5], [[1, 1, 1], [1, 0.3, 0.1], [0.1, 0.3, 1], [0, 0, 0]],
+                             [0.9, 0.2, 0.6, 0.0])
+    cam = hv.Camera.fit(mesh.bounds, "iso")
+    fine = hv.TransferFunction(tf.values, tf.colors, tf.opacities, table_size=2**16)
+    ref = hv.render_tets(mesh, fine, cam, (40, 40), precision="float64", tau_max=0.002, termination=0.0,
+                         progress_bar=False).rgba[..., :3]
+    img = hv.render_tets(mesh, tf, cam, (40, 40), tolerance=tol, progress_bar=False)
+    error = float(np.sqrt(np.mean((img.rgba[..., :3] - ref) ** 2)) / ref.max())
+    meta = img.metadata["tolerance"]
+    assert error <= tol
+    assert meta["estimated_error"] <= tol
+    assert meta["tau_max"] == img.metadata["tau_max"]
+    if tol == 1e-4:  # tau_max 1 is 2.5e-4 off here: the ladder went finer
+        assert meta["tau_max"] < 1.0
+    # replayed, the settings choose the same knobs
+    np.testing.assert_array_equal(hv.RenderSettings.from_dict(img.metadata["settings"]).render(mesh).rgba, img.rgba)
+
+
+def test_mesh_tolerance_replaces_tau_max():
+    with pytest.raises(ValueError, match=r"tolerance= chooses tau_max: leave it at its default or drop tolerance; "
+                                         r"got tau_max=0\.1"):
+        hv.render_tets(radial_mesh(), None, "iso", (8, 8), tolerance=1e-3, tau_max=0.1)

@@ -132,6 +132,9 @@ class TetPlan:
         if opts.gradient_opacity is not None:
             raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
         self.tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
+        if opts.tolerance is not None and self.tau_max != TAU_MAX:
+            raise ValueError(f"tolerance= chooses tau_max: leave it at its default or drop tolerance; got "
+                             f"tau_max={tau_max!r}")
         default_tf = tf is None
         tf = resolve_transfer_function(mesh, tf, cmap=cmap, clim=clim, opacity=opacity, scale=scale)
         prec = opts.precision
@@ -172,6 +175,15 @@ class TetPlan:
         """:meth:`execute`, and the boundary's ``_view`` for this camera (reused when
         ``view`` was made for it): ``(image, view)``."""
         mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
+        if opts.tolerance is not None:
+            if piece is not None:
+                raise ValueError("tolerance= chooses the knobs per render; a piece of a distributed mesh needs the "
+                                 "whole render's: choose them once (metadata['tolerance'] of a render of the whole) "
+                                 "and give tau_max=, termination= and precision=")
+            from .tolerance import execute_mesh
+
+            return execute_mesh(self, camera, size, progress=progress, progress_bar=progress_bar, view=view,
+                                chunk_seconds=chunk_seconds, far=far)
         if piece is not None and not isinstance(piece, MeshPiece):
             raise TypeError(f"piece must be a MeshPiece; got {type(piece).__name__}")
         camera = as_camera(camera, mesh.bounds if piece is None else piece.bounds())
@@ -333,6 +345,8 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     # the settings of the whole render, not of its low-resolution part
     out.metadata["settings"] = {**low.metadata["settings"], "size": [width, height],
                                 "keywords": {**low.metadata["settings"]["keywords"], "upsample": factor}}
+    if "tolerance" in low.metadata:  # the knobs chosen for the low render
+        out.metadata["tolerance"] = low.metadata["tolerance"]
     out.metadata.update({"low_render_seconds": t1 - t0, "reference_seconds": t2 - t1, "upsample_seconds": t3 - t2,
                          "reference_layers": layers.n_layers, "layers_needed": layers.layers_needed})
     return out

@@ -253,3 +253,75 @@ def plan_settings(plan, settings):
     out["options"] = options_to_dict(plan.options)
     out["tf"] = plan.tf.to_dict()
     return out
+
+
+def execute_mesh(plan, camera, size, *, progress=None, progress_bar=None, view=None, chunk_seconds=None, far=None):
+    """``TetPlan.execute_with_view`` for a plan whose options carry a ``tolerance``:
+    choose ``tau_max``, termination, table and precision on a pilot (the same camera
+    at a coarser size), then render. Returns ``(image, view)``."""
+    from .._validate import as_size
+    from ..rays.camera import Camera, as_camera
+    from .grid import _check_far
+    from .tets import TetPlan
+
+    opts, tol = plan.options, plan.options.tolerance
+    t0 = time.perf_counter()
+    camera = as_camera(camera, plan.mesh.bounds)
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a Camera, a view name or a PyVista/VTK camera (not Rays: a tetrahedral "
+                        f"render makes its own rays); got {type(camera).__name__}")
+    width, height = as_size(size)
+    far_all = _check_far(far, width, height)
+    s = pilot_stride(width, height)
+    pilot_size = (max(1, width // s), max(1, height // s))
+    pilot_far = None
+    if far_all.size:  # each pilot pixel takes the limit of the full pixel nearest its centre
+        rows = np.minimum((np.arange(pilot_size[1]) + 0.5) * height / pilot_size[1], height - 1).astype(np.int64)
+        cols = np.minimum((np.arange(pilot_size[0]) + 0.5) * width / pilot_size[0], width - 1).astype(np.int64)
+        pilot_far = np.ascontiguousarray(far_all.reshape(height, width)[rows[:, None], cols[None, :]])
+
+    def child(tf, tau, termination):
+        o = opts.replace(tolerance=None, termination=termination, precision="float64")
+        return TetPlan(plan.mesh, tf, o, tau_max=tau)
+
+    def pilot_rgb(tf, tau, termination):
+        img = child(tf, tau, termination).execute(camera, pilot_size, progress_bar=False, far=pilot_far)
+        return np.asarray(img.rgba[..., :3], dtype=np.float64)
+
+    tf = plan.tf
+    tf_fast = _table_for(tf, tol)
+    c_max = _brightest(tf, opts)
+    knobs = {}
+
+    def rung(tau):
+        if not knobs:
+            rgb = pilot_rgb(tf_fast, tau, 0.0)
+            knobs["termination"] = _termination_for(tol, float(rgb.max(initial=0.0)), c_max)
+            return rgb
+        return pilot_rgb(tf_fast, tau, knobs["termination"])
+
+    tau, estimate, stats = ladder_choice(rung, MESH_LADDER, STEP_SHARE * tol)
+    termination = knobs["termination"]
+    peak = stats["peak"]
+    bias = _termination_for(tol, peak, c_max) * c_max / peak if peak > 0 else 0.0
+    if tf_fast is not tf and tf_fast.table_size < tf.table_size and peak > 0:
+        bias = rms(pilot_rgb(tf_fast, tau, termination), pilot_rgb(tf, tau, 0.0)) / peak
+        if bias > (1.0 - STEP_SHARE) * tol:
+            tf_fast = tf
+            bias = TERMINATION_SHARE * tol
+    estimate += bias
+    stats["knob_bias"] = float(bias)
+    stats["pilot_pixels"] = int(pilot_size[0] * pilot_size[1])
+    chosen = {"tau_max": float(tau), "termination": float(termination), "precision": "float64",
+              "table_size": int(getattr(tf_fast, "table_size", 0))}
+    seconds = time.perf_counter() - t0
+    if estimate > tol:
+        warnings.warn(f"tolerance={tol:g} not met: the finest tau_max tried ({tau:g}) has an estimated error of "
+                      f"{estimate:.3g}", ToleranceWarning, stacklevel=3)
+    img, view = child(tf_fast, tau, termination).execute_with_view(
+        camera, size, progress=progress, progress_bar=progress_bar, view=view, chunk_seconds=chunk_seconds, far=far)
+    img.metadata["tolerance"] = _knob_record(tol, estimate, stats, chosen, seconds)
+    img.metadata["settings"] = plan_settings(plan, img.metadata["settings"])
+    # replayed, the settings choose again: tau_max stays the plan's (the default)
+    img.metadata["settings"]["keywords"] = {**img.metadata["settings"].get("keywords", {}), "tau_max": plan.tau_max}
+    return img, view

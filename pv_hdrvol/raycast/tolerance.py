@@ -61,6 +61,32 @@ RHO_MIN = 2.0 ** -2
 MAX_TERMINATION = 1e-2
 
 
+#: a pilot render expected to take fewer samples than this runs on one thread: a
+#: parallel launch costs more than such a render when the machine is busy (engine,
+#: 256^2, 1e-3, load 1.8 on 2 cores: pilots 0.083-0.107 s on two threads, 0.015-0.023 s
+#: on one)
+PILOT_SERIAL_SAMPLES = 2_000_000
+
+
+class _threads:
+    """Run the body on ``n`` numba threads (``None``: as many as now)."""
+
+    def __init__(self, n):
+        self.n = n
+
+    def __enter__(self):
+        import numba
+
+        self.before = numba.get_num_threads()
+        if self.n is not None:
+            numba.set_num_threads(min(self.n, self.before))
+
+    def __exit__(self, *exc):
+        import numba
+
+        numba.set_num_threads(self.before)
+
+
 class ToleranceWarning(UserWarning):
     """The tolerance could not be met within the ladder's finest step."""
 
@@ -195,12 +221,17 @@ def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, w
     pilot = Rays(np.ascontiguousarray(rays.origins[pick]), np.ascontiguousarray(rays.directions[pick]),
                  cols.size, rows.size, None if rays.lod is None else np.ascontiguousarray(np.asarray(rays.lod)[pick]))
 
+    diagonal = float(np.linalg.norm(np.asarray(plan.source.dims, dtype=np.float64) - 1.0))  # voxels
+
     def child(tf, step, termination):
         o = opts.replace(tolerance=None, step=step, termination=termination, precision="float64")
         return GridPlan(plan.source, tf, o, labels=plan.labels, label_styles=plan.label_styles)
 
     def pilot_rgb(tf, step, termination):
-        img = child(tf, step, termination).execute(pilot, block_mask=block_mask, far=pilot_far, progress_bar=False)
+        samples = pick.size * diagonal / step
+        with _threads(1 if samples < PILOT_SERIAL_SAMPLES else None):
+            img = child(tf, step, termination).execute(pilot, block_mask=block_mask, far=pilot_far,
+                                                       progress_bar=False)
         return np.asarray(img.rgba[..., :3], dtype=np.float64)
 
     tf = plan.tf
@@ -285,7 +316,8 @@ def execute_mesh(plan, camera, size, *, progress=None, progress_bar=None, view=N
         return TetPlan(plan.mesh, tf, o, tau_max=tau)
 
     def pilot_rgb(tf, tau, termination):
-        img = child(tf, tau, termination).execute(camera, pilot_size, progress_bar=False, far=pilot_far)
+        with _threads(1):  # a few thousand rays: one thread (see PILOT_SERIAL_SAMPLES)
+            img = child(tf, tau, termination).execute(camera, pilot_size, progress_bar=False, far=pilot_far)
         return np.asarray(img.rgba[..., :3], dtype=np.float64)
 
     tf = plan.tf

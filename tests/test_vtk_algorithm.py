@@ -1,4 +1,5 @@
 """HDRVolumeRenderer in a plain VTK pipeline."""
+import re
 import subprocess
 import sys
 
@@ -263,6 +264,55 @@ def test_setters_validate_through_render_options_and_modify():
     _, vcam = _camera()
     alg.SetCamera(vcam)
     assert isinstance(alg.GetCamera(), hv.Camera) and alg.GetCamera().view_angle == 35.0
+
+
+def test_tolerance_round_trips_as_a_vtk_number_and_conflicts_with_the_knobs_it_chooses():
+    """SetTolerance/GetTolerance: a number, 0 (or None) for off; RenderOptions says None
+    then. With a tolerance on, Step, Termination and Precision stay at their defaults:
+    setting one is RenderOptions' ValueError, in either order, and changes nothing."""
+    alg = HDRVolumeRenderer()
+    assert alg.GetTolerance() == 0.0 and alg.GetOptions().tolerance is None
+    t0 = alg.GetMTime()
+    alg.SetTolerance(1e-3)
+    t1 = alg.GetMTime()
+    assert t1 > t0 and alg.GetTolerance() == 1e-3 and alg.GetOptions() == hv.RenderOptions(tolerance=1e-3)
+    alg.SetTolerance(1e-3)  # unchanged: no Modified()
+    assert alg.GetMTime() == t1
+    knobs = "tolerance= chooses step, termination, precision: leave them at their defaults or drop tolerance; got "
+    for setter, value, shown in (("SetStep", 0.25, "step=0.25"), ("SetTermination", 1e-3, "termination=0.001"),
+                                 ("SetPrecision", "float64", "precision='float64'")):
+        with pytest.raises(ValueError, match="^" + re.escape(knobs + shown) + "$"):
+            getattr(alg, setter)(value)
+    assert alg.GetOptions() == hv.RenderOptions(tolerance=1e-3) and alg.GetMTime() == t1
+    alg.SetTolerance(0)
+    assert alg.GetTolerance() == 0.0 and alg.GetOptions() == hv.RenderOptions() and alg.GetMTime() > t1
+    t2 = alg.GetMTime()
+    alg.SetTolerance(None)  # also off: unchanged
+    assert alg.GetTolerance() == 0.0 and alg.GetMTime() == t2
+    alg.SetStep(0.25)
+    with pytest.raises(ValueError, match="^" + re.escape(knobs + "step=0.25") + "$"):
+        alg.SetTolerance(1e-3)
+    assert alg.GetTolerance() == 0.0 and alg.GetStep() == 0.25
+    with pytest.raises(ValueError, match=r"^tolerance must be > 0; got -0\.001$"):
+        alg.SetTolerance(-1e-3)
+    with pytest.raises(ValueError, match=r"^tolerance must be <= 0\.5; got 0\.7$"):
+        alg.SetTolerance(0.7)
+
+
+def test_proxy_writer_refuses_a_tolerance(tmp_path):
+    """make_proxies casts at one step: a tolerance is refused, not silently dropped."""
+    from pv_hdrvol.integrations.vtk_algorithm import HDRProxyWriter
+
+    writer = HDRProxyWriter()
+    writer.SetInputDataObject(_image_data())
+    writer.SetFileName(str(tmp_path / "p.proxy"))
+    writer.SetTolerance(1e-3)
+    with CapturedErrors():
+        assert not writer.Update()
+    assert writer.GetLastError() == ("ValueError: HDRProxyWriter casts its proxies at SetStep's step; SetTolerance "
+                                     "chooses the knobs of a render, not of proxies: SetTolerance(0); got "
+                                     "tolerance=0.001")
+    assert not (tmp_path / "p.proxy").exists()
 
 
 def test_module_does_not_import_pyvista():

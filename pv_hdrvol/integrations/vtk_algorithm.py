@@ -133,6 +133,16 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     so validated) by each setter, which then calls ``Modified()`` if the value
     changed.
 
+    Say the accuracy instead of the knobs: ``SetTolerance(1e-3)`` (the RMS error of the
+    image relative to its peak, ``RenderOptions.tolerance``) lets the renderer choose
+    step, termination, table size and precision at each execution; ``SetTolerance(0)``
+    switches it off. Step, termination and precision must then stay at their defaults
+    (setting one is the ``ValueError`` of :class:`~pv_hdrvol.RenderOptions`). The
+    choices and the estimated error reach the output with the rest of the image's
+    metadata (the field-data string ``"hdrvol_metadata"``, JSON: its ``"tolerance"``
+    entry; :meth:`HDRImage.from_pyvista <pv_hdrvol.HDRImage.from_pyvista>` reads it
+    back) and :meth:`GetLastTolerance`.
+
     Pieces (MPI: ``pvbatch --mpi``, ``pvserver`` on several ranks): data with a transfer
     function (set, or a lookup table) is rendered where it lives. For an image each
     process asks its input for its own piece of the extent (VTK's extent translator,
@@ -141,9 +151,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     and piece 0 composites the partial images in depth order into the whole image
     (:mod:`pv_hdrvol.parallel.pieces`; equal to the serial render to rounding); the
     other pieces output empty images. Otherwise (the default transfer function -- it
-    reads every value --, a cell array, a lens, labels or culling) piece 0 asks for all
-    of the data (the whole extent of an image, piece 0 of 1 of a mesh) and renders it
-    alone; no process renders its piece as if it were the whole.
+    reads every value --, a cell array, a lens, labels, culling or a tolerance -- its
+    knobs are chosen on a pilot of the whole image) piece 0 asks for all of the data
+    (the whole extent of an image, piece 0 of 1 of a mesh) and renders it alone; no
+    process renders its piece as if it were the whole.
 
     Scalars: ``SetScalars(name)``, or the standard
     ``SetInputArrayToProcess(0, 0, 0, association, name)``; by default the active
@@ -193,6 +204,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._default_tf = None  # (data, keywords, the data's default transfer function)
         self._camera = None
         self._last_camera = None
+        self._last_tolerance = None
         self._lens = None
         self._cull = None
         self._labels = None
@@ -255,6 +267,30 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         "shade_gradient", "'sampled' (central differences at each sample) or 'interpolated'.")
     SetShadeThreshold, GetShadeThreshold = _option_methods(
         "shade_threshold", "fraction of the TF axis per voxel at which shading is at full strength (>= 0).")
+
+    def SetTolerance(self, tolerance):
+        """Set ``RenderOptions.tolerance``: the RMS error of the linear, premultiplied RGB
+        image against the converged render, relative to its peak, in (0, 0.5]; the
+        renderer then chooses step, termination, table size and precision. ``0`` or
+        ``None``: off (the knobs as set). Step, termination and precision must be at
+        their defaults while it is on. Validated by :class:`~pv_hdrvol.RenderOptions`;
+        calls ``Modified()`` when it changes."""
+        # 0 is "off" as in a VTK (ParaView) number property; RenderOptions says None
+        if isinstance(tolerance, numbers.Real) and not isinstance(tolerance, bool) and tolerance == 0:
+            tolerance = None
+        self._set_options(tolerance=tolerance)
+
+    def GetTolerance(self):
+        """``RenderOptions.tolerance`` as a VTK number: ``0.0`` when off (the field is
+        then ``None``: ``GetOptions().tolerance``)."""
+        return 0.0 if self._options.tolerance is None else self._options.tolerance
+
+    def GetLastTolerance(self):
+        """What the last execution chose for its tolerance, else ``None``: the image's
+        ``metadata["tolerance"]`` (``step`` or, for a mesh, ``tau_max``,
+        ``termination``, ``table_size``, ``precision``, ``estimated_error``, ...; see
+        :mod:`pv_hdrvol.raycast.tolerance`), a copy."""
+        return None if self._last_tolerance is None else dict(self._last_tolerance)
 
     # -- other properties --------------------------------------------------------------
     def SetImageSize(self, width, height=None):
@@ -590,8 +626,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
         mesh = not structured and data is not None and data.GetClassName() == "vtkUnstructuredGrid"
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
-                or self._labels is not None or self._cull is not None:
-            return None
+                or self._labels is not None or self._cull is not None or self._options.tolerance is not None:
+            return None  # a tolerance's knobs are chosen on a pilot of the whole image
         try:
             if self._scalars_to_render()[1] == "cell" or self._transfer_function() is None:
                 return None  # a cell array; the default function reads every value of the whole volume
@@ -638,8 +674,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                            inp.GetBounds())
         self._last_camera = camera
         tf = self._transfer_function()
+        self._last_tolerance = None
 
-        first = _first_use(kind == "vtkUnstructuredGrid", self._options.precision)
+        first = _first_use(kind == "vtkUnstructuredGrid", _compiled_precision(self._options))
         if first:  # numba compiles (or loads from its cache) the kernels now: say so
             self.SetProgressText("compiling the ray caster (first render)")
             _display_text(f"pv_hdrvol: first {first} render in this process: compiling the ray caster, or loading "
@@ -670,6 +707,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         finally:
             if first:
                 _display_text(f"pv_hdrvol: first {first} render took {time.perf_counter() - started:.1f} s")
+        self._last_tolerance = image.metadata.get("tolerance")
         out.ShallowCopy(image.to_vtk())
         return 1
 
@@ -712,7 +750,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                 self.UpdateProgress(fraction)
                 return not self._should_abort()
 
-            first = _first_use(False, self._options.precision)
+            first = _first_use(False, _compiled_precision(self._options))
             if first:
                 _display_text(f"pv_hdrvol: first {first} render in this process (its piece): compiling the ray "
                               f"caster, or loading it from numba's cache ({_numba_cache_dir()})")
@@ -985,6 +1023,9 @@ class HDRProxyWriter(HDRVolumeRenderer):
                              f"{'nothing' if inp is None else kind}")
         if not self._file_name:
             raise ValueError("HDRProxyWriter has no file name: SetFileName(folder) first")
+        if self._options.tolerance is not None:  # make_proxies casts at one step
+            raise ValueError(f"HDRProxyWriter casts its proxies at SetStep's step; SetTolerance chooses the knobs of "
+                             f"a render, not of proxies: SetTolerance(0); got tolerance={self._options.tolerance!r}")
         scalars, preference = self._scalars_to_render()
         data = self._volumes.get(inp, scalars, preference)
         camera = Camera(**self._camera) if isinstance(self._camera, dict) else self._camera
@@ -1165,6 +1206,12 @@ def _first_use(mesh, precision):
         return ""
     _RENDERED.add(key)
     return f"{precision} {'tetrahedral mesh' if mesh else 'image volume'}"
+
+
+def _compiled_precision(options):
+    """The precision whose kernels a render with ``options`` runs: a tolerance's is
+    chosen (float64, :mod:`pv_hdrvol.raycast.tolerance`), not the option's default."""
+    return "float64" if options.tolerance is not None else options.precision
 
 
 def _numba_cache_dir():

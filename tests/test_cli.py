@@ -167,6 +167,7 @@ def test_info(volume_file, tmp_path, capsys):
             f"{tf.scale}, colours in rgb, opacity 0 to {tf.opacities.max():.6g}, table of 65536 entries\n") in out
     assert "  options:            step=0.5, precision='float64', global_alpha=1.0, " in out
     assert "  settings: " not in out  # not repeated as a raw dict
+    assert "the knobs the renderer chose" not in out  # no tolerance=, no record of one
     assert main(["info", str(exr), "--json"]) == 0
     assert json.loads(capsys.readouterr().out) == image.metadata
 
@@ -209,6 +210,16 @@ def test_info(volume_file, tmp_path, capsys):
     (["demo", "-o", "{tmp}/out", "--size", "8"], "pv-hdrvol demo: error: --output-dir: cannot write an image over a "
                                                  "folder: '{tmp}/out/demo.png'"),
     (["paint"], "pv-hdrvol: error: argument COMMAND: invalid choice: 'paint'"),
+    # --tolerance chooses what --step and --precision set: refused together, as argparse refuses
+    # exclusive options, before the file is read
+    (["render", "{tmp}/missing.vti", "--tolerance", "1e-3", "--step", "1"],
+     "pv-hdrvol render: error: argument --tolerance: not allowed with argument --step"),
+    (["render", "{vol}", "--precision", "float64", "--tolerance", "1e-3"],
+     "pv-hdrvol render: error: argument --tolerance: not allowed with argument --precision"),
+    (["demo", "--tolerance", "1e-2", "--step", "1", "--precision", "float32"],
+     "pv-hdrvol demo: error: argument --tolerance: not allowed with argument --step"),
+    (["render", "{vol}", "--tolerance", "0.7"], "pv-hdrvol render: error: tolerance must be <= 0.5; got 0.7"),
+    (["render", "{vol}", "--tolerance", "0"], "pv-hdrvol render: error: tolerance must be > 0; got 0.0"),
 ])
 def test_user_errors_exit_2_without_traceback(args, message, volume_file, tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("not a volume")

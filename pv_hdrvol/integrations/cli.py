@@ -4,6 +4,7 @@
 
     pv-hdrvol render volume.vti --scalars density -o out.exr --png out.png --size 800 600
     pv-hdrvol render volume.vti -o out.exr --png figure.png --tonemap drago --colorbar
+    pv-hdrvol render volume.vti -o out.exr --tolerance 1e-3
     pv-hdrvol demo -o outdir --size 128
     pv-hdrvol info out.exr
 
@@ -47,6 +48,11 @@ def _add_render_options(p):
                    help="image size: N (square) or W H (default 512)")
     p.add_argument("--step", type=float, default=None, help="sample distance in voxels (default 0.5)")
     p.add_argument("--precision", choices=PRECISIONS, default=None, help="compositing precision (default float32)")
+    p.add_argument("--tolerance", type=float, default=None, metavar="TOL",
+                   help="the accuracy you accept instead of --step and --precision: the RMS error of the linear RGB "
+                        "image against the converged render, relative to its peak, in (0, 0.5], e.g. 1e-3; the "
+                        "renderer chooses the step, termination, table size and precision (pv-hdrvol info prints "
+                        "them)")
     p.add_argument("--global-alpha", type=float, default=None, help="opacity multiplier in (0, 1]")
     p.add_argument("--blending", choices=BLENDINGS, default=None,
                    help="composite (default), maximum/minimum intensity projection, average, or additive (X-ray); "
@@ -247,7 +253,18 @@ def main(argv=None):
 
 
 # -- commands -------------------------------------------------------------------------
+def _check_tolerance(args):
+    """``--tolerance`` chooses what ``--step`` and ``--precision`` set: refuse them
+    together as argparse refuses mutually exclusive options, before any work."""
+    if args.tolerance is None:
+        return
+    given = [flag for flag, value in (("--step", args.step), ("--precision", args.precision)) if value is not None]
+    if given:
+        raise UserError(f"argument --tolerance: not allowed with argument {given[0]}")
+
+
 def _cmd_render(args):
+    _check_tolerance(args)
     path = _readable_file(args.file)
     output = pathlib.Path(args.output) if args.output else pathlib.Path(path.stem + ".exr")
     png = _check_outputs(output, args.png)
@@ -271,6 +288,7 @@ def _cmd_render(args):
     shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
     # .strip(): pyvista names a cube's array after its comment line (" SCF Total Density\n")
     _print_stats(image, f"{path.name} ({volume.name.strip()}, {shape})")
+    _print_tolerance(image.metadata.get("tolerance"))
 
 
 def _readable_file(name, formats=READABLE):
@@ -324,6 +342,7 @@ def _cmd_view(args):
 def _cmd_demo(args):
     from ..datasets import demo_transfer_function, hydrogen_orbital
 
+    _check_tolerance(args)
     n, l, m = args.orbital  # noqa: E741
     try:
         grid = hydrogen_orbital(n, l, m, size=args.grid)
@@ -345,6 +364,7 @@ def _cmd_demo(args):
     image.metadata["source"] = f"pv_hdrvol.datasets.hydrogen_orbital(n={n}, l={l}, m={m}, size={args.grid})"
     _write(image, out_dir / "demo.exr", out_dir / "demo.png", args, tf, "probability density")
     _print_stats(image, f"hydrogen orbital n={n} l={l} m={m} on {args.grid}^3 points")
+    _print_tolerance(image.metadata.get("tolerance"))
 
 
 def _cmd_proxy_make(args):
@@ -453,7 +473,10 @@ def _cmd_info(args):
     settings = image.metadata.get("settings")
     if isinstance(settings, dict):
         _print_settings(settings)
-    rest = {k: v for k, v in image.metadata.items() if k != "settings"}
+    record = image.metadata.get("tolerance")
+    _print_tolerance(record)
+    rest = {k: v for k, v in image.metadata.items() if k != "settings" and not (k == "tolerance" and
+                                                                                 isinstance(record, dict))}
     if rest:
         print("metadata:")
         for key in sorted(rest):
@@ -549,7 +572,7 @@ def _render(args, volume, tf, default_view, zoom=1.0, cull=None):
     from .. import Camera, render
     from ..raycast.memory import RenderMemoryError
 
-    names = ("step", "precision", "global_alpha", "blending", "shade", "ambient", "diffuse", "specular",
+    names = ("step", "precision", "tolerance", "global_alpha", "blending", "shade", "ambient", "diffuse", "specular",
              "specular_power")
     options = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if args.light is not None:
@@ -663,6 +686,29 @@ def _print_settings(stored):
         print(f"  keywords:           {', '.join(f'{k}={v!r}' for k, v in s.keywords.items())}")
     if stored.get("not_stored"):
         print(f"  not stored:         {', '.join(stored['not_stored'])} (settings() needs partial=True)")
+
+
+def _print_tolerance(record):
+    """The knobs a ``tolerance=`` render chose (``metadata["tolerance"]``), readably;
+    nothing for a render without one."""
+    if not isinstance(record, dict):
+        return
+    print(f"tolerance {record.get('tolerance')!r}, the knobs the renderer chose:")
+    if "step" in record:
+        print(f"  step:               {record['step']:.6g} voxels")
+    if "tau_max" in record:
+        print(f"  tau_max:            {record['tau_max']:.6g}")
+    for key, label in (("termination", "termination"), ("table_size", "table size"), ("precision", "precision"),
+                       ("estimated_error", "estimated error")):
+        if key in record:
+            value = record[key]
+            text = f"{value:.6g}" if isinstance(value, float) else str(value)
+            print(f"  {label + ':':<20}{text}" + (" of the peak (RMS)" if key == "estimated_error" else ""))
+    if "pilot_pixels" in record:
+        order = record.get("order")
+        rungs = ", ".join(f"{r:g}" for r in record.get("rungs", []))
+        print(f"  pilot:              {record['pilot_pixels']} pixels, rungs {rungs}, "
+              f"order {'not converged' if order is None else f'{order:.3g}'}, {record.get('pilot_seconds', 0.0):.3g} s")
 
 
 def paraview_environment():

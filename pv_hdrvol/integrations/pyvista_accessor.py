@@ -104,7 +104,15 @@ class HDRVolAccessor:
             ``global_alpha``, ``opacity_unit_distance``, ``termination``,
             ``depth_threshold``, ``block_size``, ``skip_empty``, ``blending``
             (PyVista's names: ``"composite"``, ``"maximum"``, ``"minimum"``,
-            ``"average"``, ``"additive"``), ``gradient_opacity``.
+            ``"average"``, ``"additive"``), ``gradient_opacity``, ``shade`` and its
+            weights, and ``tolerance``: the accuracy you accept instead of the
+            knobs, the RMS error of the linear, premultiplied RGB image against the
+            converged render relative to its peak, in ``(0, 0.5]``
+            (``grid.hdrvol.render(tolerance=1e-3)``). The renderer then chooses
+            ``step``, ``termination``, the table size and ``precision`` (which must
+            stay at their defaults: a ``ValueError`` otherwise) and puts them and its
+            estimated error in ``img.metadata["tolerance"]``; the pixels are those of
+            ``hv.render(..., tolerance=)``.
 
         Returns
         -------

@@ -191,6 +191,11 @@ if HDRVolumeRenderer is not None:
             self._pof = None  # (path, modification time, PlenopticOpacity)
             self._display = vtk_image.HDRToneMapper()
             self._display_operator = "reinhard"
+            # Step and Precision as the panel holds them: passed on while Tolerance is 0,
+            # kept aside while it is on (the renderer chooses them then)
+            defaults = pv_hdrvol.RenderOptions()
+            self._knobs = {"step": defaults.step, "precision": defaults.precision}
+            self._tolerance = 0.0
             self._push_camera()
             self.SetNumberOfOutputPorts(2)
             _install_client_hook()
@@ -273,15 +278,54 @@ if HDRVolumeRenderer is not None:
                 HDRVolumeRenderer.SetLens(self, made)
 
         # -- render options (RenderOptions' names) ---------------------------------
+        @smproperty.doublevector(name="Tolerance", default_values=0.0)
+        @smdomain.doublerange(min=0.0, max=0.5)
+        @smdomain.xml(_documentation(
+            "Say the accuracy instead of Step and Precision. 0 (default): off, Step and Precision render as set. "
+            "A positive value, e.g. 0.001: the RMS error you accept, relative to the image's peak (at most 0.5); "
+            "the renderer chooses the step, early termination, table size and precision that meet it, and Step "
+            "and Precision are not used (kept for when Tolerance is 0 again). The choices and the estimated error "
+            "are in the output's field data (hdrvol_metadata, its 'tolerance' entry)."))
+        def SetTolerance(self, value):
+            def apply():
+                if value:  # a negative or too large tolerance is refused, not taken for "off"
+                    pv_hdrvol.RenderOptions(tolerance=value)
+                self._tolerance = value
+                self._push_knobs()
+
+            _setting(self, "Tolerance", apply)
+
         @smproperty.stringvector(name="Precision", default_values="float32", number_of_elements=1)
-        @smdomain.xml(_string_list(PRECISIONS))
+        @smdomain.xml(_string_list(PRECISIONS) + _documentation(
+            "Compositing arithmetic. Not used while Tolerance is on (the renderer chooses it)."))
         def SetPrecision(self, value):
-            super().SetPrecision(value)
+            pv_hdrvol.RenderOptions(precision=value)  # refused now, whether Tolerance is on or not
+            self._knobs["precision"] = value
+            self._push_knobs()
 
         @smproperty.doublevector(name="Step", default_values=0.5)
         @smdomain.doublerange(min=0.01, max=4.0)
+        @smdomain.xml(_documentation(
+            "Distance between samples, in voxels of the smallest spacing. Not used while Tolerance is on (the "
+            "renderer chooses it)."))
         def SetStep(self, value):
-            super().SetStep(value)
+            pv_hdrvol.RenderOptions(step=value)  # refused now, whether Tolerance is on or not
+            self._knobs["step"] = value
+            self._push_knobs()
+
+        def _push_knobs(self):
+            """Step and Precision, or only Tolerance (the knobs at their defaults): one
+            RenderOptions, so that the two never conflict whatever order ParaView pushes
+            them in."""
+            from pv_hdrvol.params import TOLERANCE_KNOBS
+
+            if self._tolerance > 0:
+                defaults = pv_hdrvol.RenderOptions()
+                knobs = {name: getattr(defaults, name) for name in TOLERANCE_KNOBS}
+                knobs["tolerance"] = self._tolerance
+            else:
+                knobs = dict(self._knobs, tolerance=None)
+            HDRVolumeRenderer.SetOptions(self, self.GetOptions().replace(**knobs))
 
         @smproperty.doublevector(name="GlobalAlpha", label="Global Alpha", default_values=1.0)
         @smdomain.doublerange(min=0.0, max=1.0)

@@ -249,6 +249,44 @@ def test_pof_file_culls_with_the_family_of_its_bases(plugin, tmp_path):
     simple.Delete(view)
 
 
+def test_tolerance_chooses_the_knobs_and_step_waits_for_it(plugin):
+    """Tolerance > 0: the renderer chooses step, termination, table and precision (the
+    pixels of hv.render(..., tolerance=), bit for bit; the knobs in the output's
+    metadata) while the panel's Step and Precision wait, without conflicting; 0: Step
+    and Precision render again. The one tolerance render of these checks (a 16^3
+    wavelet, 16^2 pixels: its float64 kernels compile on a cold numba 0.56 cache)."""
+    wavelet = simple.Wavelet(WholeExtent=[0, 15, 0, 15, 0, 15])
+    wavelet.UpdatePipeline()
+    render = plugin["HDRVolumeRender"](Input=wavelet, ImageSize=[16, 16], Camera="iso",
+                                       TransferFunction="pv_hdrvol default", Step=0.25, Precision="float64",
+                                       Tolerance=1e-3)
+    render.Scalars = ["POINTS", "RTData"]
+    image = _image(render)
+    record = image.metadata["tolerance"]
+    assert record["tolerance"] == 1e-3 and record["precision"] == "float64" and record["step"] != 0.25
+    assert image.settings().options == hv.RenderOptions(tolerance=1e-3)  # only the tolerance was passed
+    data = servermanager.Fetch(wavelet)
+    camera = hv.Camera.fit(data.GetBounds(), "iso")
+    direct = hv.render(data, image.settings().tf, camera, (16, 16), scalars="RTData", tolerance=1e-3,
+                       progress_bar=False)
+    np.testing.assert_array_equal(image.rgba, direct.rgba)
+    expected = dict(direct.metadata["tolerance"], pilot_seconds=None)
+    assert dict(record, pilot_seconds=None) == expected
+    assert render.GetClientSideObject().GetLastTolerance()["step"] == record["step"]
+
+    render.Tolerance = 0.0  # off: the panel's Step and Precision, kept meanwhile
+    plain = _image(render)
+    assert "tolerance" not in plain.metadata
+    assert plain.settings().options == hv.RenderOptions(step=0.25, precision="float64")
+    _warnings(lambda: setattr(render, "Tolerance", -1.0))  # refused, not taken for "off"
+    text = _error_text(render)
+    assert text.startswith("ValueError: Tolerance was refused (ValueError: tolerance must be > 0; got -1.0)"), text
+    render.Tolerance = 0.0
+    assert _error_text(render) is None
+    simple.Delete(render)
+    simple.Delete(wavelet)
+
+
 def _warnings(action):
     """What ``action()`` writes to VTK's output window."""
     from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow

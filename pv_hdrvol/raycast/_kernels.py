@@ -745,9 +745,25 @@ def _march_loop_impl(marker, sampler, prec, bricks, offs, table, sigma, leap, g,
     return mipmapped
 
 
+def _marker_precision(marker, p):
+    """The precision code of a compositing marker (compiled only): float64 and float32
+    markers name their precision at compile time; an integer marker leaves it to
+    ``p.precision`` (float16 or uint8, which share one emulated loop)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_marker_precision, jit_options=_JIT, inline="always")
+def _marker_precision_impl(marker, p):
+    if marker == numba.types.float64:
+        return lambda marker, p: F64
+    if marker == numba.types.float32:
+        return lambda marker, p: F32
+    return lambda marker, p: p.precision
+
+
 @kernel
-def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, step,
-           scratch, t_far):
+def _march(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p,
+           step, scratch, t_far):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
@@ -786,8 +802,10 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
     float32 arithmetic with compensated (Kahan) sums. ``float16``/``uint8`` apply the
     conventional ``over`` operator in that buffer precision, for comparison.
 
-    Each precision has its own compiled loop (``_march_plain``, or ``_march_in`` for the
-    mip-map, per marker type).
+    ``marker`` (a float64, float32 or int64 zero, ``grid._MARKERS``) picks the
+    precision at compile time: only that precision's loop (``_march_plain``, or
+    ``_march_in`` for the mip-map) is compiled; float16 and uint8 share the emulated one
+    (``_marker_precision``).
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
@@ -796,50 +814,6 @@ def _march(sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, d
     if k1 <= k0 and not last:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     ox -= piece[6]  # into the piece's own points (t is unchanged)
-    oy -= piece[7]
-    oz -= piece[8]
-    nx = dims[0]
-    ny = dims[1]
-    nz = dims[2]
-    g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
-    if p.precision == F64:
-        return _march_loop(0.0, sampler, F64, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                           step, scratch, k0, k1, last)
-    if p.precision == F32:
-        return _march_loop(np.float32(0.0), sampler, F32, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
-                           t0, t1, p, step, scratch, k0, k1, last)
-    return _march_loop(0, sampler, p.precision, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                       step, scratch, k0, k1, last)
-
-
-def _marker_precision(marker, p):
-    """The precision code of a compositing marker (compiled only): float64 and float32
-    markers name their precision at compile time; an integer marker leaves it to
-    ``p.precision`` (float16 or uint8, which share one emulated loop)."""
-    raise NotImplementedError("compiled only")
-
-
-@overload(_marker_precision, jit_options=_JIT, inline="always")
-def _marker_precision_impl(marker, p):
-    if marker == numba.types.float64:
-        return lambda marker, p: F64
-    if marker == numba.types.float32:
-        return lambda marker, p: F32
-    return lambda marker, p: p.precision
-
-
-@kernel
-def _march_typed(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi,
-                 piece, p, step, scratch, t_far):
-    """``_march`` for the one precision of ``marker`` (a float64, float32 or int64
-    zero): only that compositing loop is compiled."""
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
-    if not t1 > t0:
-        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
-    k0, k1, last = piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, step, t_far)
-    if k1 <= k0 and not last:
-        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
-    ox -= piece[6]
     oy -= piece[7]
     oz -= piece[8]
     nx = dims[0]
@@ -890,9 +864,8 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
                         dy = directions[pix, 1]
                         dz = directions[pix, 2]
                     t_far = far[pix] if has_far else math.inf
-                    r, g, b, a, dep, ns = _march_typed(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
-                                                       ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
-                                                       t_far)
+                    r, g, b, a, dep, ns = _march(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
+                                                 ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

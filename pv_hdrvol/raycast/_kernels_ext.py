@@ -5,12 +5,15 @@
 - **Extended compositing** (``render_ext``): emission-absorption with any of
   gradient-magnitude opacity modulation, Blinn-Phong shading by the gradient,
   two-level rendering of labelled data (a transfer function and a blending mode per
-  label) and mip-mapped sampling for rays sparser than the camera's (a lens's level of
-  detail, ``Rays.lod``).
+  label), also on rays with a level of detail.
+- **Lenses** (``render_lens``): rays sparser than the camera's (a lens's level of
+  detail, ``Rays.lod``) sample a mip-map in the plain loop, ``_kernels._march``; rays
+  at level 0 run that loop unchanged, so their pixels are bit-identical to a plain
+  render.
 
 Kept apart from ``_kernels.py`` so that a plain render compiles and runs none of this
-("model only what a scene requires"); a ray that needs none of it is handed to
-``_kernels._march`` unchanged, so its pixels are bit-identical to a plain render.
+("model only what a scene requires"). The compositing kernels take the precision's
+marker (``_kernels._march``), so a first render compiles one precision's loops.
 
 The mip-map (``pyr``) is one flat array of bricked levels, level ``L`` at offset
 ``pgeo[L, 0]`` with ``pgeo[L, 1:4]`` its points along x, y, z and ``pgeo[L, 4:6]`` its
@@ -26,7 +29,7 @@ import numpy as np
 
 from .._jit import fused_kernel, inline_kernel, kernel, parallel_kernel, uindex as _u
 from ._kernels import (
-    BRICK_SHIFT, SCRATCH, F32, F64, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _opacity,
+    BRICK_SHIFT, SCRATCH, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _marker_precision, _opacity,
     _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, piece_segments, sigma_at,
     table_row, trilinear as _trilinear,
 )
@@ -507,10 +510,10 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
 
 
 @kernel
-def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas, axes,
-               ox, oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_far):
+def _march_ext(marker, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas,
+               axes, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_far):
     """Clip the ray, keep the segments of ``piece`` (``_kernels._march``) and run
-    ``_composite_ext`` in the render's precision."""
+    ``_composite_ext`` in the precision of ``marker`` (only that one is compiled)."""
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
@@ -520,32 +523,58 @@ def _march_ext(bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, 
     ox -= piece[6]
     oy -= piece[7]
     oz -= piece[8]
-    if p.precision == F64:
-        return _composite_ext(0.0, F64, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots,
-                              modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last)
-    if p.precision == F32:
-        return _composite_ext(np.float32(0.0), F32, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights,
-                              slots, modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last)
-    return _composite_ext(0, p.precision, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots,
-                          modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last)
+    return _composite_ext(marker, _marker_precision(marker, p), bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
+                          shading, lights, slots, modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e,
+                          k0, k1, last)
 
 
 @parallel_kernel
-def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, gvec, shading, lights, slots, modes,
-               tables, sigmas, axes, sigma0, level_tables, level_steps, origins, directions, far, width, height, tile,
-               tile_rows, lanes, lo, hi, piece, p, e, out_rgba, out_depth, out_samples):
-    """Fill the pixels of the tiles in rows ``tile_rows``. A ray that needs nothing extended (no labels, no gradient,
-    level of detail 0) goes through ``_kernels._march`` with slot 0's table, so it is
-    bit-identical to a plain render; a ray with a level of detail (and nothing else)
-    runs the same loop on the mip-map, with the step ``level_steps[L]`` (the render's
-    times ``2**L``) and its opacity table ``level_tables[L]``, and skips with
-    ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the lower of its two levels."""
+def render_ext(marker, bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, gvec, shading, lights, slots,
+               modes, tables, sigmas, axes, origins, directions, far, width, height, tile, tile_rows, lanes, lo, hi,
+               piece, p, e, out_rgba, out_depth, out_samples):
+    """Fill the pixels of the tiles in rows ``tile_rows`` with ``_composite_ext`` (labels,
+    gradient-magnitude opacity, shading), in the one precision of ``marker``
+    (``_kernels._march``). A ray with a level of detail samples the mip-map and skips
+    with ``leap_lod[L]``, ``L`` the lower of its two levels."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
-    plain_ok = e.labelled == 0 and e.gradient == 0 and e.shade == 0
-    n_table = tables.shape[0] // (4 * modes.shape[0])
-    table0 = tables[: 4 * n_table]
     has_lod = lods.shape[0] == width * height
+    has_far = far.shape[0] > 0
+    tiles_x = (width + tile - 1) // tile
+    n_tiles = tile_rows.shape[0] * tiles_x
+    for lane in numba.prange(lanes):
+        for t in range(lane, n_tiles, lanes):
+            row0 = tile_rows[t // tiles_x] * tile
+            col0 = (t % tiles_x) * tile
+            for row in range(row0, min(row0 + tile, height)):
+                for col in range(col0, min(col0 + tile, width)):
+                    pix = row * width + col
+                    lod = lods[pix] if has_lod else 0.0
+                    level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
+                    r, gg, b, a, dep, ns = _march_ext(
+                        marker, bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, gvec,
+                        shading, lights, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1],
+                        origins[pix, 2], directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, piece,
+                        p, e, far[pix] if has_far else math.inf)
+                    out_rgba[pix, 0] = r
+                    out_rgba[pix, 1] = gg
+                    out_rgba[pix, 2] = b
+                    out_rgba[pix, 3] = a
+                    out_depth[pix] = dep
+                    out_samples[pix] = ns
+
+
+@parallel_kernel
+def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_levels, lods, table, sigma,
+                level_tables, level_steps, origins, directions, far, width, height, tile, tile_rows, lanes, lo, hi,
+                piece, p, out_rgba, out_depth, out_samples):
+    """Fill the pixels of the tiles in rows ``tile_rows`` for rays with levels of detail
+    (``lods``, one per ray) and nothing else extended, in the one precision of
+    ``marker``. A ray at level of detail 0 goes through ``_kernels._march`` as a plain
+    render does, so it is bit-identical to one; a ray with a level of detail runs the
+    same loop on the mip-map ``pyr`` (``mip_sampler``), with the step ``level_steps[L]``
+    (the render's times ``2**L``) and its opacity table ``level_tables[L]``, and skips
+    with ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the lower of its two levels."""
     has_far = far.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
@@ -557,27 +586,21 @@ def render_ext(bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbric
             for row in range(row0, min(row0 + tile, height)):
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
-                    lod = lods[pix] if has_lod else 0.0
-                    level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
+                    lod = lods[pix]
                     t_far = far[pix] if has_far else math.inf
-                    if plain_ok and lod == 0.0:
-                        r, gg, b, a, dep, ns = _march(0, bricks, offs, table0, sigma0, leap, grids, dims,
+                    if lod == 0.0:
+                        r, gg, b, a, dep, ns = _march(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                       lo, hi, piece, p, p.step, scratch, t_far)
-                    elif plain_ok:
+                    else:
                         # the plain loop, sampling two mip levels
-                        r, gg, b, a, dep, ns = _march(mip_sampler(pgeo, lod, e.n_levels), pyr, offs,
-                                                      level_tables[level],
-                                                      sigma0, leap_lod[level],
-                                                      grids, dims, origins[pix, 0], origins[pix, 1], origins[pix, 2],
+                        level = min(int(lod), n_levels - 1)
+                        r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), pyr, offs,
+                                                      level_tables[level], sigma, leap_lod[level], grids, dims,
+                                                      origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                       lo, hi, piece, p, level_steps[level], scratch, t_far)
-                    else:
-                        r, gg, b, a, dep, ns = _march_ext(
-                            bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, gvec, shading,
-                            lights, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1], origins[pix, 2],
-                            directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, piece, p, e, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
                     out_rgba[pix, 2] = b

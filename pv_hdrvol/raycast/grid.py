@@ -733,16 +733,22 @@ class GridPlan:
             origins = np.ascontiguousarray((rays.origins - ray_origin) * inv_spacing)
             directions = np.ascontiguousarray(rays.directions * inv_spacing)
         value = np.full(height * width, np.nan) if opts.blending != "composite" else None
+        # rays with a level of detail and nothing else extended: the plain loop, on the mip-map where lod > 0
+        a_lens_only = lod is not None and opts.blending == "composite" and opts.gradient_opacity is None \
+            and styles is None and not opts.shade
         if extended and not flat:
             kernel_args = _extended_arguments(volume, opts, params, table, sigma, self.unit, blocks, active, leap, lod,
                                               styles, tf, prec, mask)
+
+        # the precision's marker: each kernel compiles that precision's loop only
+        marker = _MARKERS[prec]
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
             if flat:
                 pass
             elif not extended:
-                K.render_tiles(_MARKERS[prec], bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
+                K.render_tiles(marker, bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
                                dims, cam, origins, directions, far, width, height, _TILE, rows, lanes, lo, hi,
                                piece_box, params, rgba, depth, samples)
             elif value is not None:
@@ -750,11 +756,16 @@ class GridPlan:
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
                                      a.sigmas, a.axes, origins, directions, far, width, height, _TILE, rows, lanes, lo,
                                      hi, params, a.e, value, rgba, depth, samples)
+            elif a_lens_only:
+                a = kernel_args
+                KX.render_lens(marker, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo,
+                               a.e.n_levels, a.lods, a.tables, sigma, a.level_tables, a.level_steps, origins,
+                               directions, far, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, rgba,
+                               depth, samples)
             else:
                 a = kernel_args
-                KX.render_ext(bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods,
-                              a.gbricks, a.gvec, a.shading, a.lights, a.slots,
-                              a.modes, a.tables, a.sigmas, a.axes, sigma, a.level_tables, a.level_steps, origins,
+                KX.render_ext(marker, bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.gbricks,
+                              a.gvec, a.shading, a.lights, a.slots, a.modes, a.tables, a.sigmas, a.axes, origins,
                               directions, far, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
                               depth, samples)
             return pixel_rows(tile_rows, height)

@@ -20,9 +20,11 @@ renderers within a row. The machine's load average is printed with each row.
     python3 benchmarks/bench_shading.py --breakdown        # where a shaded sample's time goes
 
 ``--breakdown`` renders engine at 256^2 (transparent) on one thread with ours only:
-the plain loop, the extended loop (gradient-magnitude opacity), shading with lighting
-that changes nothing, without specular, the default, and the interpolated gradient,
-and prints thread-nanoseconds per sample.
+the plain loop unshaded; the extended loop unshaded (gradient-magnitude opacity) and
+shaded (one composite label: how every shaded render ran before issue 32); and the
+plain loop shaded with lighting that changes nothing, without specular, the default,
+a non-integral specular power and the interpolated gradient; it prints
+thread-nanoseconds per sample.
 """
 from __future__ import annotations
 
@@ -113,13 +115,20 @@ def breakdown(frames, size=(256, 256)):
     volume = hv.volume_from_dataset(read_vti(data_dir() / DATASETS["engine"]))
     camera = hv.Camera.fit(volume.bounds, "iso")
     tf = transfer_functions()["transparent"]
+    import numpy as np
+
+    one_label = dict(labels=np.zeros(volume.values.shape, np.int32), label_styles={0: "composite"})
     variants = {
         "plain loop, unshaded": {},
-        "extended loop (gradient-magnitude opacity)": dict(gradient_opacity=(0.0, 1e-9)),
-        "shaded, lighting that changes nothing": dict(shade=True, ambient=1.0, diffuse=0.0, specular=0.0),
-        "shaded, no specular": dict(shade=True, specular=0.0),
-        "shaded, default": dict(shade=True),
-        "shaded, interpolated gradient": dict(shade=True, shade_gradient="interpolated"),
+        "extended loop, unshaded (gradient-magnitude opacity)": dict(gradient_opacity=(0.0, 1e-9)),
+        "extended loop, shaded (one composite label: the path of every shaded render before)":
+            dict(shade=True, **one_label),
+        "plain loop, shaded, lighting that changes nothing": dict(shade=True, ambient=1.0, diffuse=0.0,
+                                                                  specular=0.0),
+        "plain loop, shaded, no specular": dict(shade=True, specular=0.0),
+        "plain loop, shaded, default": dict(shade=True),
+        "plain loop, shaded, non-integral specular power (pow)": dict(shade=True, specular_power=10.5),
+        "plain loop, shaded, interpolated gradient": dict(shade=True, shade_gradient="interpolated"),
     }
     for kw in variants.values():
         hv.render(volume, tf, camera, size, step=STEP, progress_bar=False, **kw)

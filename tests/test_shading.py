@@ -8,6 +8,8 @@
   linear field, and a tet's gradient, are exact).
 * Lighting that changes nothing (ambient 1, no diffuse or specular; a field without
   gradient) gives the unshaded pixels bit for bit, in every precision.
+* The two grid loops that shade (the batched plain loop of a shaded render and the
+  extended loop of a labelled one) light a sample alike, bit for bit.
 """
 import math
 
@@ -99,8 +101,11 @@ def blinn_phong(colour, gradient, lights, ka, kd, ks, power, eye=(0.0, 0.0, 1.0)
 GRAD = np.array([1.0, -2.0, 3.0])  # of the linear field (world units)
 
 
-@pytest.mark.parametrize("lights", [None, [(0.3, 0.5, 1.0)], [(0.3, 0.5, 1.0), (-1.0, 0.2, 0.4)]])
-def test_grid_plane_is_lit_evenly_by_the_formula(lights):
+@pytest.mark.parametrize("lights, power", [(None, 7.0), ([(0.3, 0.5, 1.0)], 7.0),
+                                           ([(0.3, 0.5, 1.0), (-1.0, 0.2, 0.4)], 7.0),
+                                           ([(0.3, 0.5, 1.0), (-1.0, 0.2, 0.4)], 7.5)])
+def test_grid_plane_is_lit_evenly_by_the_formula(lights, power):
+    """Integral specular powers are taken by repeated squaring, others by pow()."""
     n = 24
     z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(float) * 0.5  # spacing 0.5: world = index / 2
     vol = hv.volume_from_array(GRAD[0] * x + GRAD[1] * y + GRAD[2] * z, spacing=(0.5, 0.5, 0.5))
@@ -108,8 +113,8 @@ def test_grid_plane_is_lit_evenly_by_the_formula(lights):
     tf = hv.TransferFunction([lo, hi], [[0.5, 0.5, 0.5]] * 2, [0.02, 0.02])
     c = np.array(vol.bounds).reshape(3, 2).mean(axis=1)
     img = hv.render(vol, tf, down_z(c, 3.0, distance=30.0), (16, 16), precision="float64", shade=True,
-                    ambient=0.15, diffuse=0.6, specular=0.4, specular_power=7.0, lights=lights)
-    expected = blinn_phong(0.5, GRAD, [(0, 0, 1)] if lights is None else lights, 0.15, 0.6, 0.4, 7.0)
+                    ambient=0.15, diffuse=0.6, specular=0.4, specular_power=power, lights=lights)
+    expected = blinn_phong(0.5, GRAD, [(0, 0, 1)] if lights is None else lights, 0.15, 0.6, 0.4, power)
     a = img.rgba[..., 3]
     assert a.min() > 0.3  # 24 voxels of 0.02: 1 - 0.98**23 = 0.37
     np.testing.assert_allclose(img.rgba[..., :3] / a[..., None], expected, rtol=1e-9)
@@ -127,6 +132,32 @@ def test_lighting_that_changes_nothing_gives_the_unshaded_bits(precision):
     np.testing.assert_array_equal(neutral.depth, plain.depth)
     lit = hv.render(vol, tf, cam, (24, 24), precision=precision, shade=True)
     assert not np.array_equal(lit.rgba, plain.rgba)
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_shaded_plain_loop_is_the_extended_loop_bit_for_bit(precision):
+    """A shaded render without labels runs the batched plain loop (``render_tiles``),
+    one with a single composite label the extended loop (``render_ext``). Both call the
+    same lighting (``_kernels.lit``) at the same sample positions, so their pixels are
+    equal bit for bit: interior samples (the 32-point stencil), samples within a voxel
+    of a face (``_edge_gradient``), both gradient options, a headlight and a directional
+    light with specular, a log axis, and a perspective camera."""
+    n = 20
+    z, y, x = np.mgrid[0:n, 0:n, 0:n].astype(float)
+    field = 1.0 + np.sqrt((x - 9.3) ** 2 + (y - 10.1) ** 2 + (z - 8.7) ** 2) + 0.3 * np.sin(0.7 * x + 0.4 * y)
+    vol = hv.volume_from_array(field, spacing=(1.0, 0.8, 1.2))
+    tf = hv.TransferFunction([1.0, 6.0, 9.0, 16.0], [[1, 0.8, 0.6], [0.2, 0.9, 0.4], [0.9, 0.3, 0.2], [1, 1, 1]],
+                             [0.0, 0.3, 0.6, 0.05], scale="log")
+    cam = hv.Camera.fit(vol.bounds, "iso", view_angle=40.0)
+    labels = np.zeros(field.shape, np.int32)
+    for gradient in ("sampled", "interpolated"):
+        kw = dict(precision=precision, shade=True, shade_gradient=gradient, specular=0.6, specular_power=12.0,
+                  lights=[hv.Light(), hv.Light((1.0, -0.5, 0.7), 0.8)], step=0.4)
+        batched = hv.render(vol, tf, cam, (40, 40), **kw)
+        extended = hv.render(vol, tf, cam, (40, 40), labels=labels, label_styles={0: "composite"}, **kw)
+        assert batched.rgba[..., 3].max() > 0.5
+        np.testing.assert_array_equal(batched.rgba, extended.rgba)
+        np.testing.assert_array_equal(batched.depth, extended.depth)
 
 
 def test_no_gradient_no_light_and_nan_stays_unlit():

@@ -30,10 +30,13 @@ import numpy as np
 from numba.extending import overload
 
 from .._jit import (
-    FUSED_JIT_OPTIONS as _FUSED_JIT, JIT_OPTIONS as _JIT, fused_kernel, fused_parallel_kernel, inline_kernel, kernel,
-    uindex as _u,
+    FUSED_JIT_OPTIONS as _FUSED_JIT, IR_INLINE_HELPERS, JIT_OPTIONS as _JIT, fused_kernel, fused_parallel_kernel,
+    inline_kernel, kernel, uindex as _u,
 )
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
+from ._shading_kernels import (
+    SH_AMBIENT, SH_DIFFUSE, SH_FADE, SH_INV_SPACING, SH_POWER, SH_SAMPLED, SH_SPACING, SH_SPECULAR,
+)
 
 # precision codes (params.PRECISION_CODES)
 F64, F32, F16, U8 = 0, 1, 2, 3
@@ -573,6 +576,301 @@ def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, 
     return cr, cg, cb, alpha, depth, samples
 
 
+# -- shading: specialised at compile time by the type of ``light`` -----------------------------
+# ``light`` is ``0`` (unshaded: the loops compile and run none of this) or the tuple
+# ``(shading, lights, gvec)`` of ``shading.shading_arrays`` and the bricked gradient vectors
+# (``grid._gradient_vector_bricks``; a placeholder for ``shade_gradient="sampled"``).
+
+#: How ``lit`` joins the compositing loops: inlined at numba IR level on numba >= 0.57, so
+#: that its gradient overlaps the loop's other work (LLVM does not inline it as a call:
+#: engine 256^2, one thread, 94 ns per lit sample as a call, 80 ns inlined; the plain
+#: loop unshaded 21 ns); a plain call on numba 0.56, which compiles IR inlining into a
+#: loop this size very slowly (``_jit.helper_kernel``). It inlines no other helper and
+#: assigns no variable in two branches: numba's IR inlining warns of variables out of
+#: scope otherwise. Its lighting, ``_light_colour``, stays a call. Both compositing loops
+#: light through ``lit``, so they light alike, bit for bit.
+_LIGHT_INLINE = "always" if IR_INLINE_HELPERS else "never"
+_LN10 = math.log(10.0)
+
+
+@kernel
+def _eye(shading, dx, dy, dz):
+    """The unit world direction towards the eye of a ray of voxel direction ``(dx, dy, dz)``."""
+    ex = -dx * shading[SH_SPACING]
+    ey = -dy * shading[SH_SPACING + 1]
+    ez = -dz * shading[SH_SPACING + 2]
+    el = math.sqrt(ex * ex + ey * ey + ez * ez)
+    return ex / el, ey / el, ez / el
+
+
+@fused_kernel
+def _trilinear_at(bricks, g, x, y, z):
+    """``trilinear`` in the bricks of geometry ``g`` (``_march``), as a call: inlined six
+    times into ``_edge_gradient`` it cost numba 0.56 22 s to compile."""
+    return trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], x, y, z)
+
+
+@fused_kernel
+def _edge_gradient(bricks, g, x, y, z):
+    """The gradient of ``lit`` where its stencil leaves the grid (a point within a voxel
+    of a face): the difference of the trilinear field over the part of ``[x - 1, x + 1]``
+    (per axis) inside the grid, one-sided at the faces."""
+    lo = max(x - 1.0, 0.0)
+    hi = min(x + 1.0, g[3])
+    gx = 0.0
+    if hi > lo:
+        gx = (_trilinear_at(bricks, g, hi, y, z) - _trilinear_at(bricks, g, lo, y, z)) / (hi - lo)
+    lo = max(y - 1.0, 0.0)
+    hi = min(y + 1.0, g[4])
+    gy = 0.0
+    if hi > lo:
+        gy = (_trilinear_at(bricks, g, x, hi, z) - _trilinear_at(bricks, g, x, lo, z)) / (hi - lo)
+    lo = max(z - 1.0, 0.0)
+    hi = min(z + 1.0, g[5])
+    gz = 0.0
+    if hi > lo:
+        gz = (_trilinear_at(bricks, g, x, y, hi) - _trilinear_at(bricks, g, x, y, lo)) / (hi - lo)
+    return gx, gy, gz
+
+
+def eye_of(light, dx, dy, dz):
+    """Per ray: the unit direction towards the eye (``_eye``); unused when ``light`` is 0
+    (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+def lit(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, linthresh):
+    """The colour of a sample under ``light``: ``(r, gg, b)`` unchanged when it is 0, else
+    lit by Blinn-Phong (``_shade``) (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(eye_of, jit_options=_FUSED_JIT, inline=_LIGHT_INLINE)
+def _eye_of_impl(light, dx, dy, dz):
+    if isinstance(light, numba.types.Integer):
+        return lambda light, dx, dy, dz: (0.0, 0.0, 0.0)
+    return lambda light, dx, dy, dz: _eye(light[0], dx, dy, dz)
+
+
+@fused_kernel
+def _tri_at(a, q, fx, fy, fz):
+    """Trilinear value of the bricked array ``a`` in the cell whose first point is at
+    ``q``, at fractions ``(fx, fy, fz)``."""
+    p1 = (1 << BRICK_SHIFT) + 1
+    p2 = p1 * p1
+    s = np.uint64(q)
+    v000 = np.float64(a[s])
+    v100 = np.float64(a[s + np.uint64(1)])
+    v010 = np.float64(a[s + np.uint64(p1)])
+    v110 = np.float64(a[s + np.uint64(p1 + 1)])
+    v001 = np.float64(a[s + np.uint64(p2)])
+    v101 = np.float64(a[s + np.uint64(p2 + 1)])
+    v011 = np.float64(a[s + np.uint64(p2 + p1)])
+    v111 = np.float64(a[s + np.uint64(p2 + p1 + 1)])
+    c00 = v000 + fx * (v100 - v000)
+    c10 = v010 + fx * (v110 - v010)
+    c01 = v001 + fx * (v101 - v001)
+    c11 = v011 + fx * (v111 - v011)
+    c0 = c00 + fy * (c10 - c00)
+    c1 = c01 + fy * (c11 - c01)
+    return c0 + fz * (c1 - c0)
+
+
+@fused_kernel
+def _light_colour(shading, lights, eye, gx, gy, gz, v, r, gg, b, scale, inv_range, linthresh):
+    """The lit colour ``(r, g, b)`` (float64, not clamped: HDR) of a sample of value ``v``
+    and colour ``(r, gg, b)`` with gradient ``(gx, gy, gz)`` (world units), seen from the
+    unit world direction ``eye`` (towards the eye; ``_eye``).
+
+    ``_shading_kernels.light_factors`` with the fade weight of ``fade_weight`` over the
+    transfer function's axis (``scale``, ``1 / range``, ``linthresh``), written out:
+    the normal is scaled by one reciprocal, a headlight's half vector is the eye
+    direction itself, and an integral specular power (up to 64) is taken by repeated
+    squaring (``pow`` cost some 20 ns a sample)."""
+    # the fade weight (fade_weight): the gradient on the transfer function's axis
+    mag = math.sqrt(gx * gx + gy * gy + gz * gz)
+    if scale == LOG:
+        slope = 1.0 / (v * _LN10) if v > 0.0 else 0.0
+    elif scale == SYMLOG:
+        slope = 1.0 / ((linthresh + abs(v)) * _LN10)
+    else:
+        slope = 1.0
+    w = mag * slope * inv_range * shading[SH_FADE]
+    if not w > 0.0:  # also NaN: unlit, exactly
+        return np.float64(r), np.float64(gg), np.float64(b)
+    w = min(w, 1.0)
+    # the lit colour m c + k (light_factors), the normal turned towards the eye
+    ex, ey, ez = eye
+    inv = 1.0 / mag
+    if gx * ex + gy * ey + gz * ez < 0.0:
+        inv = -inv
+    nx_ = gx * inv
+    ny_ = gy * inv
+    nz_ = gz * inv
+    dr = 0.0
+    dg = 0.0
+    db = 0.0
+    sr = 0.0
+    sg = 0.0
+    sb = 0.0
+    power = shading[SH_POWER]
+    ks = shading[SH_SPECULAR]
+    ipow = int(power) if power <= 64.0 else 0
+    for k in range(lights.shape[0]):
+        if lights[k, 6] != 0.0:
+            # a headlight: l = e, and the half vector of l and e is e
+            ndl = nx_ * ex + ny_ * ey + nz_ * ez
+            ndh = ndl
+        else:
+            lx = lights[k, 0]
+            ly = lights[k, 1]
+            lz = lights[k, 2]
+            ndl = nx_ * lx + ny_ * ly + nz_ * lz
+            hx = lx + ex
+            hy = ly + ey
+            hz = lz + ez
+            hl = math.sqrt(hx * hx + hy * hy + hz * hz)
+            ndh = (nx_ * hx + ny_ * hy + nz_ * hz) / hl if hl > 0.0 else 0.0
+        if ndl <= 0.0:
+            continue
+        dr += lights[k, 3] * ndl
+        dg += lights[k, 4] * ndl
+        db += lights[k, 5] * ndl
+        if ks == 0.0 or not ndh > 0.0:
+            continue
+        if ipow == power:
+            # ndh ** ipow by squaring (pow() costs some 20 ns a sample)
+            s = 1.0
+            base = ndh
+            e = ipow
+            while e > 0:
+                if e & 1:
+                    s *= base
+                base *= base
+                e >>= 1
+        else:
+            s = ndh ** power
+        sr += lights[k, 3] * s
+        sg += lights[k, 4] * s
+        sb += lights[k, 5] * s
+    ka = shading[SH_AMBIENT]
+    kd = shading[SH_DIFFUSE]
+    return (np.float64(r) * (1.0 + w * (ka + kd * dr - 1.0)) + w * ks * sr,
+            np.float64(gg) * (1.0 + w * (ka + kd * dg - 1.0)) + w * ks * sg,
+            np.float64(b) * (1.0 + w * (ka + kd * db - 1.0)) + w * ks * sb)
+
+
+
+
+def _shade(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, linthresh):
+    """``lit``'s implementation: the lit colour of the sample of value ``v`` at voxel
+    position ``(x, y, z)`` (clamped to the grid), lit from its gradient by
+    ``_light_colour``.
+
+    The gradient (data units per voxel) is the central difference of the trilinear field
+    over two voxels, ``(v(x + 1) - v(x - 1)) / 2`` per axis: for a trilinear field the
+    trilinear interpolation of the grid points' central differences, which is how it is
+    computed inside the grid, from the 32 points of the cell's ``4 x 2 x 2`` stencils
+    (the cell's own 8, in cache from sampling it, and 8 more along each axis) addressed
+    through ``offs`` (``brick_offsets``): per axis the differences ``P(i + 1) - P(i - 1)``
+    and ``P(i + 2) - P(i)`` at the cell's four other corners, interpolated. Within a voxel
+    of a face ``_edge_gradient`` takes over. ``shade_gradient="interpolated"``
+    interpolates the grid points' gradient vectors ``gvec`` (three bricked components,
+    one after the other; the same sums to rounding).
+
+    Each branch returns (no variable is assigned in two branches): numba's IR inlining
+    warns of variables out of scope otherwise.
+    """
+    shading = light[0]
+    lights = light[1]
+    gvec = light[2]
+    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    x = min(max(x, 0.0), x_max)
+    y = min(max(y, 0.0), y_max)
+    z = min(max(z, 0.0), z_max)
+    xi = int(x)
+    yi = int(y)
+    zi = int(z)
+    fx = x - xi
+    fy = y - yi
+    fz = z - zi
+    if shading[SH_SAMPLED] == 0.0:
+        # the grid points' gradient vectors, trilinear (xi = n - 1: fraction 0 in the repeated edge)
+        n3 = gvec.shape[0] // 3
+        q = offs[np.uint64(xi)] + offs[np.uint64(nx + yi)] + offs[np.uint64(nx + ny + zi)]
+        return _light_colour(shading, lights, eye, _tri_at(gvec, q, fx, fy, fz), _tri_at(gvec, q + n3, fx, fy, fz),
+                             _tri_at(gvec, q + 2 * n3, fx, fy, fz), v, r, gg, b, scale, inv_range, linthresh)
+    if xi < 1 or yi < 1 or zi < 1 or xi > nx - 3 or yi > ny - 3 or zi > nz - 3:
+        ux, uy, uz = _edge_gradient(bricks, g, x, y, z)
+        return _light_colour(shading, lights, eye, ux * shading[SH_INV_SPACING], uy * shading[SH_INV_SPACING + 1],
+                             uz * shading[SH_INV_SPACING + 2], v, r, gg, b, scale, inv_range, linthresh)
+    x0 = offs[np.uint64(xi - 1)]
+    x1 = offs[np.uint64(xi)]
+    x2 = offs[np.uint64(xi + 1)]
+    x3 = offs[np.uint64(xi + 2)]
+    y0 = offs[np.uint64(nx + yi - 1)]
+    y1 = offs[np.uint64(nx + yi)]
+    y2 = offs[np.uint64(nx + yi + 1)]
+    y3 = offs[np.uint64(nx + yi + 2)]
+    z0 = offs[np.uint64(nx + ny + zi - 1)]
+    z1 = offs[np.uint64(nx + ny + zi)]
+    z2 = offs[np.uint64(nx + ny + zi + 1)]
+    z3 = offs[np.uint64(nx + ny + zi + 2)]
+    # the cell's corners, c<x><y><z> with 1 = lower, 2 = upper
+    c111 = np.float64(bricks[np.uint64(x1 + y1 + z1)])
+    c211 = np.float64(bricks[np.uint64(x2 + y1 + z1)])
+    c121 = np.float64(bricks[np.uint64(x1 + y2 + z1)])
+    c221 = np.float64(bricks[np.uint64(x2 + y2 + z1)])
+    c112 = np.float64(bricks[np.uint64(x1 + y1 + z2)])
+    c212 = np.float64(bricks[np.uint64(x2 + y1 + z2)])
+    c122 = np.float64(bricks[np.uint64(x1 + y2 + z2)])
+    c222 = np.float64(bricks[np.uint64(x2 + y2 + z2)])
+    # along x: P(x2) - P(x0) and P(x3) - P(x1), interpolated in x, at the four (y, z) corners
+    lo = c211 - np.float64(bricks[np.uint64(x0 + y1 + z1)])
+    d11 = lo + fx * (np.float64(bricks[np.uint64(x3 + y1 + z1)]) - c111 - lo)
+    lo = c221 - np.float64(bricks[np.uint64(x0 + y2 + z1)])
+    d21 = lo + fx * (np.float64(bricks[np.uint64(x3 + y2 + z1)]) - c121 - lo)
+    lo = c212 - np.float64(bricks[np.uint64(x0 + y1 + z2)])
+    d12 = lo + fx * (np.float64(bricks[np.uint64(x3 + y1 + z2)]) - c112 - lo)
+    lo = c222 - np.float64(bricks[np.uint64(x0 + y2 + z2)])
+    d22 = lo + fx * (np.float64(bricks[np.uint64(x3 + y2 + z2)]) - c122 - lo)
+    e1 = d11 + fy * (d21 - d11)
+    e2 = d12 + fy * (d22 - d12)
+    gx = 0.5 * (e1 + fz * (e2 - e1)) * shading[SH_INV_SPACING]
+    # along y, at the four (x, z) corners
+    lo = c121 - np.float64(bricks[np.uint64(x1 + y0 + z1)])
+    d11 = lo + fy * (np.float64(bricks[np.uint64(x1 + y3 + z1)]) - c111 - lo)
+    lo = c221 - np.float64(bricks[np.uint64(x2 + y0 + z1)])
+    d21 = lo + fy * (np.float64(bricks[np.uint64(x2 + y3 + z1)]) - c211 - lo)
+    lo = c122 - np.float64(bricks[np.uint64(x1 + y0 + z2)])
+    d12 = lo + fy * (np.float64(bricks[np.uint64(x1 + y3 + z2)]) - c112 - lo)
+    lo = c222 - np.float64(bricks[np.uint64(x2 + y0 + z2)])
+    d22 = lo + fy * (np.float64(bricks[np.uint64(x2 + y3 + z2)]) - c212 - lo)
+    e1 = d11 + fx * (d21 - d11)
+    e2 = d12 + fx * (d22 - d12)
+    gy = 0.5 * (e1 + fz * (e2 - e1)) * shading[SH_INV_SPACING + 1]
+    # along z, at the four (x, y) corners
+    lo = c112 - np.float64(bricks[np.uint64(x1 + y1 + z0)])
+    d11 = lo + fz * (np.float64(bricks[np.uint64(x1 + y1 + z3)]) - c111 - lo)
+    lo = c212 - np.float64(bricks[np.uint64(x2 + y1 + z0)])
+    d21 = lo + fz * (np.float64(bricks[np.uint64(x2 + y1 + z3)]) - c211 - lo)
+    lo = c122 - np.float64(bricks[np.uint64(x1 + y2 + z0)])
+    d12 = lo + fz * (np.float64(bricks[np.uint64(x1 + y2 + z3)]) - c121 - lo)
+    lo = c222 - np.float64(bricks[np.uint64(x2 + y2 + z0)])
+    d22 = lo + fz * (np.float64(bricks[np.uint64(x2 + y2 + z3)]) - c221 - lo)
+    e1 = d11 + fx * (d21 - d11)
+    e2 = d12 + fx * (d22 - d12)
+    gz = 0.5 * (e1 + fy * (e2 - e1)) * shading[SH_INV_SPACING + 2]
+    return _light_colour(shading, lights, eye, gx, gy, gz, v, r, gg, b, scale, inv_range, linthresh)
+
+
+@overload(lit, jit_options=_FUSED_JIT, inline=_LIGHT_INLINE)
+def _lit_impl(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, linthresh):
+    if isinstance(light, numba.types.Integer):
+        return lambda light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, linthresh: (r, gg, b)
+    return _shade
+
+
 @inline_kernel
 def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
     """``(bx, by, bz, sx, sy, sz)``: the midpoint of full segment ``k`` lies at
@@ -583,8 +881,8 @@ def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
 
 
 @fused_kernel
-def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1,
-                 last):
+def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch,
+                 k0, k1, last):
     """The sampling and compositing loop of ``_march`` for trilinear sampling of
     ``bricks``, compiled once per precision ``marker``.
 
@@ -610,6 +908,11 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
     The labelled loop (``_kernels_ext._composite_ext``) repeats this arithmetic, so a
     composite label gives the same bits.
 
+    ``light`` (``lit``): 0 compiles the loop unlit; the lighting tuple lights each
+    sample that adds opacity, in phase 2, at its position recomputed from its ``k``
+    (the same arithmetic as phase 1's): the same lighting as the labelled loop's, so a
+    shaded composite label gives the same bits too.
+
     ``offs`` holds the x, then y, then z offsets (``nx + ny + nz`` entries);
     ``scratch`` is float64 with ``2 * SCRATCH`` entries (values, then their ``k``),
     one per lane of ``render_tiles`` (a lane runs on one thread at a time). Segments
@@ -626,6 +929,7 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
     if n_seg < 1:
         n_seg = 1
     bx0, by0, bz0, sx, sy, sz = midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step)
+    eye = eye_of(light, dx, dy, dz)
     oy_off = _u(nx)
     oz_off = _u(nx + ny)
     one = _u(1)
@@ -692,8 +996,12 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
         # chunk is dropped, so every count and bit is that of one sample at a time
         for jj in range(j):
             samples += 1
-            r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(scratch[_u(jj)], p), u8)
+            v = scratch[_u(jj)]
+            r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
             if a_i > 0.0:  # as skipped samples: skipping then changes no bit
+                kk = scratch[_u(cap + jj)] - 1.0  # the sample's k, as phase 1 placed it
+                r, gg, b = lit(light, eye, bricks, offs, g, bx0 + kk * sx, by0 + kk * sy, bz0 + kk * sz, v, r, gg, b,
+                               p.scale, p.axis_inv_range, p.linthresh)
                 state = _accumulate(marker, p.precision, state, a_i, r, gg, b)
                 alpha = _opacity(marker, state)
                 if depth == math.inf and alpha >= p.depth_alpha:
@@ -715,6 +1023,8 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
             r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
             if a_i > 0.0:
                 sg = sigma_at(sigma, i, f)
+                r, gg, b = lit(light, eye, bricks, offs, g, ox + tm * dx, oy + tm * dy, oz + tm * dz, v, r, gg, b,
+                               p.scale, p.axis_inv_range, p.linthresh)
                 state = _accumulate(marker, p.precision, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
                 if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
                     depth = tm
@@ -722,23 +1032,24 @@ def _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy
     return cr, cg, cb, alpha, depth, samples
 
 
-def _march_loop(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+def _march_loop(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
                 step, scratch, k0, k1, last):
     """``_march_plain`` for the plain sampler, ``_march_in`` for a mip-map sampler (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_march_loop, jit_options=_JIT)
-def _march_loop_impl(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                     step, scratch, k0, k1, last):
+def _march_loop_impl(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1,
+                     p, step, scratch, k0, k1, last):
     if isinstance(sampler, numba.types.Integer):
-        def plain(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+        def plain(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
                   step, scratch, k0, k1, last):
-            return _march_plain(marker, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step,
-                                scratch, k0, k1, last)
+            return _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                                step, scratch, k0, k1, last)
         return plain
 
-    def mipmapped(marker, sampler, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+    # the mip-map loop is not lit (a shaded render with a level of detail is extended)
+    def mipmapped(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
                   step, scratch, k0, k1, last):
         return _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
                          step, k0, k1, last)
@@ -762,8 +1073,8 @@ def _marker_precision_impl(marker, p):
 
 
 @kernel
-def _march(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p,
-           step, scratch, t_far):
+def _march(marker, sampler, light, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi,
+           piece, p, step, scratch, t_far):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
@@ -805,7 +1116,9 @@ def _march(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, o
     ``marker`` (a float64, float32 or int64 zero, ``grid._MARKERS``) picks the
     precision at compile time: only that precision's loop (``_march_plain``, or
     ``_march_in`` for the mip-map) is compiled; float16 and uint8 share the emulated one
-    (``_marker_precision``).
+    (``_marker_precision``). ``light`` is 0 (unshaded) or the lighting tuple
+    ``(shading, lights, gvec)`` (``lit``), also chosen at compile time: an unshaded render compiles
+    and runs no lighting. Only the plain sampler's loop is lit.
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
@@ -820,20 +1133,21 @@ def _march(marker, sampler, bricks, offs, table, sigma, leap, grids, dims, ox, o
     ny = dims[1]
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
-    return _march_loop(marker, sampler, _marker_precision(marker, p), bricks, offs, table, sigma, leap, g, ox, oy, oz,
-                       dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
+    return _march_loop(marker, sampler, light, _marker_precision(marker, p), bricks, offs, table, sigma, leap, g, ox,
+                       oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
 
 
 @fused_parallel_kernel
 def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, far, width, height,
-                 tile, tile_rows, lanes, lo, hi, piece, p, out_rgba, out_depth, out_samples):
+                 tile, tile_rows, lanes, lo, hi, piece, p, light, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
     Rays come from ``cam`` (``Camera.kernel_array``, then the volume's origin and the
     reciprocal of its spacing: ``camera_ray`` in voxel coordinates) or, when ``cam`` is
     empty, from ``origins`` and ``directions`` (one row per pixel, voxel coordinates).
     ``far`` (one per pixel, world distance along the ray; or empty: no limit) stops
-    each ray there: opaque geometry in front of or inside the volume.
+    each ray there: opaque geometry in front of or inside the volume. ``light``: 0, or
+    the lighting of a shaded render (``_march``).
 
     Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
     (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
@@ -864,7 +1178,7 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
                         dy = directions[pix, 1]
                         dz = directions[pix, 2]
                     t_far = far[pix] if has_far else math.inf
-                    r, g, b, a, dep, ns = _march(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
+                    r, g, b, a, dep, ns = _march(marker, 0, light, bricks, offs, table, sigma, leap, grids, dims,
                                                  ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g

@@ -31,9 +31,8 @@ from .._jit import fused_kernel, inline_kernel, kernel, parallel_kernel, uindex 
 from ._kernels import (
     BRICK_SHIFT, SCRATCH, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _marker_precision, _opacity,
     _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, piece_segments, sigma_at,
-    table_row, trilinear as _trilinear,
+    eye_of, lit, table_row, trilinear as _trilinear,
 )
-from ._shading_kernels import SH_FADE, SH_INV_SPACING, SH_SAMPLED, SH_SPACING, fade_weight, light_factors
 
 # blending codes (params.BLENDING_CODES)
 COMPOSITE, MAXIMUM, MINIMUM, AVERAGE, ADDITIVE = 0, 1, 2, 3, 4
@@ -48,8 +47,7 @@ class ExtParams(NamedTuple):
     ``gradient``: 1 to scale extinction by a ramp of the gradient magnitude from
     ``g_lo`` (0) to ``g_lo + 1 / g_inv`` (1). ``lattice``/``midpoint``: whether any
     label uses a maximum/minimum (sampled at lattice points) or a compositing mode
-    (sampled at segment midpoints). ``shade``: 1 to light samples (``_shade``, with the
-    ``shading`` and ``lights`` arrays of ``render_ext``).
+    (sampled at segment midpoints). (Shading is the type of ``render_ext``'s ``light``.)
     """
 
     mode: int
@@ -62,7 +60,6 @@ class ExtParams(NamedTuple):
     labelled: int
     lattice: int
     midpoint: int
-    shade: int
 
 
 # -- sampling --------------------------------------------------------------------------------------
@@ -143,69 +140,6 @@ def _gradient_factor(gbricks, g, x, y, z, e):
     if not w > 0.0:  # also NaN
         return 0.0
     return min(w, 1.0)
-
-
-# -- shading ----------------------------------------------------------------------------------
-@inline_kernel
-def _central(bricks, g, x, y, z, ax):
-    """Central difference of the trilinear field along axis ``ax`` over two voxels
-    (one-sided where the stencil leaves the grid), in data units per voxel. For a
-    trilinear field this is the trilinear interpolation of the grid points' central
-    differences, so it equals ``shade_gradient="interpolated"`` to rounding."""
-    lo_x = x
-    hi_x = x
-    lo_y = y
-    hi_y = y
-    lo_z = z
-    hi_z = z
-    if ax == 0:
-        lo_x = max(x - 1.0, 0.0)
-        hi_x = min(x + 1.0, g[3])
-        span = hi_x - lo_x
-    elif ax == 1:
-        lo_y = max(y - 1.0, 0.0)
-        hi_y = min(y + 1.0, g[4])
-        span = hi_y - lo_y
-    else:
-        lo_z = max(z - 1.0, 0.0)
-        hi_z = min(z + 1.0, g[5])
-        span = hi_z - lo_z
-    if not span > 0.0:
-        return 0.0
-    v1 = _trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], hi_x, hi_y, hi_z)
-    v0 = _trilinear(bricks, 0, g[0], g[1], g[2], g[9], g[10], lo_x, lo_y, lo_z)
-    return (v1 - v0) / span
-
-
-@kernel
-def _shade(bricks, gvec, g, shading, lights, axis, v, x, y, z, ex, ey, ez, r, gg, b):
-    """The lit colour ``(r, g, b)`` (float64, not clamped: HDR) of the sample of value
-    ``v`` at voxel position ``(x, y, z)`` seen from the unit world direction
-    ``(ex, ey, ez)`` (towards the eye; ``_eye``) (``_shading_kernels``). ``axis`` is
-    the sample's transfer-function axis ``(scale, lo, 1 / range, linthresh)``, over
-    which the lighting fades in."""
-    if shading[SH_SAMPLED] != 0.0:
-        gx = _central(bricks, g, x, y, z, 0) * shading[SH_INV_SPACING]
-        gy = _central(bricks, g, x, y, z, 1) * shading[SH_INV_SPACING + 1]
-        gz = _central(bricks, g, x, y, z, 2) * shading[SH_INV_SPACING + 2]
-    else:
-        n3 = gvec.shape[0] // 3
-        gx = _trilinear(gvec, 0, g[0], g[1], g[2], g[9], g[10], x, y, z)
-        gy = _trilinear(gvec, n3, g[0], g[1], g[2], g[9], g[10], x, y, z)
-        gz = _trilinear(gvec, 2 * n3, g[0], g[1], g[2], g[9], g[10], x, y, z)
-    w = fade_weight(math.sqrt(gx * gx + gy * gy + gz * gz), v, int(axis[0]), axis[2], axis[3], shading[SH_FADE])
-    mr, mg, mb, kr, kg, kb = light_factors(gx, gy, gz, ex, ey, ez, w, shading, lights)
-    return np.float64(r) * mr + kr, np.float64(gg) * mg + kg, np.float64(b) * mb + kb
-
-
-@kernel
-def _eye(shading, dx, dy, dz):
-    """The unit world direction towards the eye of a ray of voxel direction ``(dx, dy, dz)``."""
-    ex = -dx * shading[SH_SPACING]
-    ey = -dy * shading[SH_SPACING + 1]
-    ez = -dz * shading[SH_SPACING + 2]
-    el = math.sqrt(ex * ex + ey * ey + ez * ez)
-    return ex / el, ey / el, ez / el
 
 
 # -- projections ------------------------------------------------------------------------------
@@ -360,8 +294,8 @@ def _close_segment(marker, prec, state, depth, tables, sigmas, axes, n_table, sl
 
 
 @fused_kernel
-def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes,
-                   tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last_owned):
+def _composite_ext(marker, prec, light, bricks, offs, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas,
+                   axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last_owned):
     """Front-to-back compositing with gradient modulation, labels and mip sampling.
 
     Composite labels (and unlabelled renders) sample segment midpoints exactly as
@@ -395,7 +329,7 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
     stopped = False
     # full segment k has its midpoint at (bx0, by0, bz0) + k (sx, sy, sz), as _kernels._march_plain
     bx0, by0, bz0, sx, sy, sz = midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step)
-    ex, ey, ez = _eye(shading, dx, dy, dz) if e.shade else (0.0, 0.0, 1.0)
+    eye = eye_of(light, dx, dy, dz)
     while k < k_stop and not stopped:
         ta = t0 + k * step
         last = k == n_seg - 1
@@ -470,8 +404,9 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
             a_i = -math.expm1(-sg * (tb - ta))
         if a_i <= 0.0:
             continue
-        if e.shade:
-            r, gg, b = _shade(bricks, gvec, g, shading, lights, axes[slot], v, xm, ym, zm, ex, ey, ez, r, gg, b)
+        # lit as _kernels._march_plain lights (``lit``: the same function), bit for bit
+        r, gg, b = lit(light, eye, bricks, offs, g, xm, ym, zm, v, r, gg, b, int(axes[slot, 0]), axes[slot, 2],
+                       axes[slot, 3])
         state = _accumulate(marker, prec, state, a_i, r, gg, b)
         alpha = _opacity(marker, state)
         if depth == math.inf and alpha >= p.depth_alpha:
@@ -510,8 +445,8 @@ def _composite_ext(marker, prec, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
 
 
 @kernel
-def _march_ext(marker, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas,
-               axes, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_far):
+def _march_ext(marker, light, bricks, offs, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes, ox,
+               oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_far):
     """Clip the ray, keep the segments of ``piece`` (``_kernels._march``) and run
     ``_composite_ext`` in the precision of ``marker`` (only that one is compiled)."""
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
@@ -523,19 +458,19 @@ def _march_ext(marker, bricks, leap, g, pyr, pgeo, lod, gbricks, gvec, shading, 
     ox -= piece[6]
     oy -= piece[7]
     oz -= piece[8]
-    return _composite_ext(marker, _marker_precision(marker, p), bricks, leap, g, pyr, pgeo, lod, gbricks, gvec,
-                          shading, lights, slots, modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e,
-                          k0, k1, last)
+    return _composite_ext(marker, _marker_precision(marker, p), light, bricks, offs, leap, g, pyr, pgeo, lod, gbricks,
+                          slots, modes, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, t0, t1, p, e, k0, k1, last)
 
 
 @parallel_kernel
-def render_ext(marker, bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, gvec, shading, lights, slots,
-               modes, tables, sigmas, axes, origins, directions, far, width, height, tile, tile_rows, lanes, lo, hi,
-               piece, p, e, out_rgba, out_depth, out_samples):
+def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, slots, modes, tables,
+               sigmas, axes, origins, directions, far, width, height, tile, tile_rows, lanes, lo, hi, piece, p, e,
+               out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows`` with ``_composite_ext`` (labels,
-    gradient-magnitude opacity, shading), in the one precision of ``marker``
-    (``_kernels._march``). A ray with a level of detail samples the mip-map and skips
-    with ``leap_lod[L]``, ``L`` the lower of its two levels."""
+    gradient-magnitude opacity, shading), in the one precision of ``marker`` and lit by
+    ``light`` (0: unshaded; see ``_kernels._march``). A ray with a level of detail
+    samples the mip-map and skips with ``leap_lod[L]``, ``L`` the lower of its two
+    levels; it is lit from the gradient of the full-resolution field."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
     has_lod = lods.shape[0] == width * height
@@ -552,8 +487,8 @@ def render_ext(marker, bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbr
                     lod = lods[pix] if has_lod else 0.0
                     level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
                     r, gg, b, a, dep, ns = _march_ext(
-                        marker, bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, gbricks, gvec,
-                        shading, lights, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1],
+                        marker, light, bricks, offs, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod,
+                        gbricks, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1],
                         origins[pix, 2], directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, piece,
                         p, e, far[pix] if has_far else math.inf)
                     out_rgba[pix, 0] = r
@@ -589,14 +524,14 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
                     lod = lods[pix]
                     t_far = far[pix] if has_far else math.inf
                     if lod == 0.0:
-                        r, gg, b, a, dep, ns = _march(marker, 0, bricks, offs, table, sigma, leap, grids, dims,
+                        r, gg, b, a, dep, ns = _march(marker, 0, 0, bricks, offs, table, sigma, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                       lo, hi, piece, p, p.step, scratch, t_far)
                     else:
                         # the plain loop, sampling two mip levels
                         level = min(int(lod), n_levels - 1)
-                        r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), pyr, offs,
+                        r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), 0, pyr, offs,
                                                       level_tables[level], sigma, leap_lod[level], grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],

@@ -725,8 +725,9 @@ class GridPlan:
             warn_empty(reason)
         lanes = _lanes()
 
+        # shading alone lights the plain loop (render_tiles); the rest takes the extended kernels
         extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
-            or lod is not None or opts.shade
+            or lod is not None
         if extended and rays is None:
             # the extended kernels take rays as arrays
             rays = camera.rays((width, height))
@@ -740,8 +741,10 @@ class GridPlan:
             kernel_args = _extended_arguments(volume, opts, params, table, sigma, self.unit, blocks, active, leap, lod,
                                               styles, tf, prec, mask)
 
-        # the precision's marker: each kernel compiles that precision's loop only
+        # the precision's marker and the lighting (0: none): each kernel compiles that
+        # precision's loop, lit or not, only
         marker = _MARKERS[prec]
+        light = _light(volume, opts, prec) if not flat else 0
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
@@ -750,7 +753,7 @@ class GridPlan:
             elif not extended:
                 K.render_tiles(marker, bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
                                dims, cam, origins, directions, far, width, height, _TILE, rows, lanes, lo, hi,
-                               piece_box, params, rgba, depth, samples)
+                               piece_box, params, light, rgba, depth, samples)
             elif value is not None:
                 a = kernel_args
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
@@ -764,8 +767,8 @@ class GridPlan:
                                depth, samples)
             else:
                 a = kernel_args
-                KX.render_ext(marker, bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.gbricks,
-                              a.gvec, a.shading, a.lights, a.slots, a.modes, a.tables, a.sigmas, a.axes, origins,
+                KX.render_ext(marker, light, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr,
+                              a.pgeo, a.lods, a.gbricks, a.slots, a.modes, a.tables, a.sigmas, a.axes, origins,
                               directions, far, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
                               depth, samples)
             return pixel_rows(tile_rows, height)
@@ -920,7 +923,7 @@ def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=No
     n = volume.values.size
     out_item = 8 if prec == "float64" else 4
     extended = opts.blending != "composite" or opts.gradient_opacity is not None or labels is not None \
-        or lod is not None or opts.shade
+        or lod is not None
     parts = {"image": n_pix * (4 * out_item + 8 + 8 + (8 if opts.blending != "composite" else 0))}
     if rays is not None or extended:
         # origins and directions in voxel units (and the camera's rays they come from)
@@ -985,9 +988,6 @@ class _Extended(NamedTuple):
     lods: np.ndarray
     leap_lod: np.ndarray
     gbricks: np.ndarray
-    gvec: np.ndarray
-    shading: np.ndarray
-    lights: np.ndarray
     slots: np.ndarray
     modes: np.ndarray
     tables: np.ndarray
@@ -1016,8 +1016,6 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
         pyr, pgeo, lods, leap_lod = one, np.zeros((1, 6), np.int64), np.zeros(1), leap.reshape(1, -1)
         level_tables, level_steps = table.reshape(1, -1), np.array([params.step])
     gbricks = _gradient_bricks(volume, dtype) if opts.gradient_opacity is not None else one
-    gvec = _gradient_vector_bricks(volume, dtype) if opts.shade and opts.shade_gradient == "interpolated" else one
-    shading, lights = shading_arrays(opts, volume.spacing)
     g_lo, g_hi = opts.gradient_opacity if opts.gradient_opacity is not None else (0.0, 1.0)
     if styles is not None:
         slots, modes, tables, sigmas, axes = styles.slots, styles.modes, styles.tables, styles.sigmas, styles.axes
@@ -1040,10 +1038,22 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
             stop = -float(blocks.minimum[finite].min())
     e = KX.ExtParams(BLENDING_CODES[opts.blending], float(unit), stop, int(opts.gradient_opacity is not None),
                      float(g_lo), float(1.0 / (g_hi - g_lo)), int(pgeo.shape[0]) if lod is not None else 0,
-                     int(styles is not None), int(lattice), int(midpoint), int(opts.shade))
-    return _Extended(pyr, pgeo, lods, leap_lod, gbricks, gvec, shading, lights, slots, modes, tables, sigmas, axes,
-                     level_tables,
-                     level_steps, e)
+                     int(styles is not None), int(lattice), int(midpoint))
+    return _Extended(pyr, pgeo, lods, leap_lod, gbricks, slots, modes, tables, sigmas, axes, level_tables, level_steps,
+                     e)
+
+
+def _light(volume, opts, prec):
+    """The kernels' ``light`` (``_kernels.lit``): 0 for an unshaded render, else the
+    tuple ``(shading, lights, gradient vectors)`` (the vectors bricked in the kernel
+    precision for ``shade_gradient="interpolated"``, else a placeholder)."""
+    if not opts.shade:
+        return 0
+    dtype = np.float64 if prec == "float64" else np.float32
+    interpolated = opts.shade_gradient == "interpolated"
+    gvec = _gradient_vector_bricks(volume, dtype) if interpolated else np.zeros(1, dtype)
+    shading, lights = shading_arrays(opts, volume.spacing)
+    return shading, lights, gvec
 
 
 def _mip_leaps(grids, blocks, opts, styles, table, params, mask):
@@ -1129,7 +1139,7 @@ def _gradient_bricks(volume, dtype):
 
 def _gradient_vector_bricks(volume, dtype):
     """``grad v`` per grid point (world units), each component bricked like the data, one
-    after the other in one flat array (``_kernels_ext._shade``); cached on the volume."""
+    after the other in one flat array (``_kernels.lit``); cached on the volume."""
     key = ("gradient_vectors", np.dtype(dtype).str)
     if key not in volume.cache:
         grad = np.empty((3,) + volume.values.shape, np.float64)

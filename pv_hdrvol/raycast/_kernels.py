@@ -1,8 +1,11 @@
 """numba kernels for image volumes: arrays in, arrays out.
 
-Nothing here validates or allocates; ``raycast/grid.py`` does that. Modes are small
-integer constants inside the ``GridParams`` tuple (kept in numba's on-disk cache,
-unlike jitted callables passed as arguments).
+Nothing here validates or allocates; ``raycast/grid.py`` does that. What a render
+compiles is chosen by the types of two arguments, so that it compiles only what it
+uses: the precision's marker (a float64, float32 or int64 zero: ``_march``) and the
+lighting (``0`` or a tuple of arrays: ``lit``). The rest of the modes are small integer
+constants inside the ``GridParams`` tuple (kept in numba's on-disk cache, unlike jitted
+callables passed as arguments).
 
 The volume is stored in bricks of ``(8 + 1)**3`` points (one shared plane per
 side), so a sample's eight neighbours sit in one small contiguous block of memory

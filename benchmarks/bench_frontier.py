@@ -48,6 +48,16 @@ VTK_STEPS = (2.0, 1.0, 0.5, 0.25, 0.125)
 REFERENCE_STEP = 0.05
 
 
+def hydrogen_tf(hv):
+    """The hydrogen scene's function: a log axis over 6 decades, opacity in proportion to
+    the density (magma colours)."""
+    values = np.logspace(-6.0, 0.0, 13)
+    opacity = 0.5 * values
+    opacity[0] = 0.0
+    colors = hv.TransferFunction.ramp(1e-6, 1.0, scale="log", cmap="magma").color_at(values)
+    return hv.TransferFunction(values, colors, opacity, scale="log")
+
+
 def scenes(hv, which):
     """``{name: (vtkImageData, GridVolume, tf)}``."""
     tfs = transfer_functions(hv)
@@ -60,12 +70,7 @@ def scenes(hv, which):
         out["bonsai (opaque)"] = (image, hv.volume_from_dataset(image), tfs["opaque"])
     if "hydrogen" in which:
         image = read_vti(data_dir() / "hdr" / "hydrogen_64x64x64_float32.vti")
-        values = np.logspace(-6.0, 0.0, 13)
-        opacity = 0.5 * values
-        opacity[0] = 0.0
-        colors = hv.TransferFunction.ramp(1e-6, 1.0, scale="log", cmap="magma").color_at(values)
-        tf = hv.TransferFunction(values, colors, opacity, scale="log")
-        out["hydrogen (log TF)"] = (image, hv.volume_from_dataset(image), tf)
+        out["hydrogen (log TF)"] = (image, hv.volume_from_dataset(image), hydrogen_tf(hv))
     return out
 
 

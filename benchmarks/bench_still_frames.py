@@ -40,6 +40,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from bench_frontier import hydrogen_tf  # noqa: E402
 from bench_grid import DATASETS, VTKWindow, data_dir, load, read_vti, transfer_functions  # noqa: E402
 
 TOLERANCES = (1e-2, 3e-3, 1e-3)
@@ -61,12 +62,7 @@ def scenes(hv, which):
             out[name] = (image, vol, tf, "grid")
     if "hydrogen_log" in which:
         image = read_vti(data_dir() / "hdr" / "hydrogen_64x64x64_float32.vti")
-        values = np.logspace(-6.0, 0.0, 13)
-        opacity = 0.5 * values
-        opacity[0] = 0.0
-        colors = hv.TransferFunction.ramp(1e-6, 1.0, scale="log", cmap="magma").color_at(values)
-        out["hydrogen_log"] = (image, hv.volume_from_dataset(image),
-                               hv.TransferFunction(values, colors, opacity, scale="log"), "grid")
+        out["hydrogen_log"] = (image, hv.volume_from_dataset(image), hydrogen_tf(hv), "grid")
     if "bluntfin" in which:
         grid = pv.read(data_dir() / "unstructured" / "bluntfin_187395tets.vtu")
         mesh = hv.tetmesh_from_dataset(grid)

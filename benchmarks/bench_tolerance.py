@@ -38,6 +38,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from bench_frontier import hydrogen_tf  # noqa: E402
 from bench_grid import DATASETS, data_dir, load, read_vti, transfer_functions  # noqa: E402
 
 TOLERANCES = (1e-2, 3e-3, 1e-3, 1e-4)
@@ -65,11 +66,7 @@ def scenes(hv, which):
         out["bonsai"] = (hv.volume_from_dataset(read_vti(root / DATASETS["bonsai"])), tfs["opaque"], {}, "grid")
     if "hydrogen" in which:
         vol = hv.volume_from_dataset(read_vti(root / "hdr" / "hydrogen_64x64x64_float32.vti"))
-        values = np.logspace(-6.0, 0.0, 13)
-        opacity = 0.5 * values
-        opacity[0] = 0.0
-        colors = hv.TransferFunction.ramp(1e-6, 1.0, scale="log", cmap="magma").color_at(values)
-        out["hydrogen"] = (vol, hv.TransferFunction(values, colors, opacity, scale="log"), {}, "grid")
+        out["hydrogen"] = (vol, hydrogen_tf(hv), {}, "grid")
     for name, path, extra in (("m4", "hdr/m4_total_density_25x22x31_float32.vti", {}),
                               ("ct_head", "structured/ct_head_120x120x130_uint8.vtk", {}),
                               ("tooth_shaded", "structured/tooth_103x94x161_uint8.nrrd", {"shade": True})):

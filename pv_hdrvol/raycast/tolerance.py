@@ -184,14 +184,50 @@ def _brightest(tf, opts):
     return c
 
 
-def _knob_record(tolerance, estimate, stats, chosen, seconds):
-    out = {"tolerance": float(tolerance), "estimated_error": float(estimate), "pilot_seconds": float(seconds)}
-    out.update(chosen)
-    out.update(stats)
-    return out
+def _choose(pilot_rgb, ladder, knob, tf, opts, pilot_pixels, t0, unmet):
+    """The knobs of a tolerance render, from ``pilot_rgb(tf, value, termination)`` (the
+    pilot's RGB with ``knob`` at ``value``): ``(value, termination, tf, record)``, the
+    function being ``tf`` or a smaller table of it, ``record`` the image's
+    ``metadata["tolerance"]``. Warns (``unmet(value, estimate)`` says how) when the
+    estimate exceeds the tolerance."""
+    tol = opts.tolerance
+    tf_fast = _table_for(tf, tol)
+    c_max = _brightest(tf, opts)
+    knobs = {}
+
+    def rung(value):
+        # the first (coarsest) rung runs without termination and sets it from its peak
+        if not knobs:
+            rgb = pilot_rgb(tf_fast, value, 0.0)
+            knobs["termination"] = _termination_for(tol, float(rgb.max(initial=0.0)), c_max)
+            return rgb
+        return pilot_rgb(tf_fast, value, knobs["termination"])
+
+    value, estimate, stats = ladder_choice(rung, ladder, STEP_SHARE * tol)
+    termination = knobs["termination"]
+    peak = stats["peak"]
+    # a ray stopped at transmittance T misses at most T c_max: within its share by choice.
+    # A table smaller than the function's own is measured at the chosen value
+    bias = _termination_for(tol, peak, c_max) * c_max / peak if peak > 0 else 0.0
+    if tf_fast is not tf and tf_fast.table_size < tf.table_size and peak > 0:
+        bias = rms(pilot_rgb(tf_fast, value, termination), pilot_rgb(tf, value, 0.0)) / peak
+        if bias > (1.0 - STEP_SHARE) * tol:
+            tf_fast = tf
+            bias = TERMINATION_SHARE * tol
+    estimate += bias
+    stats["knob_bias"] = float(bias)
+    stats["pilot_pixels"] = int(pilot_pixels)
+    if estimate > tol:
+        warnings.warn(f"tolerance={tol:g} not met: {unmet(value, estimate)}", ToleranceWarning, stacklevel=4)
+    record = {"tolerance": float(tol), "estimated_error": float(estimate),
+              "pilot_seconds": float(time.perf_counter() - t0), knob: float(value), "termination": float(termination),
+              "precision": "float64", "table_size": int(getattr(tf_fast, "table_size", 0))}
+    record.update(stats)
+    return value, termination, tf_fast, record
 
 
-def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, window=None, progress=None, progress_bar=None,
+def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, window=None, progress=None,
+                 progress_bar=None,
                  chunk_seconds=None, far=None):
     """``GridPlan.execute`` for a plan whose options carry a ``tolerance``: choose the
     knobs on a pilot, then render with them."""
@@ -234,43 +270,13 @@ def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, w
                                                        progress_bar=False)
         return np.asarray(img.rgba[..., :3], dtype=np.float64)
 
-    tf = plan.tf
-    tf_fast = _table_for(tf, tol)
-    c_max = _brightest(tf, opts)
-    knobs = {}
-
-    def rung(h):
-        # the first (coarsest) rung runs without termination and sets it from its peak
-        if not knobs:
-            rgb = pilot_rgb(tf_fast, h, 0.0)
-            knobs["termination"] = _termination_for(tol, float(rgb.max(initial=0.0)), c_max)
-            return rgb
-        return pilot_rgb(tf_fast, h, knobs["termination"])
-
-    step, estimate, stats = ladder_choice(rung, GRID_LADDER, STEP_SHARE * tol)
-    termination = knobs["termination"]
-    peak = stats["peak"]
-    # a ray stopped at transmittance T misses at most T c_max: within its share by choice.
-    # A table smaller than the function's own is measured at the chosen step
-    bias = _termination_for(tol, peak, c_max) * c_max / peak if peak > 0 else 0.0
-    if tf_fast is not tf and tf_fast.table_size < tf.table_size and peak > 0:
-        bias = rms(pilot_rgb(tf_fast, step, termination), pilot_rgb(tf, step, 0.0)) / peak
-        if bias > (1.0 - STEP_SHARE) * tol:
-            tf_fast = tf
-            bias = TERMINATION_SHARE * tol
-    estimate += bias
-    stats["knob_bias"] = float(bias)
-    stats["pilot_pixels"] = int(pick.size)
-    chosen = {"step": float(step), "termination": float(termination), "precision": "float64",
-              "table_size": int(getattr(tf_fast, "table_size", 0))}
-    seconds = time.perf_counter() - t0
-    if estimate > tol:
-        warnings.warn(f"tolerance={tol:g} not met: the finest step tried ({step:g} voxels) has an estimated error "
-                      f"of {estimate:.3g}", ToleranceWarning, stacklevel=3)
+    step, termination, tf_fast, record = _choose(
+        pilot_rgb, GRID_LADDER, "step", plan.tf, opts, int(pick.size), t0,
+        lambda h, e: f"the finest step tried ({h:g} voxels) has an estimated error of {e:.3g}")
     img = child(tf_fast, step, termination).execute(
-        camera, size, lens=lens, block_mask=block_mask, cull=cull, window=window, progress=progress, progress_bar=progress_bar,
-        chunk_seconds=chunk_seconds, far=far)
-    img.metadata["tolerance"] = _knob_record(tol, estimate, stats, chosen, seconds)
+        camera, size, lens=lens, block_mask=block_mask, cull=cull, window=window, progress=progress,
+        progress_bar=progress_bar, chunk_seconds=chunk_seconds, far=far)
+    img.metadata["tolerance"] = record
     img.metadata["settings"] = plan_settings(plan, img.metadata["settings"])
     return img
 
@@ -320,39 +326,12 @@ def execute_mesh(plan, camera, size, *, progress=None, progress_bar=None, view=N
             img = child(tf, tau, termination).execute(camera, pilot_size, progress_bar=False, far=pilot_far)
         return np.asarray(img.rgba[..., :3], dtype=np.float64)
 
-    tf = plan.tf
-    tf_fast = _table_for(tf, tol)
-    c_max = _brightest(tf, opts)
-    knobs = {}
-
-    def rung(tau):
-        if not knobs:
-            rgb = pilot_rgb(tf_fast, tau, 0.0)
-            knobs["termination"] = _termination_for(tol, float(rgb.max(initial=0.0)), c_max)
-            return rgb
-        return pilot_rgb(tf_fast, tau, knobs["termination"])
-
-    tau, estimate, stats = ladder_choice(rung, MESH_LADDER, STEP_SHARE * tol)
-    termination = knobs["termination"]
-    peak = stats["peak"]
-    bias = _termination_for(tol, peak, c_max) * c_max / peak if peak > 0 else 0.0
-    if tf_fast is not tf and tf_fast.table_size < tf.table_size and peak > 0:
-        bias = rms(pilot_rgb(tf_fast, tau, termination), pilot_rgb(tf, tau, 0.0)) / peak
-        if bias > (1.0 - STEP_SHARE) * tol:
-            tf_fast = tf
-            bias = TERMINATION_SHARE * tol
-    estimate += bias
-    stats["knob_bias"] = float(bias)
-    stats["pilot_pixels"] = int(pilot_size[0] * pilot_size[1])
-    chosen = {"tau_max": float(tau), "termination": float(termination), "precision": "float64",
-              "table_size": int(getattr(tf_fast, "table_size", 0))}
-    seconds = time.perf_counter() - t0
-    if estimate > tol:
-        warnings.warn(f"tolerance={tol:g} not met: the finest tau_max tried ({tau:g}) has an estimated error of "
-                      f"{estimate:.3g}", ToleranceWarning, stacklevel=3)
+    tau, termination, tf_fast, record = _choose(
+        pilot_rgb, MESH_LADDER, "tau_max", plan.tf, opts, int(pilot_size[0] * pilot_size[1]), t0,
+        lambda h, e: f"the finest tau_max tried ({h:g}) has an estimated error of {e:.3g}")
     img, view = child(tf_fast, tau, termination).execute_with_view(
         camera, size, progress=progress, progress_bar=progress_bar, view=view, chunk_seconds=chunk_seconds, far=far)
-    img.metadata["tolerance"] = _knob_record(tol, estimate, stats, chosen, seconds)
+    img.metadata["tolerance"] = record
     img.metadata["settings"] = plan_settings(plan, img.metadata["settings"])
     # replayed, the settings choose again: tau_max stays the plan's (the default)
     img.metadata["settings"]["keywords"] = {**img.metadata["settings"].get("keywords", {}), "tau_max": plan.tau_max}

@@ -94,18 +94,24 @@ class TetMesh:
 
 
 def is_unstructured(data):
-    """True for a vtkUnstructuredGrid (pyvista.UnstructuredGrid) or a :class:`TetMesh`."""
+    """True for data rendered by the tet path: a :class:`TetMesh`, a vtkUnstructuredGrid
+    (pyvista.UnstructuredGrid) or a curvilinear vtkStructuredGrid (pyvista.StructuredGrid,
+    split into tetrahedra by :func:`~pv_hdrvol.data.structured.tetmesh_from_structured`)."""
     if isinstance(data, TetMesh):
         return True
-    return hasattr(data, "GetClassName") and data.GetClassName() == "vtkUnstructuredGrid"
+    return hasattr(data, "GetClassName") and data.GetClassName() in ("vtkUnstructuredGrid", "vtkStructuredGrid")
 
 
 def as_tetmesh(data, scalars=None, preference="point"):
-    """A :class:`TetMesh` from a TetMesh or an unstructured grid, cached per grid.
+    """A :class:`TetMesh` from a TetMesh, an unstructured grid or a structured
+    (curvilinear) grid, cached per grid.
 
+    A structured grid's hexahedra are split into six tetrahedra each
+    (:func:`~pv_hdrvol.data.structured.tetmesh_from_structured`).
     The cache key holds the grid's modification time, the array and its association,
-    and a SHA-1 of the point coordinates and the scalars: changing the mesh or its
-    scalars rebuilds it, also by an in-place numpy edit that did not call ``Modified()``.
+    and a SHA-1 of the point coordinates, the scalars and (structured grids) the
+    dimensions and blanking: changing the mesh or its scalars rebuilds it, also by an
+    in-place numpy edit that did not call ``Modified()``.
     The cache holds the grid weakly and at most four prepared meshes (``DatasetCache``).
     """
     if isinstance(data, TetMesh):
@@ -113,8 +119,9 @@ def as_tetmesh(data, scalars=None, preference="point"):
             raise ValueError("scalars names an array of a dataset; a TetMesh has its scalars already")
         return data
     if not is_unstructured(data):
-        raise TypeError(f"expected an unstructured grid (pyvista.UnstructuredGrid / vtkUnstructuredGrid) or a "
-                        f"TetMesh; got {type(data).__name__}")
+        raise TypeError(f"expected an unstructured grid (pyvista.UnstructuredGrid / vtkUnstructuredGrid), a "
+                        f"structured grid (pyvista.StructuredGrid / vtkStructuredGrid) or a TetMesh; got "
+                        f"{type(data).__name__}")
     key = (int(data.GetMTime()), scalars, preference, _content_digest(data, scalars, preference))
     mesh = _MESH_CACHE.lookup(data, key)
     if mesh is None:
@@ -136,6 +143,11 @@ def _content_digest(dataset, scalars, preference):
     points = dataset.GetPoints()
     if points is not None:
         arrays.append(vtk_to_numpy(points.GetData()))
+    if dataset.GetClassName() == "vtkStructuredGrid":
+        # the lattice and its blanking (ghost arrays) decide the cells
+        arrays.append(np.asarray(dataset.GetExtent(), dtype=np.int64))
+        for ghosts in (dataset.GetPointGhostArray(), dataset.GetCellGhostArray()):
+            arrays.append(vtk_to_numpy(ghosts) if ghosts is not None else np.empty(0, dtype=np.uint8))
     try:
         name, use_cell = choose_scalars(dataset, scalars, preference, "mesh")
         field_data = dataset.GetCellData() if use_cell else dataset.GetPointData()
@@ -160,10 +172,13 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
 
     Parameters
     ----------
-    dataset : pyvista.UnstructuredGrid or vtkUnstructuredGrid
+    dataset : pyvista.UnstructuredGrid, vtkUnstructuredGrid, pyvista.StructuredGrid or vtkStructuredGrid
         Linear tetrahedra are used as they are. Other 3-D cells (hexahedra, wedges,
         pyramids, quadratic cells...) are split into tetrahedra with
         ``vtkDataSetTriangleFilter``, with a warning; 0-D to 2-D cells are dropped.
+        A structured (curvilinear) grid's hexahedra are split into six tetrahedra
+        each, without a warning
+        (:func:`~pv_hdrvol.data.structured.tetmesh_from_structured`).
     scalars : str, optional
         Array to render; default the active scalars, else the only array.
     preference : {"point", "cell"}
@@ -177,7 +192,12 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
     """
     as_choice("preference", preference, ("point", "cell"))
     if not is_unstructured(dataset) or isinstance(dataset, TetMesh):
-        raise TypeError(f"expected a pyvista.UnstructuredGrid / vtkUnstructuredGrid; got {type(dataset).__name__}")
+        raise TypeError(f"expected a pyvista.UnstructuredGrid / vtkUnstructuredGrid or a pyvista.StructuredGrid / "
+                        f"vtkStructuredGrid; got {type(dataset).__name__}")
+    if dataset.GetClassName() == "vtkStructuredGrid":
+        from .structured import tetmesh_from_structured
+
+        return tetmesh_from_structured(dataset, scalars, preference)
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
     check_has_cells(dataset)

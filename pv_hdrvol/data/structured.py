@@ -1,0 +1,240 @@
+"""Curvilinear (structured) grids -> tetrahedral meshes for the exact tet ray caster.
+
+A ``vtkStructuredGrid`` (``pyvista.StructuredGrid``; a PLOT3D grid) holds hexahedra on a
+logical i-j-k lattice: point ``(i, j, k)`` is number ``i + nx * (j + ny * k)`` (VTK
+order, i fastest) and cell ``(i, j, k)`` has the corners ``(i..i+1, j..j+1, k..k+1)``.
+Each hexahedron is split into the six tetrahedra around its diagonal from corner
+``(i, j, k)`` to ``(i+1, j+1, k+1)`` (the Kuhn or Freudenthal split): tetrahedron ``p``
+follows the path ``(i, j, k) -> + e_a -> + e_b -> + e_c`` for the permutation
+``(a, b, c) = p`` of the three axes. Every face of the lattice is then cut along the
+diagonal that joins its lowest-index corner to its highest, in both cells that share
+it, so the split is conforming (no cracks, no T-junctions) without looking at the
+coordinates, and the scalar is continuous across the cells.
+
+The field inside a cell is then piecewise linear (linear in each tetrahedron), where
+VTK's hexahedron is trilinear: the two agree at the corners and for every field that
+is linear in the coordinates of a grid whose cells are parallelepipeds; on curved cells
+they differ by O(h^2) (``benchmarks/bench_curvilinear.py`` measures the difference on
+real grids: a few 1e-3 of the image at native resolution).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._validate import as_choice
+from .grid import ScalarsError, _arrays, choose_scalars
+
+#: the six tetrahedra of the unit cube, as corner bits (1: +i, 2: +j, 4: +k) along the
+#: paths 0 -> e_a -> e_a + e_b -> 7 over the permutations (a, b, c) of the axes;
+#: _oriented swaps the middle corners of the odd permutations' paths, so that every
+#: tetrahedron of a right-handed cell has a positive volume
+_KUHN_BITS = np.array([
+    [0, 1, 3, 7],  # i, j, k
+    [0, 1, 5, 7],  # i, k, j
+    [0, 2, 3, 7],  # j, i, k
+    [0, 2, 6, 7],  # j, k, i
+    [0, 4, 5, 7],  # k, i, j
+    [0, 4, 6, 7],  # k, j, i
+], dtype=np.int64)
+
+
+def _oriented(bits):
+    """``bits`` with the middle corners of negatively oriented tetrahedra swapped."""
+    corners = np.stack([(bits >> 0) & 1, (bits >> 1) & 1, (bits >> 2) & 1], axis=-1).astype(np.float64)
+    e = corners[:, 1:] - corners[:, :1]
+    out = bits.copy()
+    negative = np.linalg.det(e) < 0
+    out[negative] = out[negative][:, [0, 2, 1, 3]]
+    return out
+
+
+_KUHN_BITS = _oriented(_KUHN_BITS)
+#: vtkDataSetAttributes ghost bits that hide a cell of a structured grid, as
+#: vtkStructuredGrid::IsCellVisible reads them: HIDDENCELL | REFINEDCELL in the cell
+#: ghosts, HIDDENPOINT in the ghosts of any of its points
+_HIDDEN_CELL_BITS = 32 | 8
+_HIDDEN_POINT_BITS = 2
+
+
+def structured_tets(points, dims, visible=None):
+    """The Kuhn split of a structured grid's hexahedra into tetrahedra (6 per cell).
+
+    Parameters
+    ----------
+    points : array (nx * ny * nz, 3)
+        The grid's points in VTK order (index ``i + nx * (j + ny * k)``). Only their
+        number is checked: the split depends on the lattice alone.
+    dims : (nx, ny, nz) ints, each >= 2
+        Points along i, j, k.
+    visible : bool array ((nx-1) * (ny-1) * (nz-1),), optional
+        Cells to split (VTK cell order, i fastest); default all. Hidden cells give no
+        tetrahedra.
+
+    Returns
+    -------
+    tets : int64 array (6 * n_visible, 4)
+        Point indices; rows ``6 c .. 6 c + 5`` are the tetrahedra of the ``c``-th
+        visible cell, in cell order (``np.repeat(cell_values[visible], 6)`` gives their
+        cell data). The split is conforming: two cells sharing a face cut it along the
+        same diagonal. In a right-handed cell (``(P_i x P_j) . P_k > 0`` for the edge
+        vectors from corner ``(i, j, k)``), each tetrahedron has a positive volume.
+
+    Raises
+    ------
+    ValueError
+        ``dims`` not three integers >= 2 (a 2-D grid has no volume), ``points`` not
+        of shape ``(nx * ny * nz, 3)``, ``visible`` of the wrong length.
+
+    Examples
+    --------
+    >>> structured_tets(np.zeros((8, 3)), (2, 2, 2)).shape
+    (6, 4)
+    """
+    dims = _check_dims(dims)
+    nx, ny, nz = dims
+    points = np.asarray(points)
+    if points.shape != (nx * ny * nz, 3):
+        raise ValueError(f"points must have shape ({nx * ny * nz}, 3) for dims {dims}; got {points.shape}")
+    ci, cj, ck = np.meshgrid(np.arange(nx - 1, dtype=np.int64), np.arange(ny - 1, dtype=np.int64),
+                             np.arange(nz - 1, dtype=np.int64), indexing="ij")
+    # cell order: i fastest -> ravel the (k, j, i) transpose
+    base = (ci + nx * (cj + ny * ck)).transpose(2, 1, 0).ravel()
+    if visible is not None:
+        visible = np.asarray(visible, dtype=bool).ravel()
+        if visible.shape != base.shape:
+            raise ValueError(f"visible must have one entry per cell ({base.size}); got {visible.size}")
+        base = base[visible]
+    bits = _KUHN_BITS
+    offset = (bits & 1) + nx * (((bits >> 1) & 1) + ny * ((bits >> 2) & 1))  # (6, 4)
+    return (base[:, None, None] + offset[None]).reshape(-1, 4)
+
+
+def _check_dims(dims):
+    try:
+        d = tuple(int(v) for v in dims)
+    except (TypeError, ValueError):
+        raise ValueError(f"dims must be three integers (nx, ny, nz); got {dims!r}") from None
+    if len(d) != 3:
+        raise ValueError(f"dims must be three integers (nx, ny, nz); got {dims!r}")
+    if min(d) < 2:
+        raise ValueError(f"a structured grid must be 3-D, with at least 2 points along every axis; got dimensions "
+                         f"{d}: a 2-D grid or a single point has no volume to render")
+    return d
+
+
+def is_structured_grid(data):
+    """True for a ``vtkStructuredGrid`` (``pyvista.StructuredGrid``)."""
+    return hasattr(data, "GetClassName") and data.GetClassName() == "vtkStructuredGrid"
+
+
+def grid_dims(dataset):
+    """``(nx, ny, nz)`` points along i, j, k of a vtkStructuredGrid, from its extent
+    (``GetDimensions()`` takes an output argument in VTK 9.7, none before)."""
+    e = dataset.GetExtent()
+    return tuple(int(e[2 * a + 1]) - int(e[2 * a]) + 1 for a in range(3))
+
+
+def visible_cells(dataset):
+    """Bool array, one per cell (VTK order): the cells ``IsCellVisible`` reports visible
+    (no HIDDENCELL or REFINEDCELL ghost bit, no corner point with HIDDENPOINT), or
+    None when every cell is."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    nx, ny, nz = grid_dims(dataset)
+    hidden = None
+    cg = dataset.GetCellGhostArray()
+    if cg is not None:
+        hidden = (vtk_to_numpy(cg).astype(np.uint8) & _HIDDEN_CELL_BITS) != 0
+    pg = dataset.GetPointGhostArray()
+    if pg is not None:
+        hp = ((vtk_to_numpy(pg).astype(np.uint8) & _HIDDEN_POINT_BITS) != 0).reshape(nz, ny, nx)
+        if hp.any():
+            # a cell is hidden when any of its 8 corners is
+            hc = np.zeros((nz - 1, ny - 1, nx - 1), dtype=bool)
+            for dk in (0, 1):
+                for dj in (0, 1):
+                    for di in (0, 1):
+                        hc |= hp[dk:nz - 1 + dk, dj:ny - 1 + dj, di:nx - 1 + di]
+            hidden = hc.ravel() if hidden is None else hidden | hc.ravel()
+    if hidden is None or not hidden.any():
+        return None
+    return ~hidden
+
+
+def tetmesh_from_structured(dataset, scalars=None, preference="point"):
+    """Prepare a curvilinear grid for the tet ray caster; the dataset is not modified.
+
+    Parameters
+    ----------
+    dataset : pyvista.StructuredGrid or vtkStructuredGrid
+        Hexahedra on an i-j-k lattice, each split into 6 tetrahedra
+        (:func:`structured_tets`). Blanked cells (``vtkStructuredGrid::BlankCell``,
+        ``BlankPoint``: the ghost array's hidden bits) give no tetrahedra.
+    scalars : str, optional
+        Array to render; default the active scalars, else the only array.
+    preference : {"point", "cell"}
+        Association to use when the name exists as point and as cell data. Cell data
+        is constant on each cell's six tetrahedra.
+
+    Returns
+    -------
+    TetMesh
+
+    Raises
+    ------
+    ValueError
+        A grid with a dimension of 1 (2-D), every cell hidden, non-finite point
+        coordinates (the message gives how many and the first point's index and
+        (i, j, k)), scalars missing, ambiguous or with more than one component
+        (:class:`~pv_hdrvol.ScalarsError`).
+    TypeError
+        ``dataset`` is not a structured grid.
+
+    Notes
+    -----
+    Collapsed cells (a grid line that degenerates to a point, as at the nose of the
+    Blunt Fin) give zero-volume tetrahedra, and folded cells inverted ones: the tet
+    caster crosses both (a flat cell in zero length).
+    """
+    from .tets import tetmesh_from_arrays
+
+    as_choice("preference", preference, ("point", "cell"))
+    if not is_structured_grid(dataset):
+        raise TypeError(f"expected a pyvista.StructuredGrid / vtkStructuredGrid; got {type(dataset).__name__}")
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    dims = grid_dims(dataset)
+    if min(dims) < 1 or dataset.GetPoints() is None:
+        raise ValueError(f"the structured grid has no points (dimensions {dims})")
+    _check_dims(dims)
+    name, use_cell = choose_scalars(dataset, scalars, preference, "grid")
+    values = np.asarray(_arrays(dataset.GetCellData() if use_cell else dataset.GetPointData())[name]())
+    if values.ndim != 1:
+        raise ScalarsError(f"scalars {name!r} must have one component; got shape {values.shape}")
+    nx, ny, nz = dims
+    n_cells = (nx - 1) * (ny - 1) * (nz - 1)
+    expected = n_cells if use_cell else nx * ny * nz
+    if values.shape[0] != expected:
+        raise ScalarsError(f"scalars {name!r} has {values.shape[0]} values; the grid has {expected} "
+                           f"{'cells' if use_cell else 'points'}")
+    points = vtk_to_numpy(dataset.GetPoints().GetData())
+    visible = visible_cells(dataset)
+    if visible is not None and not visible.any():
+        raise ValueError(f"every cell of the structured grid is hidden (blanked); nothing to render "
+                         f"(dimensions {dims})")
+    tets = structured_tets(points, dims, visible)
+    # only the points of visible cells must be finite: blanked regions may hold garbage
+    used = np.zeros(len(points), dtype=bool)
+    used[tets.ravel()] = True
+    finite = np.all(np.isfinite(points), axis=1) | ~used
+    if not finite.all():
+        bad = np.flatnonzero(~finite)
+        first = int(bad[0])
+        ijk = (first % nx, (first // nx) % ny, first // (nx * ny))
+        raise ValueError(f"{bad.size} points of the structured grid have non-finite coordinates (NaN or inf), "
+                         f"the first is point {first} (i, j, k) = {ijk}; blank those cells "
+                         f"(BlankPoint) or remove them first")
+    if use_cell:
+        cell_values = values if visible is None else values[visible]
+        values = np.repeat(cell_values, 6)
+    return tetmesh_from_arrays(points, tets, values, association="cell" if use_cell else "point", name=name)

@@ -36,20 +36,34 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
 
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
     a :class:`GridVolume`, or a tetrahedral mesh (``pyvista.UnstructuredGrid``,
-    ``vtkUnstructuredGrid``, :class:`TetMesh`: see :func:`render_tets`); ``scalars``/``preference``
-    pick the array of a dataset, and ``labels`` may name another of its arrays.
+    ``vtkUnstructuredGrid``, :class:`TetMesh`: see :func:`render_tets`), or a composite
+    dataset of either (``pyvista.MultiBlock``, ``vtkMultiBlockDataSet``,
+    ``vtkPartitionedDataSet(Collection)``: all blocks as one scene, see
+    :func:`pv_hdrvol.raycast.blocks.render_blocks`); ``scalars``/``preference`` pick the
+    array of a dataset, and ``labels`` may name another of its arrays.
     Without ``tf``, the transfer function is chosen from the data; ``cmap``, ``clim``,
     ``opacity`` (PyVista's meanings) and ``scale`` replace single choices of it.
+    ``block_mask``, ``cull``, ``lens``, ``labels`` and ``label_styles`` are for image
+    volumes only.
     """
     tf_keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+    from .data.blocks import is_composite
     from .data.tets import is_unstructured
     from .raycast.grid import as_volume
 
-    if is_unstructured(data):
+    composite = is_composite(data)
+    if composite or is_unstructured(data):
         for name, value in (("block_mask", block_mask), ("cull", cull), ("lens", lens), ("labels", labels),
                             ("label_styles", label_styles)):
             if value is not None:
-                raise ValueError(f"{name}= is not supported for tetrahedral meshes")
+                raise ValueError(f"{name}= is not supported for "
+                                 f"{'multiblock datasets' if composite else 'tetrahedral meshes'}")
+    if composite:
+        from .raycast.blocks import render_blocks
+
+        return render_blocks(data, tf, camera, size, options, scalars=scalars, preference=preference,
+                             progress_bar=progress_bar, progress=progress, **tf_keywords, **option_kwargs)
+    if is_unstructured(data):
         return render_tets(data, tf, camera, size, options, scalars=scalars, preference=preference,
                            progress_bar=progress_bar, progress=progress, **tf_keywords, **option_kwargs)
     volume = as_volume(data, scalars=scalars, preference=preference)

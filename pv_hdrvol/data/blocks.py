@@ -1,0 +1,526 @@
+"""Composite datasets (multiblock, partitioned) -> the flat arrays of one scene.
+
+What ParaView's readers of simulation codes give (PLOT3D, Exodus, CGNS, ``.vtm`` and
+multi-piece files) is a tree of datasets: ``vtkMultiBlockDataSet``
+(``pyvista.MultiBlock``), ``vtkPartitionedDataSetCollection`` and
+``vtkPartitionedDataSet``, nested in any order. This module
+
+- flattens the tree into its leaves, each with a readable path (``"Block-00/piece 2"``:
+  a block's ``NAME`` metadata where it has one, else ``"block i"``/``"piece i"``),
+  dropping ``None`` and empty leaves (no points or no cells: readers give them for
+  pieces and element blocks that are empty on this time step or rank; they hold
+  nothing to render, so they are listed, not warned about);
+- chooses the scalars over all leaves (:func:`choose_block_scalars`, the rules of
+  :func:`~pv_hdrvol.data.grid.choose_scalars`), skipping leaves without them with a
+  warning that names them;
+- gathers image leaves on one lattice into one :class:`~pv_hdrvol.GridVolume` over
+  their union box (:func:`gather_images`; NaN, i.e. empty space, where no leaf has
+  points), and merges mesh leaves (unstructured and curvilinear) into one
+  :class:`~pv_hdrvol.TetMesh` (:func:`merge_meshes`), whose exact duplicate points
+  are merged so that faces shared by two leaves are interior and nothing is counted
+  twice.
+
+Pure data: what renders them is :mod:`pv_hdrvol.raycast.blocks`.
+"""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from typing import NamedTuple
+
+import numpy as np
+
+from .grid import (DatasetCache, ScalarsError, _arrays, _image_array, _kernel_dtype, choose_scalars, content_digest,
+                   volume_from_array)
+
+#: VTK classes of uniform image leaves (gathered onto one lattice)
+IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
+#: VTK classes of leaves the tetrahedral ray caster renders
+MESH_CLASSES = ("vtkUnstructuredGrid", "vtkStructuredGrid")
+#: leaves with no volume: skipped with a warning
+SURFACE_CLASSES = ("vtkPolyData",)
+#: relative difference of spacings that still counts as one lattice
+SPACING_RTOL = 1e-9
+#: distance (in spacings) from the first leaf's lattice that still counts as on it
+LATTICE_ATOL = 1e-6
+#: the union box may hold at most this many times the leaves' points before the leaves
+#: are rendered one by one instead of gathered (the NaN filling costs memory and time)
+MAX_UNION_RATIO = 4.0
+
+
+class Leaf(NamedTuple):
+    """One dataset of a composite dataset and its path in the tree."""
+
+    path: str
+    dataset: object
+
+    @property
+    def class_name(self):
+        return self.dataset.GetClassName()
+
+
+def is_composite(data):
+    """True for a composite VTK dataset: ``pyvista.MultiBlock``, ``vtkMultiBlockDataSet``,
+    ``vtkPartitionedDataSet(Collection)``, ``vtkMultiPieceDataSet`` and the like."""
+    return hasattr(data, "IsA") and hasattr(data, "GetClassName") and bool(data.IsA("vtkCompositeDataSet"))
+
+
+def flatten(data):
+    """``(leaves, empty)``: the non-empty leaves of a composite dataset as :class:`Leaf`
+    (depth first, in block order) and the paths of the empty ones (no points or no
+    cells). ``None`` blocks are left out of both.
+
+    Raises
+    ------
+    TypeError
+        ``data`` is not a composite dataset, or holds one of a kind that is not a tree
+        of blocks (AMR datasets).
+    """
+    if not is_composite(data):
+        raise TypeError(f"expected a composite dataset (pyvista.MultiBlock, vtkMultiBlockDataSet, "
+                        f"vtkPartitionedDataSet(Collection)); got {type(data).__name__}")
+    leaves, empty = [], []
+    _walk(data, "", leaves, empty)
+    return leaves, empty
+
+
+def _children(node):
+    """``(label, child)`` of each child of a composite node: its NAME metadata if set,
+    else ``"block i"`` (multiblock, collection) or ``"piece i"`` (partitioned)."""
+    from vtkmodules.vtkCommonDataModel import vtkCompositeDataSet
+
+    if node.IsA("vtkPartitionedDataSetCollection"):
+        count, get, word = node.GetNumberOfPartitionedDataSets(), node.GetPartitionedDataSet, "block"
+    elif node.IsA("vtkPartitionedDataSet"):  # vtkMultiPieceDataSet too
+        count, get, word = node.GetNumberOfPartitions(), node.GetPartitionAsDataObject, "piece"
+    elif node.IsA("vtkMultiBlockDataSet"):
+        count, get, word = node.GetNumberOfBlocks(), node.GetBlock, "block"
+    else:
+        raise TypeError(f"composite datasets of class {node.GetClassName()} are not supported; pv_hdrvol renders "
+                        f"multiblock and partitioned datasets (vtkMultiBlockDataSet, vtkPartitionedDataSet, "
+                        f"vtkPartitionedDataSetCollection)")
+    out = []
+    for i in range(count):
+        name = None
+        if node.HasMetaData(i):
+            info = node.GetMetaData(i)
+            if info.Has(vtkCompositeDataSet.NAME()):
+                name = info.Get(vtkCompositeDataSet.NAME())
+        out.append((name or f"{word} {i}", get(i)))
+    return out
+
+
+def _walk(node, prefix, leaves, empty):
+    for label, child in _children(node):
+        path = f"{prefix}/{label}" if prefix else label
+        if child is None:
+            continue
+        if is_composite(child):
+            _walk(child, path, leaves, empty)
+        elif child.GetNumberOfPoints() == 0 or child.GetNumberOfCells() == 0:
+            empty.append(path)
+        else:
+            leaves.append(Leaf(path, child))
+
+
+def _names(ds):
+    return list(_arrays(ds.GetPointData())), list(_arrays(ds.GetCellData()))
+
+
+def choose_block_scalars(leaves, scalars=None, preference="point"):
+    """``(name, use_cell, kept, missing)``: the array to render over all ``leaves``, its
+    association, the leaves that have it and the paths of those that do not.
+
+    ``scalars`` if given, else the active scalars of the leaves (one name among all
+    leaves that set any), else the only array name of all leaves. The association is
+    that of :func:`~pv_hdrvol.data.grid.choose_scalars` (cell data when the name is
+    only a cell array or ``preference == "cell"``), and must be the same in every
+    leaf. Leaves without the array are *not* warned about here
+    (:func:`warn_missing`).
+
+    Raises
+    ------
+    ScalarsError
+        No leaf has the array (the message lists the arrays there are), or it must be
+        given (several arrays, no common active one).
+    ValueError
+        The array is point data in some leaves and cell data in others.
+    """
+    names = [_names(leaf.dataset) for leaf in leaves]
+    if scalars is None:
+        active = []
+        for leaf in leaves:
+            a = leaf.dataset.GetPointData().GetScalars() or leaf.dataset.GetCellData().GetScalars()
+            if a is not None and a.GetName() and a.GetName() not in active:
+                active.append(a.GetName())
+        every = sorted({n for p, c in names for n in p + c})
+        if len(active) == 1:
+            scalars = active[0]
+        elif not active and len(every) == 1:
+            scalars = every[0]
+        else:
+            why = f"the blocks' active scalars differ ({active})" if active else \
+                f"the blocks have {'no arrays' if not every else 'several arrays'} and no active scalars"
+            raise ScalarsError(f"scalars must be given: {why}; arrays of the blocks: {_listing(names)}")
+    if not isinstance(scalars, str):
+        raise TypeError(f"scalars must be an array name (str); got {scalars!r}")
+    kept, missing, cell_paths, point_paths = [], [], [], []
+    for leaf, (p, c) in zip(leaves, names):
+        if scalars not in p and scalars not in c:
+            missing.append(leaf.path)
+            continue
+        _, use_cell = choose_scalars(leaf.dataset, scalars, preference, "block")
+        (cell_paths if use_cell else point_paths).append(leaf.path)
+        kept.append(leaf)
+    if not kept:
+        raise ScalarsError(f"scalars {scalars!r} not found in any block; arrays of the blocks: {_listing(names)}")
+    if cell_paths and point_paths:
+        raise ValueError(f"scalars {scalars!r} are point data in blocks {_paths(point_paths)} and cell data in "
+                         f"blocks {_paths(cell_paths)}: render one association (preference='cell' where every block "
+                         f"has cell data {scalars!r}, or convert with point_data_to_cell_data / "
+                         f"cell_data_to_point_data)")
+    return scalars, bool(cell_paths), kept, missing
+
+
+def _listing(names):
+    points = sorted({n for p, _ in names for n in p})
+    cells = sorted({n for _, c in names for n in c})
+    return f"point: {points}, cell: {cells}"
+
+
+def _paths(paths, most=8):
+    """Block paths for a message: quoted, at most ``most`` and a count of the rest."""
+    shown = ", ".join(repr(p) for p in paths[:most])
+    return shown + (f" and {len(paths) - most} more" if len(paths) > most else "")
+
+
+def warn_missing(missing, scalars, stacklevel=3):
+    """Warn that the blocks ``missing`` (paths) lack ``scalars`` and are not rendered."""
+    if missing:
+        warnings.warn(f"{len(missing)} block{'s' if len(missing) > 1 else ''} without scalars {scalars!r} "
+                      f"{'are' if len(missing) > 1 else 'is'} not rendered: {_paths(missing)}", stacklevel=stacklevel)
+
+
+def classify(leaves):
+    """``{"image": [...], "rectilinear": [...], "mesh": [...], "surface": [...]}``: the
+    leaves by the ray caster that renders them (surfaces: none).
+
+    Raises
+    ------
+    TypeError
+        A leaf of another class (a table, a hyper-tree grid...), naming it.
+    """
+    out = {"image": [], "rectilinear": [], "mesh": [], "surface": []}
+    for leaf in leaves:
+        name = leaf.class_name
+        if name in IMAGE_CLASSES:
+            out["image"].append(leaf)
+        elif name == "vtkRectilinearGrid":
+            out["rectilinear"].append(leaf)
+        elif name in MESH_CLASSES:
+            out["mesh"].append(leaf)
+        elif name in SURFACE_CLASSES:
+            out["surface"].append(leaf)
+        else:
+            raise TypeError(f"block {leaf.path!r} is a {name}: blocks must be image data, unstructured or structured "
+                            f"grids (vtkImageData, vtkUnstructuredGrid, vtkStructuredGrid)")
+    return out
+
+
+class ImageBlock(NamedTuple):
+    """One image leaf's array: ``values`` (z, y, x) view, first point ``origin`` and
+    ``spacing`` (x, y, z)."""
+
+    path: str
+    values: np.ndarray
+    origin: np.ndarray
+    spacing: np.ndarray
+
+
+def image_blocks(leaves, scalars, use_cell):
+    """:class:`ImageBlock` of each image leaf (cell data at the cell centres); an error
+    of one leaf names it."""
+    preference = "cell" if use_cell else "point"
+    out = []
+    for leaf in leaves:
+        try:
+            values, spacing, origin, _ = _image_array(leaf.dataset, scalars, preference)
+        except (TypeError, ValueError) as e:
+            raise type(e)(f"block {leaf.path!r}: {e}") from e
+        out.append(ImageBlock(leaf.path, values, origin, spacing))
+    return out
+
+
+def lattice_offsets(blocks):
+    """``(offsets, reason)``: each block's first point as integer indices (x, y, z) on
+    the first block's lattice, or ``(None, why not)`` when the blocks are not on one
+    lattice (spacings differ by more than :data:`SPACING_RTOL` relative, or a first
+    point lies more than :data:`LATTICE_ATOL` spacings off it)."""
+    spacing, origin = blocks[0].spacing, blocks[0].origin
+    offsets = np.zeros((len(blocks), 3), dtype=np.int64)
+    for i, b in enumerate(blocks[1:], 1):
+        if np.any(np.abs(b.spacing - spacing) > SPACING_RTOL * spacing):
+            return None, (f"spacings differ: {tuple(spacing.tolist())} in {blocks[0].path!r}, "
+                          f"{tuple(b.spacing.tolist())} in {b.path!r}")
+        k = (b.origin - origin) / spacing
+        offsets[i] = np.round(k)
+        if np.any(np.abs(k - offsets[i]) > LATTICE_ATOL):
+            return None, (f"the first point of {b.path!r}, {tuple(b.origin.tolist())}, is off the lattice of "
+                          f"{blocks[0].path!r} (origin {tuple(origin.tolist())}, spacing {tuple(spacing.tolist())})")
+    return offsets, None
+
+
+def gather_images(blocks, name=""):
+    """``(volume, reason)``: the image blocks as one :class:`~pv_hdrvol.GridVolume` over
+    their union box, or ``(None, why not)``.
+
+    The blocks must be on one lattice (:func:`lattice_offsets`) and their union box
+    hold at most :data:`MAX_UNION_RATIO` times their points. Points no block has are
+    NaN (empty space for the kernels: a sample whose stencil touches one contributes
+    nothing, so a gap renders as the blocks' own boxes would). Points shared by
+    several blocks (the faces of a split volume, ghost layers) take the later block's
+    value; where the values differ a warning names the two blocks. Blocks that tile a
+    volume give its values, origin and spacing exactly, hence its render bit for bit.
+    """
+    offsets, reason = lattice_offsets(blocks)
+    if offsets is None:
+        return None, reason
+    shapes = np.array([b.values.shape[::-1] for b in blocks], dtype=np.int64)  # (x, y, z)
+    lo = offsets.min(axis=0)
+    hi = (offsets + shapes).max(axis=0)
+    dims = hi - lo
+    union = int(np.prod(dims))
+    held = int(shapes.prod(axis=1).sum())
+    if union > MAX_UNION_RATIO * held:
+        return None, (f"the blocks' union box holds {union} points, over {MAX_UNION_RATIO:g} times the "
+                      f"{held} points of the blocks")
+    covered = np.zeros(dims[::-1], dtype=bool)
+    spans = []
+    for b, off, shape in zip(blocks, offsets - lo, shapes):
+        s = tuple(slice(int(o), int(o + n)) for o, n in zip(off[::-1], shape[::-1]))
+        spans.append(s)
+        covered[s] = True
+    full = bool(covered.all())
+    dtype = np.result_type(*[b.values.dtype for b in blocks])
+    integer = bool(np.issubdtype(dtype, np.integer))
+    if not full and not np.issubdtype(dtype, np.floating):
+        # the holes are NaN: a float type that holds every value exactly
+        dtype = _kernel_dtype(np.concatenate([np.array([b.values.min(), b.values.max()]) for b in blocks]))
+    values = np.full(dims[::-1], np.nan if not full else 0, dtype=dtype)
+    written = np.zeros(dims[::-1], dtype=np.int32)  # 1 + the index of the block that wrote a point
+    for i, (b, s) in enumerate(zip(blocks, spans)):
+        before = written[s]
+        shared = before > 0
+        if shared.any():
+            old, new = values[s][shared], b.values[shared]
+            same = old == new
+            if old.dtype.kind == "f":
+                same |= np.isnan(old) & np.isnan(new)
+            differ = ~same
+            if differ.any():
+                other = blocks[int(before[shared][np.argmax(differ)]) - 1].path
+                warnings.warn(f"blocks {other!r} and {b.path!r} share {int(shared.sum())} points and differ at "
+                              f"{int(differ.sum())} of them; the later block's values are rendered there",
+                              stacklevel=4)
+        values[s] = b.values
+        written[s] = i + 1
+    # the union's first point: a block's own first point where it starts the union (exact)
+    origin = np.array([blocks[int(np.argmin(offsets[:, a]))].origin[a] for a in range(3)])
+    volume = volume_from_array(values, blocks[0].spacing, origin, name=name)
+    if integer and not volume.integer:
+        volume = dataclasses.replace(volume, integer=True)  # integer data with NaN holes: still CT-like
+    return volume, None
+
+
+def merge_meshes(leaves, scalars, use_cell):
+    """One :class:`~pv_hdrvol.TetMesh` of the mesh leaves (unstructured grids, their
+    non-tetrahedral cells split with a warning; curvilinear grids split 6 tets a
+    hexahedron).
+
+    Points, tetrahedra and scalars are concatenated; :func:`~pv_hdrvol.tetmesh_from_arrays`
+    then merges exactly coincident points, so a face that two leaves share through
+    duplicated points joins their cells as neighbours: rays cross it as an interior
+    face, and nothing is counted twice. Point values stay per corner (a field that
+    jumps across the face keeps its jump).
+    """
+    from .tets import tetmesh_from_arrays
+
+    points, tets, values = [], [], []
+    n = 0
+    for leaf in leaves:
+        try:
+            p, t, v = _mesh_arrays(leaf.dataset, scalars, use_cell)
+        except (TypeError, ValueError) as e:
+            raise type(e)(f"block {leaf.path!r}: {e}") from e
+        points.append(p)
+        tets.append(t + n)
+        values.append(v)
+        n += len(p)
+    return tetmesh_from_arrays(np.concatenate(points), np.concatenate(tets), np.concatenate(values),
+                               association="cell" if use_cell else "point", name=scalars)
+
+
+def _mesh_arrays(ds, scalars, use_cell):
+    """``(points (m, 3), tets (n, 4) int64, values)`` of one unstructured or structured
+    grid (values per point, or per tetrahedron for cell data)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    from .tets import VTK_TETRA, _cell_types, _tetrahedralize
+
+    if ds.GetClassName() == "vtkStructuredGrid":
+        try:
+            from .structured import structured_tets, visible_cells
+        except ImportError:  # curvilinear support lands in data/structured.py
+            raise TypeError("curvilinear (vtkStructuredGrid) blocks need pv_hdrvol.data.structured, which this "
+                            "version lacks") from None
+        dims = tuple(int(d) for d in ds.GetDimensions())
+        points = vtk_to_numpy(ds.GetPoints().GetData())
+        visible = visible_cells(ds)
+        tets = structured_tets(points, dims, visible)
+        arr = _one_component(ds, scalars, use_cell)
+        if use_cell:
+            arr = np.repeat(arr if visible is None else arr[visible], 6)
+        return points, tets, arr
+    types = _cell_types(ds)
+    ug = ds if np.all(types == VTK_TETRA) else _tetrahedralize(ds, types)
+    conn = vtk_to_numpy(ug.GetCells().GetConnectivityArray()).astype(np.int64)
+    offsets = vtk_to_numpy(ug.GetCells().GetOffsetsArray()).astype(np.int64)
+    if conn.size != 4 * ug.GetNumberOfCells() or not np.all(np.diff(offsets) == 4):
+        raise ValueError("the mesh's tetrahedra are malformed (a cell without 4 points)")
+    return vtk_to_numpy(ug.GetPoints().GetData()), conn.reshape(-1, 4), _one_component(ug, scalars, use_cell)
+
+
+def _one_component(ds, scalars, use_cell):
+    arrays = _arrays(ds.GetCellData() if use_cell else ds.GetPointData())
+    if scalars not in arrays:  # the tetrahedralize filter keeps arrays; this guards odd inputs
+        raise ScalarsError(f"scalars {scalars!r} were lost when splitting cells into tetrahedra")
+    arr = np.asarray(arrays[scalars]())
+    if arr.ndim != 1:
+        raise ScalarsError(f"scalars {scalars!r} must have one component; got shape {arr.shape}")
+    return arr
+
+
+class BlockScene(NamedTuple):
+    """What a composite dataset renders as (:func:`prepare_blocks`).
+
+    ``kind``: ``"grid"`` (``volume`` holds the gathered GridVolume), ``"grid blocks"``
+    (``blocks`` holds one :class:`ImageBlock` per leaf: not on one lattice, or too
+    sparse; ``reason`` says which) or ``"mesh"`` (``mesh`` holds the merged TetMesh).
+    ``paths``: the leaves rendered; ``missing``: those without the scalars;
+    ``empty``: those without points or cells; ``surfaces``: those without volume.
+    """
+
+    kind: str
+    scalars: str
+    association: str
+    volume: object
+    blocks: list
+    mesh: object
+    reason: str
+    paths: list
+    missing: list
+    empty: list
+    surfaces: list
+
+    def describe(self):
+        """A dict for an image's metadata."""
+        out = {"kind": self.kind, "rendered": list(self.paths)}
+        for key in ("missing", "empty", "surfaces"):
+            if getattr(self, key):
+                out[key] = list(getattr(self, key))
+        if self.reason:
+            out["not gathered"] = self.reason
+        return out
+
+
+#: MIXED_MESSAGE.format(images=..., meshes=...): the refusal of image and mesh blocks in one scene
+MIXED_MESSAGE = ("the dataset mixes image blocks ({images}) with mesh blocks ({meshes}); rendering them as one "
+                 "scene needs each ray interleaved across the grid and the tetrahedral ray casters, which pv_hdrvol "
+                 "does not do yet: render the parts separately (hv.render(dataset[...]) for each part) or resample "
+                 "the meshes onto the image lattice")
+
+
+def prepare_blocks(data, scalars=None, preference="point"):
+    """The :class:`BlockScene` of a composite dataset: its leaves flattened, the scalars
+    chosen, image leaves gathered or listed, mesh leaves merged; cached per dataset
+    while no leaf's structure, points or scalars change (an in-place numpy edit is
+    seen, as for single datasets). Warns about leaves without the scalars and about
+    surfaces, every time.
+
+    Raises
+    ------
+    ValueError
+        Image and mesh leaves in one dataset (:data:`MIXED_MESSAGE`), no leaf to
+        render, rectilinear leaves; errors of one leaf name it.
+    ScalarsError, TypeError
+        As :func:`choose_block_scalars` and :func:`classify`.
+    """
+    from .._validate import as_choice
+
+    as_choice("preference", preference, ("point", "cell"))
+    leaves, empty = flatten(data)
+    if not leaves:
+        raise ValueError(f"the dataset has no block with points and cells to render"
+                         f"{f' (empty blocks: {_paths(empty)})' if empty else ''}")
+    kinds = classify(leaves)
+    if kinds["surface"]:
+        warnings.warn(f"{len(kinds['surface'])} surface block{'s' if len(kinds['surface']) > 1 else ''} "
+                      f"(vtkPolyData) {'have' if len(kinds['surface']) > 1 else 'has'} no volume and "
+                      f"{'are' if len(kinds['surface']) > 1 else 'is'} not rendered: "
+                      f"{_paths([leaf.path for leaf in kinds['surface']])}", stacklevel=3)
+    volumetric = [leaf for leaf in leaves if leaf.class_name not in SURFACE_CLASSES]
+    if not volumetric:
+        raise ValueError(f"the dataset has only surface blocks, which have no volume to render: "
+                         f"{_paths([leaf.path for leaf in leaves])}")
+    name, use_cell, kept, missing = choose_block_scalars(volumetric, scalars, preference)
+    warn_missing(missing, name, stacklevel=3)
+    kinds = classify(kept)
+    surfaces = [leaf.path for leaf in leaves if leaf.class_name in SURFACE_CLASSES]
+    grids = kinds["image"] + kinds["rectilinear"]
+    if grids and kinds["mesh"]:
+        raise ValueError(MIXED_MESSAGE.format(images=_paths([leaf.path for leaf in grids], 3),
+                                              meshes=_paths([leaf.path for leaf in kinds["mesh"]], 3)))
+    if kinds["rectilinear"]:
+        raise ValueError(f"rectilinear blocks ({_paths([leaf.path for leaf in kinds['rectilinear']], 3)}) are not "
+                         f"rendered in composite datasets yet: resample them onto image data "
+                         f"(pyvista.ImageData(...).sample(block)) or render each with hv.render(block)")
+    association = "cell" if use_cell else "point"
+    key = (name, association, tuple((leaf.path, _address(leaf.dataset), int(leaf.dataset.GetMTime())) for leaf in kept),
+           content_digest(*_content(kept, name, use_cell)))
+    common = dict(scalars=name, association=association, paths=[leaf.path for leaf in kept], missing=missing,
+                  empty=empty, surfaces=surfaces)
+    cached = _SCENE_CACHE.lookup(data, key)
+    if cached is not None:
+        return cached._replace(**common)
+    if kinds["mesh"]:
+        scene = BlockScene("mesh", volume=None, blocks=[], mesh=merge_meshes(kept, name, use_cell), reason="",
+                           **common)
+    else:
+        blocks = image_blocks(kept, name, use_cell)
+        volume, reason = gather_images(blocks, name)
+        scene = BlockScene("grid" if volume is not None else "grid blocks", volume=volume,
+                           blocks=[] if volume is not None else blocks, mesh=None, reason=reason or "", **common)
+    return _SCENE_CACHE.store(data, key, scene)
+
+
+def _address(ds):
+    """The C++ object behind a VTK wrapper (a wrapper may be made anew by each GetBlock)."""
+    return getattr(ds, "__this__", None) or id(ds)
+
+
+def _content(leaves, scalars, use_cell):
+    """The arrays a render reads: each leaf's scalars, and a mesh leaf's points."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    out = []
+    for leaf in leaves:
+        ds = leaf.dataset
+        out.append(_arrays(ds.GetCellData() if use_cell else ds.GetPointData())[scalars]())
+        if leaf.class_name in MESH_CLASSES and ds.GetPoints() is not None:
+            out.append(vtk_to_numpy(ds.GetPoints().GetData()))
+        elif leaf.class_name in IMAGE_CLASSES:
+            out.append(np.array(ds.GetOrigin() + ds.GetSpacing() + ds.GetExtent(), dtype=np.float64))
+    return out
+
+
+_SCENE_CACHE = DatasetCache(4)

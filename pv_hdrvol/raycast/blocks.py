@@ -1,0 +1,209 @@
+"""Render a composite dataset (multiblock, partitioned) as one scene.
+
+:func:`~pv_hdrvol.data.blocks.prepare_blocks` turns the dataset into one of three
+scenes, each rendered here:
+
+- image blocks on one lattice, gathered into one volume over their union box: one
+  grid render (:func:`~pv_hdrvol.raycast.grid.render_volume`), the render of the
+  unsplit volume bit for bit when the blocks tile it;
+- image blocks on different lattices (or too sparse to gather): each block rendered
+  alone with the same transfer function, world step and opacity unit, and the
+  partial images composited per pixel, front to back in the order the pixel's ray
+  enters the blocks' boxes (exact for boxes that meet at most at faces; see
+  :func:`render_image_blocks`);
+- mesh blocks (unstructured, curvilinear) merged into one tetrahedral mesh: one
+  :func:`~pv_hdrvol.raycast.tets.render_tets`.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..data.blocks import prepare_blocks
+from ..data.grid import volume_from_array
+from ..data.transfer import auto_transfer_function
+from ..params import RenderOptions
+from ..rays.camera import Rays, as_camera
+from .._validate import as_size
+from .grid import (GridPlan, _check_progress_bar, _progress_bar, collected_warnings, render_volume,
+                   resolve_transfer_function, warn_empty)
+from .tets import render_tets
+
+
+def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, scalars=None, preference="point",
+                  progress_bar=None, progress=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
+    """Render all blocks of a composite dataset as one scene into an :class:`~pv_hdrvol.HDRImage`.
+
+    Parameters
+    ----------
+    data : pyvista.MultiBlock, vtkMultiBlockDataSet, vtkPartitionedDataSetCollection or vtkPartitionedDataSet
+        Nested in any order. Its leaves are image data (``vtkImageData``) or meshes
+        (``vtkUnstructuredGrid``, ``vtkStructuredGrid``), not both; empty and ``None``
+        blocks are left out, surface blocks (``vtkPolyData``) too, with a warning.
+    tf, cmap, clim, opacity, scale
+        As :func:`~pv_hdrvol.render`; the default transfer function is chosen from
+        the values of all blocks, one for the whole scene.
+    camera, size, options, progress, progress_bar, **option_kwargs
+        As :func:`~pv_hdrvol.render`; a view name frames all blocks.
+    scalars, preference
+        The array to render and its association, chosen over all blocks (the rules of
+        a single dataset: the name, else the blocks' active scalars, else their only
+        array). Blocks without it are skipped with a warning naming them.
+
+    Returns
+    -------
+    HDRImage
+        ``metadata["blocks"]``: how the scene was rendered (``kind``: ``"grid"``,
+        ``"grid blocks"`` or ``"mesh"``), the blocks rendered and those left out, by
+        their paths (``"Block-00/piece 1"``: a block's name where it has one).
+
+    Raises
+    ------
+    ValueError
+        Image and mesh blocks in one dataset (rendering them as one scene is not built
+        yet: render ``dataset[...]`` parts separately); rectilinear blocks; no block
+        to render; image blocks on different lattices whose boxes overlap, or with
+        options the block-by-block render cannot keep (see Notes).
+    ScalarsError
+        No block has the scalars (the message lists the arrays of the blocks).
+
+    Notes
+    -----
+    Image blocks on one lattice (same spacing to 1e-9 relative, first points on the
+    first block's lattice to 1e-6 of a spacing) whose union box holds at most 4 times
+    their points are gathered: points no block has are NaN (empty space). Otherwise
+    each block is rendered alone and the images composited per pixel in the order the
+    ray enters each block's box, premultiplied, in float64:
+
+    .. math:: C = C_\\mathrm{front} + (1 - A_\\mathrm{front})\\, C_\\mathrm{back}
+
+    That is exact when the boxes overlap at most at shared faces (refused otherwise);
+    each block samples its own segment of the ray, at the step ``step`` times the
+    smallest spacing of all blocks, with the same opacity unit. Blending other than
+    ``"composite"``, gradient opacity, shading and ``tolerance=`` need one volume and
+    are refused there; a gathered scene takes every option a single volume does.
+    """
+    scene = prepare_blocks(data, scalars=scalars, preference=preference)
+    keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+    if scene.kind == "mesh":
+        image = render_tets(scene.mesh, tf, camera, size, options, progress=progress, progress_bar=progress_bar,
+                            **keywords, **option_kwargs)
+    elif scene.kind == "grid":
+        image = render_volume(scene.volume, tf, camera, size, options, progress=progress, progress_bar=progress_bar,
+                              **keywords, **option_kwargs)
+    else:
+        image = render_image_blocks(scene.blocks, tf, camera, size, options, name=scene.scalars, progress=progress,
+                                    progress_bar=progress_bar, **keywords, **option_kwargs)
+    image.metadata["blocks"] = scene.describe()
+    return image
+
+
+def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=None, *, name="", progress=None,
+                        progress_bar=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
+    """Render image blocks one by one and composite them per pixel (see
+    :func:`render_blocks`' Notes).
+
+    ``blocks``: :class:`~pv_hdrvol.data.blocks.ImageBlock` (path, values (z, y, x),
+    origin, spacing), whose boxes may share faces but not overlap.
+    """
+    from ..parallel.pieces import composite_pieces
+
+    volumes = [volume_from_array(b.values, b.spacing, b.origin, name=name) for b in blocks]
+    boxes = [(np.array(v.bounds[0::2]), np.array(v.bounds[1::2])) for v in volumes]
+    _check_disjoint(blocks, boxes)
+    opts = RenderOptions.from_kwargs(options, **option_kwargs)
+    refused = [what for what, on in (("tolerance=", opts.tolerance is not None),
+                                     (f"blending={opts.blending!r}", opts.blending != "composite"),
+                                     ("gradient_opacity=", opts.gradient_opacity is not None),
+                                     ("shade=True", opts.shade)) if on]
+    if refused:
+        raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; these image "
+                         f"blocks are rendered one by one (not on one lattice, or too sparse to gather): render "
+                         f"without {' and '.join(refused)}, or resample the blocks onto one lattice")
+    unit_spacing = min(float(v.spacing.min()) for v in volumes)
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    bounds = tuple(float(x) for pair in zip(lo, hi) for x in pair)
+    default = tf is None
+    tf = _union_transfer_function(volumes, bounds, unit_spacing, tf, dict(cmap=cmap, clim=clim, opacity=opacity,
+                                                                         scale=scale))
+    unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else unit_spacing
+    camera = as_camera(camera, bounds)
+    rays = camera if isinstance(camera, Rays) else camera.rays(as_size(size))
+    _check_progress_bar(progress_bar)
+    weights = np.array([v.values.size for v in volumes], dtype=np.float64)
+    start = np.concatenate([[0.0], np.cumsum(weights)]) / weights.sum()
+    bar = _progress_bar(progress_bar, 1000) if progress_bar else None
+    images = []
+    try:
+        with collected_warnings() as reasons:
+            for i, volume in enumerate(volumes):
+                # the same world step and opacity unit in every block: step is in voxels of the finest block
+                step = opts.step * unit_spacing / float(volume.spacing.min())
+                block_opts = dataclasses.replace(opts, step=step, opacity_unit_distance=unit)
+                report = _block_progress(progress, bar, start[i], start[i + 1])
+                images.append(GridPlan(volume, tf, block_opts).execute(camera, size, progress=report,
+                                                                       progress_bar=False))
+    finally:
+        if bar is not None:
+            bar.close()
+    image = composite_pieces(images, boxes, rays)
+    image.metadata.pop("pieces", None)
+    image.metadata["opacity_unit_distance"] = unit
+    image.metadata["step_world"] = opts.step * unit_spacing
+    image.metadata["step_voxels"] = opts.step
+    if reasons and not np.any(image.rgba[..., 3] > 0):
+        warn_empty(str(reasons[0]).replace("the volume", "every block") if default else str(reasons[0]))
+    return image
+
+
+def _block_progress(progress, bar, lo, hi):
+    """A block's ``progress(fraction)`` as the whole render's, between ``lo`` and ``hi``."""
+    if progress is None and bar is None:
+        return None
+    last = [lo]
+
+    def report(fraction):
+        done = lo + (hi - lo) * fraction
+        if bar is not None:
+            bar.update(int(round(1000 * done)) - int(round(1000 * last[0])))
+        last[0] = done
+        return None if progress is None else progress(done)
+
+    return report
+
+
+def _check_disjoint(blocks, boxes):
+    """Raise ``ValueError`` naming two blocks whose boxes overlap in volume (compositing
+    them in order would count the overlap twice)."""
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            overlap = np.minimum(boxes[i][1], boxes[j][1]) - np.maximum(boxes[i][0], boxes[j][0])
+            if np.all(overlap > 1e-9 * (boxes[i][1] - boxes[i][0] + boxes[j][1] - boxes[j][0])):
+                raise ValueError(
+                    f"the boxes of image blocks {blocks[i].path!r} and {blocks[j].path!r} overlap "
+                    f"({tuple(boxes[i][0].tolist())}..{tuple(boxes[i][1].tolist())} and "
+                    f"{tuple(boxes[j][0].tolist())}..{tuple(boxes[j][1].tolist())}); blocks on different lattices "
+                    f"are composited in depth order and may share faces only: remove the overlap (ghost layers) or "
+                    f"resample the blocks onto one lattice")
+
+
+def _union_transfer_function(volumes, bounds, unit_spacing, tf, keywords):
+    """``tf``, or the default transfer function of all blocks' values together (each
+    weighted by the volume of its cell, so a finely sampled block does not outweigh a
+    coarse one), for a ray as long as the union box's diagonal."""
+    if tf is not None or not volumes:
+        return resolve_transfer_function(volumes[0], tf, **keywords)
+    values = np.concatenate([v.values.reshape(-1) for v in volumes])
+    weights = np.concatenate([np.full(v.values.size, float(np.prod(v.spacing))) for v in volumes])
+    b = np.asarray(bounds)
+    diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
+    integer = all(v.integer for v in volumes)
+    if integer and keywords.get("scale") is None:
+        keywords = dict(keywords, scale="linear")
+    return auto_transfer_function(values, diagonal / unit_spacing, weights=weights / weights.mean(),
+                                  integer=integer, **keywords)
+
+
+__all__ = ["render_blocks", "render_image_blocks"]

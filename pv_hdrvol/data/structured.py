@@ -109,6 +109,29 @@ def structured_tets(points, dims, visible=None):
     return (base[:, None, None] + offset[None]).reshape(-1, 4)
 
 
+def collapsed_tets(points, tets):
+    """Bool array (n,): the tetrahedra two of whose corners are the same point (equal
+    coordinates), as a collapsed grid line or face makes them.
+
+    Such a tetrahedron has no volume and no ray crosses any length of it, but it has
+    two copies of one real face, so the face is claimed by three cells and the mesh's
+    adjacency links the wrong two, leaving a false boundary face inside the mesh
+    (a 270-degree shell sector with a collapsed axis then fails with "the camera is
+    inside the mesh", split by VTK's vtkDataSetTriangleFilter as by
+    :func:`structured_tets`). :func:`tetmesh_from_structured` drops them; the Kuhn split
+    stays conforming without them (each collapsed quad face keeps its one real
+    triangle in both cells).
+    """
+    points = np.asarray(points)
+    tets = np.asarray(tets)
+    out = np.zeros(len(tets), dtype=bool)
+    for a in range(4):
+        pa = points[tets[:, a]]
+        for b in range(a + 1, 4):
+            out |= np.all(pa == points[tets[:, b]], axis=1)
+    return out
+
+
 def _check_dims(dims):
     try:
         d = tuple(int(v) for v in dims)
@@ -193,8 +216,10 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
     Notes
     -----
     Collapsed cells (a grid line that degenerates to a point, as at the nose of the
-    Blunt Fin) give zero-volume tetrahedra, and folded cells inverted ones: the tet
-    caster crosses both (a flat cell in zero length).
+    Blunt Fin) give tetrahedra with two equal corners: they are dropped
+    (:func:`collapsed_tets` says why). Flat cells with distinct corners give
+    zero-volume tetrahedra and folded cells inverted ones: the tet caster crosses both
+    (a flat cell in zero length).
     """
     from .tets import tetmesh_from_arrays
 
@@ -223,6 +248,8 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
         raise ValueError(f"every cell of the structured grid is hidden (blanked); nothing to render "
                          f"(dimensions {dims})")
     tets = structured_tets(points, dims, visible)
+    if use_cell:
+        values = np.repeat(values if visible is None else values[visible], 6)
     # only the points of visible cells must be finite: blanked regions may hold garbage
     used = np.zeros(len(points), dtype=bool)
     used[tets.ravel()] = True
@@ -234,7 +261,12 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
         raise ValueError(f"{bad.size} points of the structured grid have non-finite coordinates (NaN or inf), "
                          f"the first is point {first} (i, j, k) = {ijk}; blank those cells "
                          f"(BlankPoint) or remove them first")
-    if use_cell:
-        cell_values = values if visible is None else values[visible]
-        values = np.repeat(cell_values, 6)
+    collapsed = collapsed_tets(points, tets)
+    if collapsed.all():
+        raise ValueError(f"every tetrahedron of the structured grid has two equal corners (the grid is "
+                         f"collapsed); nothing to render (dimensions {dims})")
+    if collapsed.any():
+        tets = tets[~collapsed]
+        if use_cell:
+            values = values[~collapsed]
     return tetmesh_from_arrays(points, tets, values, association="cell" if use_cell else "point", name=name)

@@ -343,6 +343,7 @@ def merge_meshes(leaves, scalars, use_cell):
     face, and nothing is counted twice. Point values stay per corner (a field that
     jumps across the face keeps its jump).
     """
+    from .structured import collapsed_tets
     from .tets import tetmesh_from_arrays
 
     points, tets, values = [], [], []
@@ -356,8 +357,17 @@ def merge_meshes(leaves, scalars, use_cell):
         tets.append(t + n)
         values.append(v)
         n += len(p)
-    return tetmesh_from_arrays(np.concatenate(points), np.concatenate(tets), np.concatenate(values),
-                               association="cell" if use_cell else "point", name=scalars)
+    points, tets, values = np.concatenate(points), np.concatenate(tets), np.concatenate(values)
+    # tetrahedra with two equal corners (collapsed grid lines) would claim a face thrice
+    # and leave a false boundary inside (see collapsed_tets); the tets that remain conform
+    collapsed = collapsed_tets(points, tets)
+    if collapsed.all():
+        raise ValueError("every tetrahedron of the mesh blocks has two equal corners (collapsed); nothing to render")
+    if collapsed.any():
+        tets = tets[~collapsed]
+        if use_cell:
+            values = values[~collapsed]
+    return tetmesh_from_arrays(points, tets, values, association="cell" if use_cell else "point", name=scalars)
 
 
 def _mesh_arrays(ds, scalars, use_cell):
@@ -368,12 +378,9 @@ def _mesh_arrays(ds, scalars, use_cell):
     from .tets import VTK_TETRA, _cell_types, _tetrahedralize
 
     if ds.GetClassName() == "vtkStructuredGrid":
-        try:
-            from .structured import structured_tets, visible_cells
-        except ImportError:  # curvilinear support lands in data/structured.py
-            raise TypeError("curvilinear (vtkStructuredGrid) blocks need pv_hdrvol.data.structured, which this "
-                            "version lacks") from None
-        dims = tuple(int(d) for d in ds.GetDimensions())
+        from .structured import _check_dims, grid_dims, structured_tets, visible_cells
+
+        dims = _check_dims(grid_dims(ds))
         points = vtk_to_numpy(ds.GetPoints().GetData())
         visible = visible_cells(ds)
         tets = structured_tets(points, dims, visible)

@@ -1,0 +1,312 @@
+"""Composite datasets (multiblock, partitioned) rendered as one scene (issue 33, part 3).
+
+A volume split into blocks as VTK splits extents (neighbours share their boundary
+points) must render as the unsplit volume: the image blocks are gathered onto one
+lattice, so bit for bit. Blocks on different lattices are rendered one by one and
+composited in ray order; mesh blocks are merged into one tetrahedral mesh.
+"""
+import warnings
+
+import numpy as np
+import pytest
+
+pv = pytest.importorskip("pyvista")
+from vtkmodules.vtkCommonDataModel import (vtkCompositeDataSet, vtkMultiBlockDataSet, vtkMultiPieceDataSet,
+                                           vtkPartitionedDataSet, vtkPartitionedDataSetCollection)
+
+import pv_hdrvol as hv
+from pv_hdrvol.data.blocks import MIXED_MESSAGE, flatten, image_blocks, is_composite
+from pv_hdrvol.data.grid import content_digest
+from pv_hdrvol.parallel.pieces import split_boxes
+from pv_hdrvol.raycast.blocks import render_blocks, render_image_blocks
+
+SIZE = (32, 32)
+DIMS = (17, 13, 11)
+
+
+def _smooth_image(cell=False):
+    """A float64 field on 17x13x11 points (spacing and origin not 1 and 0)."""
+    img = pv.ImageData(dimensions=DIMS, spacing=(0.5, 0.7, 0.9), origin=(1.0, -2.0, 3.0))
+    p = img.cell_centers().points if cell else img.points
+    x, y, z = ((p - np.array(img.center)) / np.array([4.0, 4.2, 4.5])).T
+    f = np.exp(-(x * x + y * y + z * z) * 2.0) + 0.3 * np.sin(3 * x) * np.cos(2 * y) ** 2
+    (img.cell_data if cell else img.point_data)["f"] = f
+    return img
+
+
+def _pieces(img, n):
+    """The image cut into ``n`` extent pieces sharing their boundary points (VTK's
+    block split), each keeping its extent offset."""
+    return [img.extract_subset((lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])) for lo, hi in split_boxes(img.dimensions, n)]
+
+
+def _container(pieces, kind, tmp_path=None):
+    if kind == "multiblock":
+        return pv.MultiBlock(pieces)
+    if kind == "partitioned":
+        pds = vtkPartitionedDataSet()
+        for i, p in enumerate(pieces):
+            pds.SetPartition(i, p)
+        coll = vtkPartitionedDataSetCollection()
+        coll.SetPartitionedDataSet(0, pds)
+        return coll
+    if kind == "nested":  # a multiblock of a multiblock and a multi-piece dataset (a vtkPartitionedDataSet)
+        outer = vtkMultiBlockDataSet()
+        inner = vtkMultiBlockDataSet()
+        half = len(pieces) // 2
+        for i, p in enumerate(pieces[:half]):
+            inner.SetBlock(i, p)
+        pds = vtkMultiPieceDataSet()
+        for i, p in enumerate(pieces[half:]):
+            pds.SetPartition(i, p)
+        outer.SetBlock(0, inner)
+        outer.SetBlock(1, pds)
+        return outer
+    if kind == "vtm":
+        path = str(tmp_path / "split.vtm")
+        pv.MultiBlock(pieces).save(path)
+        return pv.read(path)
+    raise AssertionError(kind)
+
+
+def _tf():
+    return hv.TransferFunction([-0.3, 1.2], [[1.0, 0.4, 0.1], [0.2, 0.5, 1.0]], [0.0, 0.7])
+
+
+@pytest.mark.parametrize("n", [2, 8])
+@pytest.mark.parametrize("kind", ["multiblock", "partitioned", "nested", "vtm"])
+def test_a_split_volume_renders_as_the_unsplit_one(kind, n, tmp_path):
+    img = _smooth_image()
+    data = _container(_pieces(img, n), kind, tmp_path)
+    assert is_composite(data) and len(flatten(data)[0]) == n
+    cam = hv.Camera.fit(img.bounds, "iso")
+    ref = hv.render(img, None, cam, SIZE, precision="float64")
+    out = hv.render(data, None, cam, SIZE, precision="float64")
+    assert ref.rgba[..., 3].max() > 0.3  # something to compare
+    np.testing.assert_allclose(out.rgba, ref.rgba, rtol=1e-6, atol=1e-6 * ref.rgba.max())
+    # gathered onto one lattice: the same volume, hence the same bits (default camera and tf too)
+    assert np.array_equal(out.rgba, ref.rgba)
+    assert np.array_equal(hv.render(data, size=SIZE, precision="float64").rgba,
+                          hv.render(img, size=SIZE, precision="float64").rgba)
+    assert out.metadata["blocks"]["kind"] == "grid"
+    assert len(out.metadata["blocks"]["rendered"]) == n
+
+
+def test_a_split_volume_of_cell_data_renders_as_the_unsplit_one():
+    img = _smooth_image(cell=True)
+    data = pv.MultiBlock(_pieces(img, 8))
+    ref = hv.render(img, _tf(), "xz", SIZE, precision="float64")
+    out = hv.render(data, _tf(), "xz", SIZE, precision="float64")
+    assert ref.rgba[..., 3].max() > 0.3
+    assert np.array_equal(out.rgba, ref.rgba)
+    assert out.metadata["blocks"]["kind"] == "grid"
+
+
+def test_block_paths_use_names_and_positions():
+    img = _smooth_image()
+    data = _container(_pieces(img, 4), "nested")
+    mb = pv.MultiBlock({"left": _pieces(img, 2)[0], "right": _pieces(img, 2)[1]})
+    assert [leaf.path for leaf in flatten(data)[0]] == ["block 0/block 0", "block 0/block 1", "block 1/piece 0",
+                                                        "block 1/piece 1"]
+    assert [leaf.path for leaf in flatten(mb)[0]] == ["left", "right"]
+    named = vtkMultiBlockDataSet()
+    named.SetBlock(0, data)
+    named.GetMetaData(0).Set(vtkCompositeDataSet.NAME(), "fluid")
+    assert flatten(named)[0][0].path == "fluid/block 0/block 0"
+
+
+def test_a_block_without_the_array_is_skipped_with_a_warning_naming_it():
+    img = _smooth_image()
+    pieces = _pieces(img, 2)
+    bare = pieces[1].copy()
+    bare.point_data["g"] = bare.point_data.pop("f")
+    data = pv.MultiBlock({"solid": pieces[0], "air": bare})
+    with pytest.warns(UserWarning, match=r"1 block without scalars 'f' is not rendered: 'air'"):
+        out = hv.render(data, _tf(), "iso", SIZE, scalars="f", precision="float64")
+    alone = hv.render(pieces[0], _tf(), "iso", SIZE, precision="float64")  # a view frames the blocks rendered
+    assert alone.rgba[..., 3].max() > 0.3
+    assert np.array_equal(out.rgba, alone.rgba)
+    assert out.metadata["blocks"]["missing"] == ["air"]
+
+
+def test_no_block_with_the_array_is_a_scalars_error_listing_the_arrays():
+    data = pv.MultiBlock(_pieces(_smooth_image(), 2))
+    with pytest.raises(hv.ScalarsError, match=r"scalars 'rho' not found in any block; arrays of the blocks: "
+                                              r"point: \['f'\], cell: \[\]"):
+        hv.render(data, size=SIZE, scalars="rho")
+    two = pv.MultiBlock(_pieces(_smooth_image(), 2))
+    two[1].point_data["g"] = two[1].point_data["f"] * 2
+    two[0].point_data.active_scalars_name = None
+    two[1].point_data.active_scalars_name = None
+    with pytest.raises(hv.ScalarsError, match="scalars must be given"):
+        hv.render(two, size=SIZE)
+
+
+def test_empty_and_none_blocks_are_left_out_silently_and_listed():
+    img = _smooth_image()
+    pieces = _pieces(img, 2)
+    data = pv.MultiBlock({"a": pieces[0], "nothing": pv.ImageData(), "b": pieces[1], "none": None,
+                          "no cells": pv.UnstructuredGrid()})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = hv.render(data, _tf(), "iso", SIZE, precision="float64")
+    ref = hv.render(img, _tf(), "iso", SIZE, precision="float64")
+    assert np.array_equal(out.rgba, ref.rgba)
+    assert out.metadata["blocks"]["empty"] == ["nothing", "no cells"]
+    with pytest.raises(ValueError, match=r"no block with points and cells to render \(empty blocks: 'e'\)"):
+        hv.render(pv.MultiBlock({"e": pv.ImageData()}), size=SIZE)
+
+
+def test_shared_points_that_differ_warn_naming_both_blocks():
+    pieces = _pieces(_smooth_image(), 2)
+    other = pieces[1].copy()
+    other.point_data["f"] = other.point_data["f"] + 1.0
+    with pytest.warns(UserWarning, match=r"blocks 'one' and 'two' share 143 points and differ at 143"):
+        hv.render(pv.MultiBlock({"one": pieces[0], "two": other}), _tf(), "iso", (8, 8))
+
+
+def _box(lo, hi, h, field):
+    dims = np.round((np.array(hi, float) - np.array(lo, float)) / h).astype(int) + 1
+    img = pv.ImageData(dimensions=dims, spacing=(h, h, h), origin=lo)
+    img.point_data["f"] = field(img.points)
+    return img
+
+
+def test_blocks_of_different_spacings_composite_as_beer_lambert():
+    # a constant field through two blocks of spacing 0.5 and 0.25 that share the face x = 4:
+    # along x the ray crosses 8 units of extinction sigma, once (no double counting)
+    const = lambda p: np.full(len(p), 0.5)  # noqa: E731
+    data = pv.MultiBlock([_box((0, 0, 0), (4, 2, 2), 0.5, const), _box((4, 0, 0), (8, 2, 2), 0.25, const)])
+    tf = hv.TransferFunction([0.0, 1.0], [[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]], [0.05, 0.05])
+    cam = hv.Camera((20.0, 1.0, 1.0), (4.0, 1.0, 1.0), (0.0, 0.0, 1.0), parallel_projection=True, parallel_scale=0.5)
+    out = hv.render(data, tf, cam, (4, 4), precision="float64", termination=0)
+    assert out.metadata["blocks"]["kind"] == "grid blocks"
+    assert "spacings differ" in out.metadata["blocks"]["not gathered"]
+    sigma = -np.log(1 - 0.05) / 0.25  # opacity 0.05 per unit distance, the finest spacing
+    np.testing.assert_allclose(out.rgba[..., 3], 1 - np.exp(-sigma * 8.0), rtol=1e-12)
+
+
+def test_blocks_of_different_spacings_render_as_the_unsplit_volume():
+    # a linear field: trilinear interpolation is exact on either lattice, so the blocks differ
+    # from the unsplit fine volume only where their samples lie (each block's own ray segment)
+    field = lambda p: 0.1 * p[:, 0] + 0.15 * p[:, 1] - 0.05 * p[:, 2]  # noqa: E731
+    whole = _box((0, 0, 0), (8, 6, 5), 0.25, field)
+    data = pv.MultiBlock([_box((0, 0, 0), (4, 6, 5), 0.5, field), _box((4, 0, 0), (8, 6, 5), 0.25, field)])
+    tf = hv.TransferFunction([0.0, 1.5], [[1.0, 0.3, 0.1], [0.1, 0.4, 1.0]], [0.0, 0.3])
+    cam = hv.Camera.fit(whole.bounds, "iso")
+    for step, limit in ((0.5, 2e-5), (0.1, 2e-6)):  # measured 7.4e-6 and 4.8e-7: converges with the step
+        ref = hv.render(whole, tf, cam, SIZE, precision="float64", step=step)
+        out = hv.render(data, tf, cam, SIZE, precision="float64", step=step)
+        assert ref.rgba[..., 3].max() > 0.3
+        assert out.metadata["blocks"]["kind"] == "grid blocks"
+        assert np.abs(out.rgba - ref.rgba).max() < limit
+
+
+def test_blocks_rendered_one_by_one_match_the_gathered_render():
+    # the same split through both paths: compositing in ray order is exact, the samples differ
+    img = _smooth_image()
+    data = pv.MultiBlock(_pieces(img, 8))
+    cam = hv.Camera.fit(img.bounds, "iso")
+    gathered = hv.render(data, _tf(), cam, SIZE, precision="float64", step=0.1)
+    blocks = image_blocks(flatten(data)[0], "f", False)
+    fractions = []
+    one_by_one = render_image_blocks(blocks, _tf(), cam, SIZE, name="f", precision="float64", step=0.1,
+                                     progress=fractions.append)
+    assert gathered.rgba[..., 3].max() > 0.3
+    assert np.abs(one_by_one.rgba - gathered.rgba).max() < 5e-5  # measured 1.7e-5 (3.1e-4 at step 0.5)
+    assert fractions == sorted(fractions) and fractions[-1] == pytest.approx(1.0)
+
+
+def test_sparse_blocks_are_rendered_one_by_one_and_overlaps_refused():
+    field = lambda p: np.exp(-((p - 2) ** 2).sum(axis=1))  # noqa: E731
+    far_apart = pv.MultiBlock([_box((0, 0, 0), (2, 2, 2), 0.5, field), _box((10, 10, 10), (12, 12, 12), 0.5, field)])
+    out = hv.render(far_apart, _tf(), "iso", (16, 16), precision="float64")
+    assert out.metadata["blocks"]["kind"] == "grid blocks"
+    assert "over 4 times" in out.metadata["blocks"]["not gathered"]
+    overlapping = pv.MultiBlock({"p": _box((0, 0, 0), (4, 2, 2), 0.5, field), "q": _box((3, 0, 0), (6, 2, 2), 0.25,
+                                                                                           field)})
+    with pytest.raises(ValueError, match="the boxes of image blocks 'p' and 'q' overlap"):
+        hv.render(overlapping, _tf(), "iso", (8, 8))
+    with pytest.raises(ValueError, match=r"shade=True needs one volume; these image blocks are rendered one by one"):
+        hv.render(far_apart, _tf(), "iso", (8, 8), shade=True)
+
+
+def _tet_grid(n=(7, 6, 5)):
+    img = pv.ImageData(dimensions=n)
+    p = img.points
+    img.point_data["f"] = np.exp(-((p - 3.0) ** 2).sum(axis=1) / 6.0)
+    img.cell_data["c"] = np.linspace(0.0, 1.0, img.n_cells)
+    return img.cast_to_unstructured_grid().triangulate()
+
+
+@pytest.mark.parametrize("scalars", ["f", "c"])
+def test_two_mesh_blocks_sharing_a_face_render_as_the_single_mesh(scalars):
+    ug = _tet_grid()
+    x = ug.cell_centers().points[:, 0]
+    left, right = ug.extract_cells(np.flatnonzero(x < 3)), ug.extract_cells(np.flatnonzero(x >= 3))
+    assert left.n_points + right.n_points > ug.n_points  # the shared face's points are in both
+    data = pv.MultiBlock({"left": left, "right": right})
+    cam = hv.Camera.fit(ug.bounds, "iso")
+    ref = hv.render(ug, None, cam, SIZE, scalars=scalars, precision="float64")
+    out = hv.render(data, None, cam, SIZE, scalars=scalars, precision="float64")
+    assert ref.rgba[..., 3].max() > 0.2
+    np.testing.assert_allclose(out.rgba, ref.rgba, rtol=0, atol=1e-12)
+    assert out.metadata["blocks"] == {"kind": "mesh", "rendered": ["left", "right"]}
+
+
+def test_curvilinear_blocks_render_as_the_single_grid():
+    img = pv.ImageData(dimensions=(7, 6, 5), spacing=(1.0, 0.8, 0.6))
+    sg = img.cast_to_structured_grid()
+    p = sg.points.copy()
+    p[:, 2] += 0.2 * np.sin(p[:, 0])  # curvilinear: not a box
+    sg.points = p
+    sg.point_data["f"] = np.exp(-((p - np.array(sg.center)) ** 2).sum(axis=1) / 4.0)
+    pieces = [sg.extract_subset((0, 3, 0, 5, 0, 4)), sg.extract_subset((3, 6, 0, 5, 0, 4))]
+    cam = hv.Camera.fit(sg.bounds, "iso")
+    ref = hv.render(sg, None, cam, SIZE, precision="float64")
+    out = hv.render(pv.MultiBlock(pieces), None, cam, SIZE, precision="float64")
+    assert ref.rgba[..., 3].max() > 0.2
+    np.testing.assert_allclose(out.rgba, ref.rgba, rtol=0, atol=1e-12)
+
+
+def test_image_and_mesh_blocks_together_are_refused_with_what_to_do():
+    img = _smooth_image()
+    data = pv.MultiBlock({"grid": img, "mesh": _tet_grid()})
+    message = MIXED_MESSAGE.format(images="'grid'", meshes="'mesh'")
+    assert message.startswith("the dataset mixes image blocks ('grid') with mesh blocks ('mesh'); rendering them")
+    assert "render the parts separately (hv.render(dataset[...]) for each part)" in message
+    with pytest.raises(ValueError) as info:
+        hv.render(data, size=SIZE, scalars="f")
+    assert str(info.value) == message
+
+
+def test_options_of_image_volumes_only_are_refused():
+    data = pv.MultiBlock(_pieces(_smooth_image(), 2))
+    with pytest.raises(ValueError, match="lens= is not supported for multiblock datasets"):
+        hv.render(data, size=SIZE, lens=hv.Magnifier((16, 16), radius=8, transition=2, factor=2.0))
+    with pytest.raises(ValueError, match="block_mask= is not supported for multiblock datasets"):
+        hv.render(data, size=SIZE, block_mask=np.ones((1, 1, 1), bool))
+
+
+def test_the_callers_data_is_not_modified():
+    img = _smooth_image()
+    pieces = _pieces(img, 8)
+    pieces[3].point_data["f"][:5] = np.nan
+    pieces[3].point_data["f"][5] = np.inf
+    data = pv.MultiBlock(pieces + [_box((20, 20, 20), (21, 21, 21), 0.5, lambda p: p[:, 0].astype(np.float32))])
+    before = [content_digest(p.point_data["f"]) for p in data]
+    hv.render(data, None, "iso", (8, 8))
+    assert [content_digest(p.point_data["f"]) for p in data] == before
+    assert np.isposinf(pieces[3].point_data["f"][5])
+
+
+def test_a_repeated_render_reuses_the_gathered_volume_until_a_block_changes():
+    img = _smooth_image()
+    data = pv.MultiBlock(_pieces(img, 2))
+    a = render_blocks(data, _tf(), "iso", (8, 8), precision="float64")
+    b = render_blocks(data, _tf(), "iso", (8, 8), precision="float64")
+    assert np.array_equal(a.rgba, b.rgba)
+    data[1].point_data["f"][:] = 0.0  # in place, no Modified(): seen through the content digest
+    with pytest.warns(UserWarning, match="share 143 points and differ at 143"):
+        c = render_blocks(data, _tf(), "iso", (8, 8), precision="float64")
+    assert not np.array_equal(a.rgba, c.rgba)

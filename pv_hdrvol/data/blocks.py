@@ -277,7 +277,8 @@ def gather_images(blocks, name=""):
     The blocks must be on one lattice (:func:`lattice_offsets`) and their union box
     hold at most :data:`MAX_UNION_RATIO` times their points. Points no block has are
     NaN (empty space for the kernels: a sample whose stencil touches one contributes
-    nothing, so a gap renders as the blocks' own boxes would). Points shared by
+    nothing, so a gap's faces are placed to within a step, first order in the step,
+    where blocks rendered one by one end their segments exactly). Points shared by
     several blocks (the faces of a split volume, ghost layers) take the later block's
     value; where the values differ a warning names the two blocks. Blocks that tile a
     volume give its values, origin and spacing exactly, hence its render bit for bit.

@@ -72,7 +72,8 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
     -----
     Image blocks on one lattice (same spacing to 1e-9 relative, first points on the
     first block's lattice to 1e-6 of a spacing) whose union box holds at most 4 times
-    their points are gathered: points no block has are NaN (empty space). Otherwise
+    their points are gathered: points no block has are NaN (empty space; the faces of
+    such a gap are then placed to within a step, first order in the step). Otherwise
     each block is rendered alone and the images composited per pixel in the order the
     ray enters each block's box, premultiplied, in float64:
 

@@ -102,6 +102,21 @@ def test_a_split_volume_of_cell_data_renders_as_the_unsplit_one():
     assert out.metadata["blocks"]["kind"] == "grid"
 
 
+def test_composite_kinds_that_are_not_trees_of_blocks_are_refused():
+    from vtkmodules.vtkCommonDataModel import vtkOverlappingAMR
+
+    with pytest.raises(TypeError, match="composite datasets of class vtkOverlappingAMR are not supported"):
+        hv.render(vtkOverlappingAMR(), size=SIZE)
+    table = vtkMultiBlockDataSet()
+    from vtkmodules.vtkCommonDataModel import vtkTable
+
+    table.SetBlock(0, vtkTable())
+    with pytest.raises(TypeError, match=r"block 'block 0' is a vtkTable: blocks must be image data, unstructured or "
+                                        r"structured grids"):
+        hv.render(table, size=SIZE)
+    assert not is_composite(_smooth_image())
+
+
 def test_block_paths_use_names_and_positions():
     img = _smooth_image()
     data = _container(_pieces(img, 4), "nested")
@@ -254,11 +269,15 @@ def test_integer_blocks_with_a_hole_stay_integer_data():
                                                                     img.point_data["ct"].reshape(9, 9, 9))
 
 
-def test_sparse_blocks_are_rendered_one_by_one_and_overlaps_refused():
+def test_sparse_blocks_are_rendered_one_by_one_and_overlaps_refused(capsys):
     field = lambda p: np.exp(-((p - 2) ** 2).sum(axis=1))  # noqa: E731
     far_apart = pv.MultiBlock([_box((0, 0, 0), (2, 2, 2), 0.5, field), _box((10, 10, 10), (12, 12, 12), 0.5, field)])
-    out = hv.render(far_apart, _tf(), "iso", (16, 16), precision="float64")
+    fractions = []
+    out = hv.render(far_apart, _tf(), "iso", (16, 16), precision="float64", progress_bar=True,
+                    progress=fractions.append)
     assert out.rgba[..., 3].max() > 0.1
+    assert "Rendering" in capsys.readouterr().err  # one bar for the blocks together
+    assert fractions == sorted(fractions) and fractions[-1] == pytest.approx(1.0) and fractions[0] < 0.5
     assert out.metadata["blocks"]["kind"] == "grid blocks"
     assert "over 4 times" in out.metadata["blocks"]["not gathered"]
     overlapping = pv.MultiBlock({"p": _box((0, 0, 0), (4, 2, 2), 0.5, field), "q": _box((3, 0, 0), (6, 2, 2), 0.25,
@@ -331,7 +350,7 @@ def test_the_callers_data_is_not_modified():
     pieces = _pieces(img, 8)
     pieces[3].point_data["f"][:5] = np.nan
     pieces[3].point_data["f"][5] = np.inf
-    data = pv.MultiBlock(pieces + [_box((20, 20, 20), (21, 21, 21), 0.5, lambda p: p[:, 0].astype(np.float32))])
+    data = pv.MultiBlock(pieces + [_box((20, 20, 20), (21, 21, 21), 0.5, lambda p: p[:, 0])])  # far: one by one
     before = [content_digest(p.point_data["f"]) for p in data]
     hv.render(data, None, "iso", (8, 8), precision="float64")
     assert [content_digest(p.point_data["f"]) for p in data] == before

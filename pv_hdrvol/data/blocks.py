@@ -89,6 +89,10 @@ def _children(node):
     else ``"block i"`` (multiblock, collection) or ``"piece i"`` (partitioned)."""
     from vtkmodules.vtkCommonDataModel import vtkCompositeDataSet
 
+    if node.IsA("vtkUniformGridAMR"):  # a vtkPartitionedDataSetCollection from VTK 9.5 on
+        raise TypeError(f"composite datasets of class {node.GetClassName()} are not supported: the levels of an AMR "
+                        f"dataset overlap (refined boxes cover coarse ones), and pv_hdrvol renders blocks that tile "
+                        f"a domain (multiblock and partitioned datasets)")
     if node.IsA("vtkPartitionedDataSetCollection"):
         count, get, word = node.GetNumberOfPartitionedDataSets(), node.GetPartitionedDataSet, "block"
     elif node.IsA("vtkPartitionedDataSet"):  # vtkMultiPieceDataSet too
@@ -117,7 +121,7 @@ def _walk(node, prefix, leaves, empty):
             continue
         if is_composite(child):
             _walk(child, path, leaves, empty)
-        elif child.GetNumberOfPoints() == 0 or child.GetNumberOfCells() == 0:
+        elif child.IsA("vtkDataSet") and (child.GetNumberOfPoints() == 0 or child.GetNumberOfCells() == 0):
             empty.append(path)
         else:
             leaves.append(Leaf(path, child))

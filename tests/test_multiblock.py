@@ -345,6 +345,16 @@ def test_options_of_image_volumes_only_are_refused():
         hv.render(data, size=SIZE, block_mask=np.ones((1, 1, 1), bool))
 
 
+def test_a_single_block_is_rendered_from_its_own_array():
+    from pv_hdrvol.data.blocks import prepare_blocks
+
+    img = _smooth_image()
+    scene = prepare_blocks(pv.MultiBlock({"only": img}))
+    assert np.shares_memory(scene.volume.values, img.point_data["f"])
+    assert np.array_equal(hv.render(pv.MultiBlock({"only": img}), _tf(), "iso", SIZE, precision="float64").rgba,
+                          hv.render(img, _tf(), "iso", SIZE, precision="float64").rgba)
+
+
 def test_the_callers_data_is_not_modified():
     img = _smooth_image()
     pieces = _pieces(img, 8)

@@ -287,6 +287,8 @@ def gather_images(blocks, name=""):
     value; where the values differ a warning names the two blocks. Blocks that tile a
     volume give its values, origin and spacing exactly, hence its render bit for bit.
     """
+    if len(blocks) == 1:  # no copy: the block's own array, as a single dataset renders
+        return volume_from_array(blocks[0].values, blocks[0].spacing, blocks[0].origin, name=name), None
     offsets, reason = lattice_offsets(blocks)
     if offsets is None:
         return None, reason

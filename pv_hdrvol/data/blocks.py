@@ -232,22 +232,54 @@ def classify(leaves):
 
 
 class ImageBlock(NamedTuple):
-    """One image leaf's array: ``values`` (z, y, x) view, first point ``origin`` and
-    ``spacing`` (x, y, z)."""
+    """One grid leaf's array: ``values`` (z, y, x) view, first point ``origin`` and
+    ``spacing`` (x, y, z); a rectilinear leaf's point coordinates ``axes`` (x, y, z),
+    ``None`` for image data."""
 
     path: str
     values: np.ndarray
     origin: np.ndarray
     spacing: np.ndarray
+    axes: tuple = None
+
+    def coordinates(self):
+        """The point coordinates along x, y and z."""
+        if self.axes is not None:
+            return self.axes
+        return tuple(self.origin[a] + np.arange(n) * self.spacing[a] for a, n in enumerate(self.values.shape[::-1]))
+
+    def volume(self, name=""):
+        """The block as a :class:`~pv_hdrvol.GridVolume` (its own array where no
+        conversion is needed)."""
+        if self.axes is None:
+            return volume_from_array(self.values, self.spacing, self.origin, name=name)
+        return _rectilinear()[0](self.values, *self.axes, name=name)
+
+
+def _rectilinear():
+    """``(volume_from_rectilinear, _rectilinear_array)`` of :mod:`pv_hdrvol.data.grid`,
+    or a ``ValueError`` where this version has no rectilinear grids."""
+    try:
+        from .grid import _rectilinear_array, volume_from_rectilinear
+    except ImportError:
+        raise ValueError("rectilinear blocks need rectilinear grid support (pv_hdrvol.data.grid."
+                         "volume_from_rectilinear), which this version lacks: resample them onto image data "
+                         "(pyvista.ImageData(...).sample(block))") from None
+    return volume_from_rectilinear, _rectilinear_array
 
 
 def image_blocks(leaves, scalars, use_cell):
-    """:class:`ImageBlock` of each image leaf (cell data at the cell centres); an error
-    of one leaf names it."""
+    """:class:`ImageBlock` of each image or rectilinear leaf (cell data at the cell
+    centres); an error of one leaf names it."""
     preference = "cell" if use_cell else "point"
     out = []
     for leaf in leaves:
         try:
+            if leaf.class_name == "vtkRectilinearGrid":
+                values, axes, _ = _rectilinear()[1](leaf.dataset, scalars, preference)
+                out.append(ImageBlock(leaf.path, values, np.array([a[0] for a in axes]),
+                                      np.array([(a[-1] - a[0]) / (a.size - 1) for a in axes]), tuple(axes)))
+                continue
             values, spacing, origin, _ = _image_array(leaf.dataset, scalars, preference)
         except (TypeError, ValueError) as e:
             raise type(e)(f"block {leaf.path!r}: {e}") from e
@@ -275,11 +307,13 @@ def lattice_offsets(blocks):
 
 
 def gather_images(blocks, name=""):
-    """``(volume, reason)``: the image blocks as one :class:`~pv_hdrvol.GridVolume` over
+    """``(volume, reason)``: the grid blocks as one :class:`~pv_hdrvol.GridVolume` over
     their union box, or ``(None, why not)``.
 
-    The blocks must be on one lattice (:func:`lattice_offsets`) and their union box
-    hold at most :data:`MAX_UNION_RATIO` times their points. Points no block has are
+    Image blocks must be on one lattice (:func:`lattice_offsets`); with rectilinear
+    blocks, every block's coordinates must be a contiguous run of the union's
+    (:func:`union_axes`). The union box may hold at most :data:`MAX_UNION_RATIO` times
+    the blocks' points. Points no block has are
     NaN (empty space for the kernels: a sample whose stencil touches one contributes
     nothing, so a gap's faces are placed to within a step, first order in the step,
     where blocks rendered one by one end their segments exactly). Points shared by
@@ -288,22 +322,67 @@ def gather_images(blocks, name=""):
     volume give its values, origin and spacing exactly, hence its render bit for bit.
     """
     if len(blocks) == 1:  # no copy: the block's own array, as a single dataset renders
-        return volume_from_array(blocks[0].values, blocks[0].spacing, blocks[0].origin, name=name), None
-    offsets, reason = lattice_offsets(blocks)
+        return blocks[0].volume(name), None
+    if any(b.axes is not None for b in blocks):
+        axes, offsets, reason = union_axes(blocks)
+    else:
+        offsets, reason = lattice_offsets(blocks)
     if offsets is None:
         return None, reason
+    filled = _fill(blocks, offsets)
+    if isinstance(filled, str):
+        return None, filled
+    values, integer = filled
+    if any(b.axes is not None for b in blocks):
+        volume = _rectilinear()[0](values, *axes, name=name)
+    else:
+        # the union's first point: a block's own first point where it starts the union (exact)
+        origin = np.array([blocks[int(np.argmin(offsets[:, a]))].origin[a] for a in range(3)])
+        volume = volume_from_array(values, blocks[0].spacing, origin, name=name)
+    if integer and not volume.integer:
+        volume = dataclasses.replace(volume, integer=True)  # integer data with NaN holes: still CT-like
+    return volume, None
+
+
+def union_axes(blocks):
+    """``(axes, offsets, reason)``: the union of the blocks' point coordinates on each
+    axis (coordinates closer than :data:`LATTICE_ATOL` of the narrowest cell merged)
+    and each block's first point as indices into them, or ``(None, None, why not)``
+    when a block's coordinates are not a contiguous run of the union's (its points
+    interleave another block's)."""
+    coords = [b.coordinates() for b in blocks]
+    axes = []
+    offsets = np.zeros((len(blocks), 3), dtype=np.int64)
+    for a in range(3):
+        tol = LATTICE_ATOL * min(float(np.diff(c[a]).min()) for c in coords)
+        u = np.unique(np.concatenate([c[a] for c in coords]))
+        u = u[np.concatenate([[True], np.diff(u) > tol])]
+        for i, c in enumerate(coords):
+            k = int(np.searchsorted(u, c[a][0] - tol))
+            run = u[k:k + c[a].size]
+            if run.size != c[a].size or np.abs(run - c[a]).max() > tol:
+                return None, None, (f"the {'xyz'[a]} coordinates of {blocks[i].path!r} are not a contiguous run of "
+                                    f"the blocks' union (its points interleave another block's)")
+            offsets[i, a] = k
+        axes.append(u)
+    return tuple(axes), offsets, None
+
+
+def _fill(blocks, offsets):
+    """``(values, integer)``: the blocks' values placed at ``offsets`` (x, y, z
+    indices) in one array over their union, NaN where none is; or the reason not to
+    (the union too large)."""
     shapes = np.array([b.values.shape[::-1] for b in blocks], dtype=np.int64)  # (x, y, z)
     lo = offsets.min(axis=0)
-    hi = (offsets + shapes).max(axis=0)
-    dims = hi - lo
+    dims = (offsets + shapes).max(axis=0) - lo
     union = int(np.prod(dims))
     held = int(shapes.prod(axis=1).sum())
     if union > MAX_UNION_RATIO * held:
-        return None, (f"the blocks' union box holds {union} points, over {MAX_UNION_RATIO:g} times the "
-                      f"{held} points of the blocks")
+        return (f"the blocks' union box holds {union} points, over {MAX_UNION_RATIO:g} times the "
+                f"{held} points of the blocks")
     covered = np.zeros(dims[::-1], dtype=bool)
     spans = []
-    for b, off, shape in zip(blocks, offsets - lo, shapes):
+    for off, shape in zip(offsets - lo, shapes):
         s = tuple(slice(int(o), int(o + n)) for o, n in zip(off[::-1], shape[::-1]))
         spans.append(s)
         covered[s] = True
@@ -328,15 +407,10 @@ def gather_images(blocks, name=""):
                 other = blocks[int(before[shared][np.argmax(differ)]) - 1].path
                 warnings.warn(f"blocks {other!r} and {b.path!r} share {int(shared.sum())} points and differ at "
                               f"{int(differ.sum())} of them; the later block's values are rendered there",
-                              stacklevel=4)
+                              stacklevel=5)
         values[s] = b.values
         written[s] = i + 1
-    # the union's first point: a block's own first point where it starts the union (exact)
-    origin = np.array([blocks[int(np.argmin(offsets[:, a]))].origin[a] for a in range(3)])
-    volume = volume_from_array(values, blocks[0].spacing, origin, name=name)
-    if integer and not volume.integer:
-        volume = dataclasses.replace(volume, integer=True)  # integer data with NaN holes: still CT-like
-    return volume, None
+    return values, integer
 
 
 def merge_meshes(leaves, scalars, use_cell):
@@ -494,10 +568,6 @@ def prepare_blocks(data, scalars=None, preference="point"):
     if grids and kinds["mesh"]:
         raise ValueError(MIXED_MESSAGE.format(images=_paths([leaf.path for leaf in grids], 3),
                                               meshes=_paths([leaf.path for leaf in kinds["mesh"]], 3)))
-    if kinds["rectilinear"]:
-        raise ValueError(f"rectilinear blocks ({_paths([leaf.path for leaf in kinds['rectilinear']], 3)}) are not "
-                         f"rendered in composite datasets yet: resample them onto image data "
-                         f"(pyvista.ImageData(...).sample(block)) or render each with hv.render(block)")
     association = "cell" if use_cell else "point"
     key = (name, association, tuple((leaf.path, _address(leaf.dataset), int(leaf.dataset.GetMTime())) for leaf in kept),
            content_digest(*_content(kept, name, use_cell)))
@@ -534,6 +604,8 @@ def _content(leaves, scalars, use_cell):
             out.append(vtk_to_numpy(ds.GetPoints().GetData()))
         elif leaf.class_name in IMAGE_CLASSES:
             out.append(np.array(ds.GetOrigin() + ds.GetSpacing() + ds.GetExtent(), dtype=np.float64))
+        elif leaf.class_name == "vtkRectilinearGrid":
+            out.extend(vtk_to_numpy(c) for c in (ds.GetXCoordinates(), ds.GetYCoordinates(), ds.GetZCoordinates()))
     return out
 
 

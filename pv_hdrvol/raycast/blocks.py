@@ -21,7 +21,6 @@ import dataclasses
 import numpy as np
 
 from ..data.blocks import prepare_blocks
-from ..data.grid import volume_from_array
 from ..data.transfer import auto_transfer_function
 from ..params import RenderOptions
 from ..rays.camera import Rays, as_camera
@@ -122,7 +121,7 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     """
     from ..parallel.pieces import composite_pieces
 
-    volumes = [volume_from_array(b.values, b.spacing, b.origin, name=name) for b in blocks]
+    volumes = [b.volume(name) for b in blocks]
     boxes = [(np.array(v.bounds[0::2]), np.array(v.bounds[1::2])) for v in volumes]
     _check_disjoint(blocks, boxes)
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
@@ -134,7 +133,7 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
         raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; these image "
                          f"blocks are rendered one by one (not on one lattice, or too sparse to gather): render "
                          f"without {' and '.join(refused)}, or resample the blocks onto one lattice")
-    unit_spacing = min(float(v.spacing.min()) for v in volumes)
+    unit_spacing = min(_cell_width(v) for v in volumes)
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
     bounds = tuple(float(x) for pair in zip(lo, hi) for x in pair)
@@ -152,7 +151,7 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
         with collected_warnings() as reasons:
             for i, volume in enumerate(volumes):
                 # the same world step and opacity unit in every block: step is in voxels of the finest block
-                step = opts.step * unit_spacing / float(volume.spacing.min())
+                step = opts.step * unit_spacing / _cell_width(volume)
                 block_opts = dataclasses.replace(opts, step=step, opacity_unit_distance=unit)
                 report = _block_progress(progress, bar, start[i], start[i + 1])
                 images.append(GridPlan(volume, tf, block_opts).execute(camera, size, progress=report,
@@ -168,6 +167,12 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     if len(reasons) == len(volumes):  # every block is bound to be empty: say why once
         warn_empty(str(reasons[0]))
     return image
+
+
+def _cell_width(volume):
+    """The narrowest cell of a block (world units): its step and opacity unit are in it."""
+    axes = getattr(volume, "axes", None)
+    return float(volume.spacing.min()) if axes is None else float(min(np.diff(a).min() for a in axes))
 
 
 def _block_progress(progress, bar, lo, hi):

@@ -284,7 +284,7 @@ def test_sparse_blocks_are_rendered_one_by_one_and_overlaps_refused(capsys):
                                                                                            field)})
     with pytest.raises(ValueError, match="the boxes of image blocks 'p' and 'q' overlap"):
         hv.render(overlapping, _tf(), "iso", (8, 8))
-    with pytest.raises(ValueError, match=r"shade=True needs one volume; these image blocks are rendered one by one"):
+    with pytest.raises(ValueError, match=r"shade=True needs one volume; these grid blocks are rendered one by one"):
         hv.render(far_apart, _tf(), "iso", (8, 8), shade=True)
 
 

@@ -37,9 +37,11 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
     Parameters
     ----------
     data : pyvista.MultiBlock, vtkMultiBlockDataSet, vtkPartitionedDataSetCollection or vtkPartitionedDataSet
-        Nested in any order. Its leaves are image data (``vtkImageData``) or meshes
-        (``vtkUnstructuredGrid``, ``vtkStructuredGrid``), not both; empty and ``None``
-        blocks are left out, surface blocks (``vtkPolyData``) too, with a warning.
+        Nested in any order. Its leaves are grids (``vtkImageData``; rectilinear
+        grids where this version renders them) or meshes (``vtkUnstructuredGrid``,
+        ``vtkStructuredGrid``), not both; empty and ``None`` blocks are left out
+        silently (``metadata["blocks"]["empty"]`` lists them), surface blocks
+        (``vtkPolyData``) with a warning.
     tf, cmap, clim, opacity, scale
         As :func:`~pv_hdrvol.render`; the default transfer function is chosen from
         the values of all blocks, one for the whole scene.
@@ -60,19 +62,24 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
     Raises
     ------
     ValueError
-        Image and mesh blocks in one dataset (rendering them as one scene is not built
-        yet: render ``dataset[...]`` parts separately); rectilinear blocks; no block
-        to render; image blocks on different lattices whose boxes overlap, or with
-        options the block-by-block render cannot keep (see Notes).
+        Grid and mesh blocks in one dataset (rendering them as one scene is not built
+        yet: render ``dataset[...]`` parts separately); no block to render; grid
+        blocks rendered one by one whose boxes overlap, or with options that render
+        cannot keep (see Notes); an error of one block, named by its path.
+    TypeError
+        AMR datasets (their levels overlap) and leaves that are not grids, meshes or
+        surfaces.
     ScalarsError
         No block has the scalars (the message lists the arrays of the blocks).
 
     Notes
     -----
     Image blocks on one lattice (same spacing to 1e-9 relative, first points on the
-    first block's lattice to 1e-6 of a spacing) whose union box holds at most 4 times
-    their points are gathered: points no block has are NaN (empty space; the faces of
-    such a gap are then placed to within a step, first order in the step). Otherwise
+    first block's lattice to 1e-6 of a spacing), or rectilinear blocks whose
+    coordinates are contiguous runs of their union's, whose union box holds at most 4
+    times their points are gathered: points no block has are NaN (empty space; the
+    faces of such a gap are then placed to within a step, first order in the step,
+    as in any volume with NaN). Otherwise
     each block is rendered alone and the images composited per pixel in the order the
     ray enters each block's box, premultiplied, in float64:
 
@@ -80,7 +87,8 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
 
     That is exact when the boxes overlap at most at shared faces (refused otherwise);
     each block samples its own segment of the ray, at the step ``step`` times the
-    smallest spacing of all blocks, with the same opacity unit. Blending other than
+    narrowest cell of all blocks, with the same opacity unit (that width, unless
+    ``opacity_unit_distance`` is given). Blending other than
     ``"composite"``, gradient opacity, shading and ``tolerance=`` need one volume and
     are refused there; a gathered scene takes every option a single volume does.
 
@@ -130,7 +138,7 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
                                      ("gradient_opacity=", opts.gradient_opacity is not None),
                                      ("shade=True", opts.shade)) if on]
     if refused:
-        raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; these image "
+        raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; these grid "
                          f"blocks are rendered one by one (not on one lattice, or too sparse to gather): render "
                          f"without {' and '.join(refused)}, or resample the blocks onto one lattice")
     unit_spacing = min(_cell_width(v) for v in volumes)
@@ -161,6 +169,7 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
             bar.close()
     image = composite_pieces(images, boxes, rays)
     image.metadata.pop("pieces", None)
+    image.metadata.pop("settings", None)  # the first block's alone: they would not re-render the scene
     image.metadata["opacity_unit_distance"] = unit
     image.metadata["step_world"] = opts.step * unit_spacing
     image.metadata["step_voxels"] = opts.step

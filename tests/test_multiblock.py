@@ -157,6 +157,16 @@ def test_no_block_with_the_array_is_a_scalars_error_listing_the_arrays():
         hv.render(two, size=SIZE)
 
 
+def test_point_data_in_one_block_and_cell_data_in_another_are_refused():
+    pieces = _pieces(_smooth_image(), 2)
+    cells = pieces[1].point_data_to_cell_data()
+    cells.point_data.clear()
+    data = pv.MultiBlock({"p": pieces[0], "c": cells})
+    with pytest.raises(ValueError, match=r"scalars 'f' are point data in blocks 'p' and cell data in blocks 'c': "
+                                         r"render one association"):
+        hv.render(data, size=SIZE)
+
+
 def test_empty_and_none_blocks_are_left_out_silently_and_listed():
     img = _smooth_image()
     pieces = _pieces(img, 2)

@@ -380,20 +380,21 @@ def _fill(blocks, offsets):
     if union > MAX_UNION_RATIO * held:
         return (f"the blocks' union box holds {union} points, over {MAX_UNION_RATIO:g} times the "
                 f"{held} points of the blocks")
-    covered = np.zeros(dims[::-1], dtype=bool)
+    # 1 + the index of the block that wrote a point (one byte a point below 255 blocks)
+    written = np.zeros(dims[::-1], dtype=np.min_scalar_type(len(blocks)))
     spans = []
     for off, shape in zip(offsets - lo, shapes):
         s = tuple(slice(int(o), int(o + n)) for o, n in zip(off[::-1], shape[::-1]))
         spans.append(s)
-        covered[s] = True
-    full = bool(covered.all())
+        written[s] = 1
+    full = bool(written.all())
+    written[...] = 0
     dtype = np.result_type(*[b.values.dtype for b in blocks])
     integer = bool(np.issubdtype(dtype, np.integer))
     if not full and not np.issubdtype(dtype, np.floating):
         # the holes are NaN: a float type that holds every value exactly
         dtype = _kernel_dtype(np.concatenate([np.array([b.values.min(), b.values.max()]) for b in blocks]))
     values = np.full(dims[::-1], np.nan if not full else 0, dtype=dtype)
-    written = np.zeros(dims[::-1], dtype=np.int32)  # 1 + the index of the block that wrote a point
     for i, (b, s) in enumerate(zip(blocks, spans)):
         before = written[s]
         shared = before > 0

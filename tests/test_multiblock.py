@@ -306,13 +306,16 @@ def _tet_grid(n=(7, 6, 5)):
     return img.cast_to_unstructured_grid().triangulate()
 
 
-@pytest.mark.parametrize("scalars", ["f", "c"])
-def test_two_mesh_blocks_sharing_a_face_render_as_the_single_mesh(scalars):
+@pytest.mark.parametrize("scalars, file", [("f", False), ("c", False), ("f", True)])
+def test_two_mesh_blocks_sharing_a_face_render_as_the_single_mesh(scalars, file, tmp_path):
     ug = _tet_grid()
     x = ug.cell_centers().points[:, 0]
     left, right = ug.extract_cells(np.flatnonzero(x < 3)), ug.extract_cells(np.flatnonzero(x >= 3))
     assert left.n_points + right.n_points > ug.n_points  # the shared face's points are in both
     data = pv.MultiBlock({"left": left, "right": right})
+    if file:
+        data.save(str(tmp_path / "mesh.vtm"))
+        data = pv.read(str(tmp_path / "mesh.vtm"))
     cam = hv.Camera.fit(ug.bounds, "iso")
     ref = hv.render(ug, None, cam, SIZE, scalars=scalars, precision="float64")
     out = hv.render(data, None, cam, SIZE, scalars=scalars, precision="float64")

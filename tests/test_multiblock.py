@@ -5,6 +5,7 @@ points) must render as the unsplit volume: the image blocks are gathered onto on
 lattice, so bit for bit. Blocks on different lattices are rendered one by one and
 composited in ray order; mesh blocks are merged into one tetrahedral mesh.
 """
+import importlib
 import warnings
 
 import numpy as np
@@ -390,3 +391,77 @@ def test_a_repeated_render_reuses_the_gathered_volume_until_a_block_changes():
     with pytest.warns(UserWarning, match="share 143 points and differ at 143"):
         c = render_blocks(data, _tf(), "iso", (8, 8), precision="float64")
     assert not np.array_equal(a.rgba, c.rgba)
+
+
+def _rectilinear(x, y, z, field):
+    grid = pv.RectilinearGrid(np.asarray(x, float), np.asarray(y, float), np.asarray(z, float))
+    grid.point_data["f"] = field(grid.points)
+    return grid
+
+
+def _rect_piece(grid, i, j, k):
+    """The points i[0]..i[1], j[0]..j[1], k[0]..k[1] of a rectilinear grid (inclusive)."""
+    x, y, z = (np.asarray(c) for c in (grid.x, grid.y, grid.z))
+    piece = pv.RectilinearGrid(x[i[0]:i[1] + 1], y[j[0]:j[1] + 1], z[k[0]:k[1] + 1])
+    values = grid.point_data["f"].reshape(len(z), len(y), len(x))
+    piece.point_data["f"] = values[k[0]:k[1] + 1, j[0]:j[1] + 1, i[0]:i[1] + 1].ravel()
+    return piece
+
+
+_GAUSS = lambda p: np.exp(-((p - np.array([2.5, 1.5, 1.5])) ** 2).sum(axis=1) / 2.0)  # noqa: E731
+_X = [0.0, 0.5, 1.2, 2.0, 2.5, 3.1, 4.0, 4.4, 5.0]
+
+
+# Rectilinear grids (issue 33, part 1) are rendered where pv_hdrvol.data.grid has them;
+# before, a rectilinear block is refused by its path (both branches assert)
+_HAS_RECTILINEAR = hasattr(importlib.import_module("pv_hdrvol.data.grid"), "volume_from_rectilinear")
+
+
+def _refused(data):
+    with pytest.raises(ValueError, match=r"block 'Block-00': rectilinear blocks need rectilinear grid support"):
+        hv.render(data, _tf(), "iso", SIZE, precision="float64")
+
+
+def test_a_split_rectilinear_grid_renders_as_the_whole():
+    whole = _rectilinear(_X, np.linspace(0, 3, 7), [0.0, 0.4, 1.0, 1.9, 2.5, 3.0], _GAUSS)
+    data = pv.MultiBlock([_rect_piece(whole, (0, 4), (0, 6), (0, 5)), _rect_piece(whole, (4, 8), (0, 3), (0, 5)),
+                          _rect_piece(whole, (4, 8), (3, 6), (0, 5))])
+    if not _HAS_RECTILINEAR:
+        return _refused(data)
+    ref = hv.render(whole, _tf(), "iso", SIZE, precision="float64")
+    out = hv.render(data, _tf(), "iso", SIZE, precision="float64")
+    assert ref.rgba[..., 3].max() > 0.3
+    assert np.array_equal(out.rgba, ref.rgba)
+    assert out.metadata["blocks"]["kind"] == "grid"
+
+
+def test_a_rectilinear_block_beside_an_image_block_gathers_into_one_grid():
+    z = np.arange(6) * 0.5
+    left = _rectilinear(_X, np.linspace(0, 3, 7), z, _GAUSS)
+    right = pv.ImageData(dimensions=(5, 7, 6), spacing=(0.5, 0.5, 0.5), origin=(5.0, 0.0, 0.0))
+    right.point_data["f"] = _GAUSS(right.points)
+    whole = _rectilinear(np.concatenate([_X, 5.0 + 0.5 * np.arange(1, 5)]), np.linspace(0, 3, 7), z, _GAUSS)
+    if not _HAS_RECTILINEAR:
+        return _refused(pv.MultiBlock([left, right]))
+    ref = hv.render(whole, _tf(), "iso", SIZE, precision="float64")
+    out = hv.render(pv.MultiBlock([left, right]), _tf(), "iso", SIZE, precision="float64")
+    assert ref.rgba[..., 3].max() > 0.3
+    assert np.array_equal(out.rgba, ref.rgba)
+    assert out.metadata["blocks"]["kind"] == "grid"
+
+
+def test_rectilinear_blocks_whose_points_interleave_render_one_by_one():
+    # a constant field along x through two blocks with different y points: Beer-Lambert
+    const = lambda p: np.full(len(p), 0.5)  # noqa: E731
+    a = _rectilinear([0.0, 1.0, 2.0], [0.0, 1.0], [0.0, 1.0], const)
+    b = _rectilinear([2.0, 2.5, 3.5, 4.0], [0.0, 0.3, 1.0], [0.0, 0.6, 1.0], const)
+    tf = hv.TransferFunction([0.0, 1.0], [[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]], [0.05, 0.05])
+    cam = hv.Camera((20.0, 0.5, 0.5), (2.0, 0.5, 0.5), (0.0, 0.0, 1.0), parallel_projection=True,
+                    parallel_scale=0.25)
+    if not _HAS_RECTILINEAR:
+        return _refused(pv.MultiBlock([a, b]))
+    out = hv.render(pv.MultiBlock([a, b]), tf, cam, (4, 4), precision="float64", termination=0)
+    assert out.metadata["blocks"]["kind"] == "grid blocks"
+    assert "not a contiguous run" in out.metadata["blocks"]["not gathered"]
+    sigma = -np.log(1 - 0.05) / 0.3  # the narrowest cell of all blocks is the opacity unit
+    np.testing.assert_allclose(out.rgba[..., 3], 1 - np.exp(-sigma * 4.0), rtol=1e-12)

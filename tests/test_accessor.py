@@ -128,12 +128,19 @@ def test_option_errors(grid):
 
 
 def test_other_datasets_are_refused():
-    with pytest.raises(TypeError, match=r"hdrvol renders pyvista.ImageData and UnstructuredGrid; got PolyData"):
+    from pv_hdrvol.data.kinds import SUPPORTED
+
+    with pytest.raises(TypeError) as info:
         pv.Sphere().hdrvol.render(size=SIZE)
+    assert str(info.value) == (f"pv_hdrvol renders {SUPPORTED}; got PolyData: a surface or point cloud has no "
+                               f"volume to render; sample it onto an ImageData (pyvista.ImageData(...).sample(data)) "
+                               f"or interpolate it (data.interpolate)")
+    with pytest.raises(TypeError, match=r"pv_hdrvol renders .*; got Table$"):
+        pv.Table().hdrvol.render(size=SIZE)
     # attribute access itself never raises: dir() and hasattr() keep working
     assert hasattr(pv.Sphere(), "hdrvol")
-    assert repr(pv.Sphere().hdrvol) == ("<hdrvol accessor of PolyData: not renderable (ImageData and "
-                                        "UnstructuredGrid only)>")
+    assert repr(pv.Sphere().hdrvol) == ("<hdrvol accessor of PolyData: not renderable (not a volume: see "
+                                        "pv_hdrvol.data.kinds)>")
 
 
 def test_tetrahedral_meshes_render_through_the_accessor():

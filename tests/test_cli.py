@@ -11,6 +11,7 @@ import pytest
 import pyvista as pv
 
 import pv_hdrvol as hv
+from pv_hdrvol.data.kinds import SUPPORTED
 from pv_hdrvol.datasets import hydrogen_orbital, hydrogen_orbital_array
 from pv_hdrvol.integrations.cli import main
 from pv_hdrvol.raycast.grid import default_transfer_function
@@ -195,7 +196,7 @@ def test_info(volume_file, tmp_path, capsys):
     (["render", "{tmp}/notes.txt"], "pv-hdrvol render: error: cannot read '{tmp}/notes.txt': unknown extension "
                                     "'.txt'"),
     (["render", "{tmp}/sphere.vtk"], "pv-hdrvol render: error: '{tmp}/sphere.vtk' holds a PolyData; pv_hdrvol "
-                                     "renders image data (ImageData) and tetrahedral meshes (UnstructuredGrid)"),
+                                     "renders " + SUPPORTED),
     (["render", "{tmp}/tets.vtk", "--blending", "maximum"],
      "pv-hdrvol render: error: tetrahedral meshes support blending='composite' only; got 'maximum'"),
     (["demo", "--orbital", "2", "2", "0"], "pv-hdrvol demo: error: l must satisfy 0 <= l < n = 2; got l=2"),
@@ -282,8 +283,9 @@ def test_render_help_lists_every_readable_extension(capsys):
         main(["render", "--help"])
     assert exit_info.value.code == 0
     help_text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
-    assert f"one of {', '.join(READABLE)} (meshes: .vtu, .vtk)" in help_text
-    assert ".vtu" in READABLE and ".cube" in READABLE
+    assert (f"one of {', '.join(READABLE)} (meshes: .vtu, .pvtu, .vts, .vtk; blocks, rendered as one scene: .vtm, "
+            f".vtpc, .vtpd)") in help_text
+    assert {".vtu", ".cube", ".vtr", ".vts", ".vtm", ".vtpc"} <= set(READABLE)
 
 
 @pytest.mark.data

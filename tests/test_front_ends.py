@@ -9,6 +9,8 @@ import pyvista as pv
 import pv_hdrvol as hv
 from pv_hdrvol.integrations.cli import main
 from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
+from pv_hdrvol.data.kinds import SUPPORTED
+from pv_hdrvol.integrations.files import READABLE
 
 CASES = [
     # (keyword, value, CLI arguments, message)
@@ -201,11 +203,11 @@ def test_view_names_a_file_it_cannot_open(tmp_path, opened):
         hv.view(str(missing))
     (tmp_path / "notes.txt").write_text("not a volume")
     with pytest.raises(ValueError, match=re.escape(f"cannot read '{tmp_path / 'notes.txt'}': unknown extension '.txt'; "
-                                                   f"use one of .vti, .vtk, .vtu, .nrrd, .nhdr, .mha, .mhd, .cube")):
+                                                   f"use one of {', '.join(READABLE)}")):
         hv.view(tmp_path / "notes.txt")
     pv.Sphere().save(tmp_path / "sphere.vtk")
     with pytest.raises(ValueError, match=re.escape(f"'{tmp_path / 'sphere.vtk'}' holds a PolyData; pv_hdrvol renders "
-                                                   f"image data (ImageData) and tetrahedral meshes")):
+                                                   f"{SUPPORTED}")):
         hv.view(tmp_path / "sphere.vtk")
     (tmp_path / "empty.proxy").mkdir()
     with pytest.raises(FileNotFoundError, match=re.escape(f"'{tmp_path / 'empty.proxy'}' is not a complete proxy "

@@ -171,10 +171,10 @@ class TransferFunctionModel:
         """A model for an image volume or tetrahedral mesh (anything
         :func:`pv_hdrvol.render` takes): ``tf`` or the renderer's default transfer function
         for it, and the histogram of its values."""
-        from ..data.tets import as_tetmesh, is_unstructured
-        from ..raycast.grid import as_volume, resolve_transfer_function
+        from ..data.kinds import as_renderable
+        from ..raycast.grid import resolve_transfer_function
 
-        volume = as_tetmesh(data) if is_unstructured(data) else as_volume(data)
+        volume = as_renderable(data)
         return cls(resolve_transfer_function(volume, tf), np.asarray(volume.values), **kwargs)
 
     # -- observers --------------------------------------------------------------------

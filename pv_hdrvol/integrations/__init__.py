@@ -15,8 +15,9 @@ from __future__ import annotations
 
 
 class VolumeCache:
-    """The :class:`~pv_hdrvol.GridVolume` (image data) or :class:`~pv_hdrvol.TetMesh`
-    (unstructured grid) of a dataset, kept while the dataset is unchanged.
+    """The :class:`~pv_hdrvol.GridVolume` (image data, rectilinear grid) or
+    :class:`~pv_hdrvol.TetMesh` (unstructured grid, curvilinear structured grid) of a
+    dataset, kept while the dataset is unchanged.
 
     A GridVolume carries what the first render builds (bricks, block ranges), a TetMesh
     its adjacency and boundary, so a second render of the same data (another transfer
@@ -40,6 +41,10 @@ class VolumeCache:
                 from ..data.tets import tetmesh_from_dataset
 
                 self._volume = tetmesh_from_dataset(dataset, scalars=scalars, preference=preference)
+            elif dataset.GetClassName() == "vtkStructuredGrid":
+                from ..data.structured import tetmesh_from_structured
+
+                self._volume = tetmesh_from_structured(dataset, scalars=scalars, preference=preference)
             else:
                 from ..data.grid import volume_from_dataset
 
@@ -64,6 +69,12 @@ def _content_key(dataset):
         points = dataset.GetPoints()
         parts += [obj(None if points is None else points.GetData()), obj(dataset.GetCells()),
                   obj(_cell_types(dataset))]
+    elif dataset.GetClassName() == "vtkStructuredGrid":  # curvilinear: the points (blanking is a ghost array)
+        points = dataset.GetPoints()
+        parts += [tuple(dataset.GetExtent()), obj(None if points is None else points.GetData())]
+    elif dataset.GetClassName() == "vtkRectilinearGrid":  # the three coordinate arrays are the geometry
+        parts += [tuple(dataset.GetExtent()), obj(dataset.GetXCoordinates()), obj(dataset.GetYCoordinates()),
+                  obj(dataset.GetZCoordinates())]
     else:
         parts += [tuple(dataset.GetExtent()), tuple(dataset.GetSpacing()), tuple(dataset.GetOrigin())]
         if hasattr(dataset, "GetDirectionMatrix"):

@@ -26,7 +26,7 @@ from ..data.transfer import SCALES
 from ..image.tonemap import OPERATORS
 from ..params import BLENDINGS, PRECISIONS
 
-from .files import IMAGE_FORMATS, MESH_FORMATS, READABLE  # what render and view read; proxies: images only
+from .files import BLOCK_FORMATS, IMAGE_FORMATS, MESH_FORMATS, READABLE  # what render and view read; proxies: images
 
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
 
@@ -100,8 +100,9 @@ def build_parser():
                                    "sphere from --view (default iso); orthographic with --pof (POF culling assumes "
                                    "parallel rays). python -m pv_hdrvol.parallel render uses the same camera.")
     p.add_argument("file", metavar="FILE",
-                   help=f"image volume or tetrahedral mesh, one of {', '.join(READABLE)} "
-                        f"(meshes: {', '.join(MESH_FORMATS)})")
+                   help=f"image volume, rectilinear or curvilinear grid, tetrahedral mesh or blocks of those, "
+                        f"one of {', '.join(READABLE)} (meshes: {', '.join(MESH_FORMATS)}; blocks, rendered as one "
+                        f"scene: {', '.join(BLOCK_FORMATS)})")
     p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
     p.add_argument("-o", "--output", default=None, metavar="OUT.exr",
                    help="output image, .exr or .npy (default: FILE's stem + .exr in the current directory)")
@@ -133,7 +134,8 @@ def build_parser():
                        description="Open the interactive viewer (pv_hdrvol.viewer.qt.HDRViewer): orbit, edit the "
                                    "transfer function, tone-map, probe HDR values, a magnifier lens, save EXR/PNG. "
                                    "Needs Qt (pip install 'pv_hdrvol[gui]') and a display.")
-    p.add_argument("file", metavar="FILE", help=f"image volume or tetrahedral mesh, one of {', '.join(READABLE)}")
+    p.add_argument("file", metavar="FILE", help=f"image volume, rectilinear or curvilinear grid, tetrahedral mesh or "
+                                                f"blocks of those, one of {', '.join(READABLE)}")
     p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
     p.add_argument("--tf", default=None, metavar="FILE.json",
                    help="transfer function to start from: the editor's JSON, a TransferFunction's JSON or a "

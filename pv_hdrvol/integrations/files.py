@@ -11,12 +11,17 @@ import errno
 import os
 import pathlib
 
-#: Extensions read here (with ``pyvista.read``); the command's help is made from it.
-READABLE = (".vti", ".vtk", ".vtu", ".nrrd", ".nhdr", ".mha", ".mhd", ".cube")
-#: Of those, the ones that hold tetrahedral meshes (``.vtk`` holds either kind).
-MESH_FORMATS = (".vtu", ".vtk")
-#: Of those, the ones that hold image data (``.vtk`` holds either kind): what proxies are made of.
-IMAGE_FORMATS = tuple(ext for ext in READABLE if ext != ".vtu")
+#: Extensions read here (with ``pyvista.read``; ``.vtpc`` with VTK's reader); the command's
+#: help is made from it.
+READABLE = (".vti", ".vtk", ".vtu", ".vtr", ".vts", ".vtm", ".vtpc", ".vtpd", ".pvti", ".pvtr", ".pvtu", ".nrrd",
+            ".nhdr", ".mha", ".mhd", ".cube")
+#: Of those, the ones that hold meshes: tetrahedra, other cells split, or curvilinear
+#: grids (``.vtk`` holds either kind).
+MESH_FORMATS = (".vtu", ".pvtu", ".vts", ".vtk")
+#: Of those, the ones that hold several blocks (rendered as one scene).
+BLOCK_FORMATS = (".vtm", ".vtpc", ".vtpd")
+#: Of those, the ones that may hold image data (``.vtk`` holds either kind): what proxies are made of.
+IMAGE_FORMATS = (".vti", ".pvti", ".vtk", ".nrrd", ".nhdr", ".mha", ".mhd", ".cube")
 
 
 def readable_path(path, formats=READABLE):
@@ -36,23 +41,46 @@ def readable_path(path, formats=READABLE):
 
 
 def read_dataset(path, formats=READABLE):
-    """The ``pyvista.ImageData`` or ``pyvista.UnstructuredGrid`` in file ``path``."""
+    """The dataset in file ``path``: image data, a rectilinear, curvilinear or
+    unstructured grid, or several blocks of those (:mod:`pv_hdrvol.data.kinds`)."""
     import pyvista as pv
+
+    from ..data.kinds import SUPPORTED, data_kind
 
     p = readable_path(path, formats)
     try:
-        dataset = pv.read(p)
+        dataset = _read_vtpc(p) if p.suffix.lower() == ".vtpc" else pv.read(p)
     except Exception as exc:  # readers raise anything from OSError to ValueError
         raise ValueError(f"cannot read {str(p)!r}: {exc}") from None
-    if not isinstance(dataset, (pv.ImageData, pv.UnstructuredGrid)):
-        raise ValueError(f"{str(p)!r} holds a {type(dataset).__name__}; pv_hdrvol renders image data (ImageData) and "
-                         f"tetrahedral meshes (UnstructuredGrid)")
+    try:
+        data_kind(dataset)
+    except TypeError:
+        raise ValueError(f"{str(p)!r} holds a {type(dataset).__name__}; pv_hdrvol renders {SUPPORTED}") from None
     return dataset
+
+
+def _read_vtpc(p):
+    """The ``vtkPartitionedDataSetCollection`` of a ``.vtpc`` file (``pyvista.read`` has no
+    reader of them); a file VTK cannot parse is an error, not an empty collection."""
+    from vtkmodules.vtkCommonCore import vtkCommand
+    from vtkmodules.vtkIOXML import vtkXMLPartitionedDataSetCollectionReader
+
+    errors = []
+    reader = vtkXMLPartitionedDataSetCollectionReader()
+    reader.GetExecutive().AddObserver(vtkCommand.ErrorEvent, lambda *args: errors.append(1))
+    reader.AddObserver(vtkCommand.ErrorEvent, lambda *args: errors.append(1))
+    reader.SetFileName(str(p))
+    reader.Update()
+    if errors or reader.GetOutput() is None:
+        raise ValueError("VTK's reader of .vtpc files failed to parse it")
+    return reader.GetOutput()
 
 
 def read_volume(path, scalars=None, preference="point", formats=READABLE):
     """The :class:`~pv_hdrvol.GridVolume` or :class:`~pv_hdrvol.TetMesh` of array
-    ``scalars`` (default: the active scalars) in file ``path``.
+    ``scalars`` (default: the active scalars) in file ``path``
+    (:func:`pv_hdrvol.data.kinds.as_renderable`): the blocks of a ``.vtm``, ``.vtpc`` or
+    ``.vtpd`` file gathered onto one volume or merged into one mesh.
 
     Raises
     ------
@@ -60,16 +88,11 @@ def read_volume(path, scalars=None, preference="point", formats=READABLE):
         ``path`` is missing or a folder.
     ValueError
         Its extension is not one of ``formats``, ``pyvista.read`` cannot read it, it
-        holds neither image data nor an unstructured grid, or it has no such array
+        holds no dataset pv_hdrvol renders, its blocks do not make one volume or
+        mesh, or it has no such array
         (:class:`~pv_hdrvol.ScalarsError`, which names the arrays there are). The
-        messages about the file name it.
+        messages about the file itself name it.
     """
-    import pyvista as pv
+    from ..data.kinds import as_renderable
 
-    from ..data.grid import volume_from_dataset
-    from ..data.tets import tetmesh_from_dataset
-
-    dataset = read_dataset(path, formats)
-    if isinstance(dataset, pv.UnstructuredGrid):
-        return tetmesh_from_dataset(dataset, scalars=scalars, preference=preference)
-    return volume_from_dataset(dataset, scalars=scalars, preference=preference)
+    return as_renderable(read_dataset(path, formats), scalars=scalars, preference=preference)

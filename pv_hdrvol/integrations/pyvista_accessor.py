@@ -1,6 +1,7 @@
 """``dataset.hdrvol``: PyVista accessor for HDR volume rendering.
 
-Registered on ``pyvista.DataSet`` when this module is imported; PyVista imports it on
+Registered on ``pyvista.DataObject`` (every dataset and ``pyvista.MultiBlock``) when this
+module is imported; PyVista imports it on
 first use of ``dataset.hdrvol`` through the ``pyvista.accessors`` entry point, so
 ``import pv_hdrvol`` is not needed.
 """
@@ -8,19 +9,20 @@ from __future__ import annotations
 
 import pyvista as pv
 
+from ..data.kinds import BLOCKS, GRID, MESH, data_kind
 from ..rays.camera import as_camera
 from . import VolumeCache
 
-_IMAGE_CLASSES = ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid")
 
-
-@pv.register_dataset_accessor("hdrvol", pv.DataSet)
+@pv.register_dataset_accessor("hdrvol", pv.DataObject)
 class HDRVolAccessor:
-    """High-dynamic-range volume rendering of ``pyvista.ImageData`` and tetrahedral
-    ``pyvista.UnstructuredGrid``.
+    """High-dynamic-range volume rendering of PyVista's volumetric datasets.
 
-    Available as ``dataset.hdrvol`` on every PyVista dataset; image data and
-    unstructured grids (tetrahedra; other 3-D cells are split) can be rendered.
+    Available as ``dataset.hdrvol`` on every PyVista dataset and ``MultiBlock``;
+    ``ImageData``, ``RectilinearGrid``, ``StructuredGrid`` (curvilinear: each hexahedron
+    split into six tetrahedra), ``UnstructuredGrid`` (tetrahedra; other 3-D cells are
+    split) and ``MultiBlock`` / partitioned datasets of those can be rendered
+    (:mod:`pv_hdrvol.data.kinds`).
 
     Examples
     --------
@@ -36,14 +38,9 @@ class HDRVolAccessor:
         self._volumes = VolumeCache()
 
     def _check_renderable(self):
-        ds = self._dataset
-        name = ds.GetClassName()
-        if name in _IMAGE_CLASSES or name == "vtkUnstructuredGrid":
-            return
-        kind = type(ds).__name__
-        raise TypeError(f"hdrvol renders pyvista.ImageData and UnstructuredGrid; got {kind} "
-                        "(cast it, e.g. dataset.cast_to_unstructured_grid(), or resample it onto an ImageData "
-                        "with dataset.sample())")
+        """The dataset's kind (:func:`~pv_hdrvol.data.kinds.data_kind`), or the
+        ``TypeError`` that names what is rendered."""
+        return data_kind(self._dataset)
 
     def render(self, scalars=None, tf=None, camera=None, size=(512, 512), preference="point", lens=None,
                labels=None, label_styles=None, progress_bar=None, progress=None, *, cmap=None, clim=None,
@@ -122,36 +119,42 @@ class HDRVolAccessor:
         Raises
         ------
         TypeError
-            For datasets other than ImageData and UnstructuredGrid, unknown options
+            For datasets that are not volumes (``PolyData``, ...), unknown options
             or an unusable camera.
         ScalarsError
             (a ``ValueError``) when ``scalars`` is missing or ambiguous.
         """
         from ..raycast.grid import render_volume
 
-        self._check_renderable()
-        if self._dataset.GetClassName() == "vtkUnstructuredGrid":
-            from ..data.tets import check_has_cells
-
-            check_has_cells(self._dataset)  # before its (unset) bounds frame a camera
-        cam = as_camera(camera, self._dataset.bounds)
-        if self._dataset.GetClassName() == "vtkUnstructuredGrid":
-            from ..raycast.tets import render_tets
-
+        kind = self._check_renderable()
+        if kind != GRID:
             for name, value in (("lens", lens), ("labels", labels), ("label_styles", label_styles), ("cull", cull)):
                 if value is not None:
-                    raise ValueError(f"{name}= is not supported for tetrahedral meshes")
-            return render_tets(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
-                               progress_bar=progress_bar, progress=progress, cmap=cmap, clim=clim, opacity=opacity,
-                               scale=scale, **options)
+                    raise ValueError(f"{name}= is not supported for {_WHAT[kind]}")
+        tf_keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+        if kind == BLOCKS:
+            from ..raycast.blocks import render_blocks
+
+            cam = as_camera(camera, self._dataset.bounds)
+            return render_blocks(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
+                                 progress_bar=progress_bar, progress=progress, **tf_keywords, **options)
+        if kind == MESH:
+            from ..data.tets import check_has_cells
+            from ..raycast.tets import render_tets
+
+            check_has_cells(self._dataset)  # before its (unset) bounds frame a camera
+            cam = as_camera(camera, self._dataset.bounds)
+            mesh = self._volumes.get(self._dataset, scalars, preference)
+            return render_tets(mesh, tf, cam, size, progress_bar=progress_bar, progress=progress, **tf_keywords,
+                               **options)
+        cam = as_camera(camera, self._dataset.bounds)
         volume = self._volumes.get(self._dataset, scalars, preference)
         if isinstance(labels, str):
             from ..data.grid import labels_from_dataset
 
             labels = labels_from_dataset(self._dataset, labels, preference)
         return render_volume(volume, tf, cam, size, lens=lens, labels=labels, label_styles=label_styles, cull=cull,
-                             progress_bar=progress_bar, progress=progress, cmap=cmap, clim=clim, opacity=opacity,
-                             scale=scale, **options)
+                             progress_bar=progress_bar, progress=progress, **tf_keywords, **options)
 
     def make_proxies(self, camera=None, size=(512, 512), tf=None, scalars=None, preference="point", **options):
         """Proxy images of this ``ImageData`` for exploring it later without it (views,
@@ -167,10 +170,9 @@ class HDRVolAccessor:
         """
         from ..proxy.generate import make_proxies
 
-        self._check_renderable()
-        if self._dataset.GetClassName() == "vtkUnstructuredGrid":
-            raise TypeError("proxies are made of image data (ImageData); resample a mesh onto one first "
-                            "(pyvista.ImageData(...).sample(mesh))")
+        if self._check_renderable() != GRID or self._dataset.GetClassName() == "vtkRectilinearGrid":
+            raise TypeError(f"proxies are made of image data (ImageData); got a {type(self._dataset).__name__}: "
+                            f"resample it onto one first (pyvista.ImageData(...).sample(dataset))")
         volume = self._volumes.get(self._dataset, scalars, preference)
         return make_proxies(volume, camera, size, tf, **options)
 
@@ -178,14 +180,20 @@ class HDRVolAccessor:
         ds = self._dataset
         kind = type(ds).__name__
         try:
-            self._check_renderable()
+            what = self._check_renderable()
         except TypeError:
-            return f"<hdrvol accessor of {kind}: not renderable (ImageData and UnstructuredGrid only)>"
+            return f"<hdrvol accessor of {kind}: not renderable (not a volume: see pv_hdrvol.data.kinds)>"
+        if what == BLOCKS:
+            return (f"<hdrvol accessor of {kind} with {ds.n_blocks} blocks; call .render(scalars=, tf=, camera=, "
+                    f"size=, **options)>")
         arrays = [f"point {n!r}" for n in ds.point_data.keys()] + [f"cell {n!r}" for n in ds.cell_data.keys()]
         active = ds.active_scalars_name
         shape = f"{ds.n_cells} cells" if ds.GetClassName() == "vtkUnstructuredGrid" else str(tuple(ds.dimensions))
         return (f"<hdrvol accessor of {kind} {shape}; arrays: {', '.join(arrays) or 'none'}; "
                 f"active scalars: {active!r}; call .render(scalars=, tf=, camera=, size=, **options)>")
 
+
+#: What the options that apply to image data only name, per kind.
+_WHAT = {MESH: "tetrahedral meshes and curvilinear grids", BLOCKS: "multiblock datasets"}
 
 __all__ = ["HDRVolAccessor"]

@@ -35,8 +35,8 @@ from ..data.tets import is_unstructured
 from ..image.hdr import HDRImage
 from ..image.upsample import upsample
 from ..params import RenderOptions
-from ..raycast.grid import EmptyRenderWarning, GridPlan, as_volume, collected_warnings
-from ..data.tets import as_tetmesh
+from ..raycast.grid import EmptyRenderWarning, GridPlan, collected_warnings
+from ..data.kinds import as_renderable
 from ..raycast.tets import TetPlan
 from ..rays.camera import as_camera
 
@@ -127,9 +127,8 @@ class ProgressiveRenderer:
 
     def __init__(self, data, tf=None, options=None, *, coarse_seconds=COARSE_SECONDS, factor=4, on_frame=None,
                  on_error=None, scalars=None, preference="point", **option_kwargs):
-        self.tets = is_unstructured(data)
-        self.data = as_tetmesh(data, scalars=scalars, preference=preference) if self.tets else \
-            as_volume(data, scalars=scalars, preference=preference)
+        self.data = as_renderable(data, scalars=scalars, preference=preference)
+        self.tets = is_unstructured(self.data)
         self.options = RenderOptions.from_kwargs(options, **option_kwargs)
         self.coarse_seconds = as_real("coarse_seconds", coarse_seconds, low=0.0, low_open=True)
         if factor not in FACTORS:

@@ -432,12 +432,14 @@ class HDRViewer(QtWidgets.QMainWindow):
 
         super().__init__()
         self.setWindowTitle(title)
-        self.model = TransferFunctionModel.for_data(data, tf) if scalars is None else \
-            TransferFunctionModel.for_data(_select(data, scalars, preference), tf)
+        from ..data.kinds import BLOCKS, data_kind
+
+        if scalars is not None or data_kind(data) == BLOCKS:  # blocks: gathered or merged once, here
+            data, scalars = _select(data, scalars, preference), None
+        self.model = TransferFunctionModel.for_data(data, tf)
         self.plotter = QtInteractor(self)
         self.setCentralWidget(self.plotter)
         self.plotter.set_background("black")
-        data = _select(data, scalars, preference) if scalars is not None else data
         # the editor beside the view is the colour bar (and its opacity), so no scalar bar
         self.actor = add_hdr_volume(self.plotter, data, self.model.transfer_function(), progressive=True,
                                     show_scalar_bar=False, global_alpha=self.model.global_alpha, **render_kwargs)
@@ -610,13 +612,11 @@ class HDRViewer(QtWidgets.QMainWindow):
 
 
 def _select(data, scalars, preference):
-    """The dataset as the volume or mesh of array ``scalars``."""
-    from ..data.tets import as_tetmesh, is_unstructured
-    from ..raycast.grid import as_volume
+    """The dataset as the volume or mesh of array ``scalars``
+    (:func:`~pv_hdrvol.data.kinds.as_renderable`: blocks gathered or merged)."""
+    from ..data.kinds import as_renderable
 
-    if is_unstructured(data):
-        return as_tetmesh(data, scalars=scalars, preference=preference)
-    return as_volume(data, scalars=scalars, preference=preference)
+    return as_renderable(data, scalars=scalars, preference=preference)
 
 
 def view(data, tf=None, *, block=None, **kwargs):

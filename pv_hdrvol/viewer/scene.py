@@ -514,7 +514,12 @@ def _value_at(data, point):
 
     if not isinstance(data, GridVolume):
         return None
-    f = (np.asarray(point) - data.origin) / data.spacing  # (x, y, z) in voxels
+    axes = getattr(data, "axes", None)
+    if axes is None:
+        f = (np.asarray(point) - data.origin) / data.spacing  # (x, y, z) in voxels
+    else:  # a rectilinear grid: the cell and the fraction in it, per axis
+        f = np.array([np.interp(c, a, np.arange(a.size, dtype=np.float64), left=-1.0, right=a.size)
+                      for c, a in zip(np.asarray(point, dtype=np.float64), axes)])
     dims = np.array(data.dims)  # (nx, ny, nz)
     if np.any(f < 0) or np.any(f > dims - 1):
         return None

@@ -169,10 +169,12 @@ if HDRVolumeRenderer is not None:
     @smproperty.xml('<OutputPort name="HDR Image" index="0"/>')
     @smproperty.xml('<OutputPort name="In View" index="1"/>')
     @smproperty.input(name="Input", port_index=0)
-    @smdomain.datatype(dataTypes=["vtkImageData", "vtkUnstructuredGrid"], composite_data_supported=False)
+    @smdomain.datatype(dataTypes=["vtkImageData", "vtkRectilinearGrid", "vtkStructuredGrid", "vtkUnstructuredGrid"],
+                       composite_data_supported=True)
     @smdomain.xml('<InputArrayDomain name="input_array" attribute_type="any" number_of_components="1"/>')
     class HDRVolumeRender(HDRVolumeRenderer):
-        """Volume render image data or a tetrahedral mesh into an HDR image (pv_hdrvol)."""
+        """Volume render image data, a rectilinear, curvilinear or tetrahedral grid, or blocks of
+        those, into an HDR image (pv_hdrvol)."""
 
         def __init__(self):
             self._lens_settings = {"name": "none", "center": (0.5, 0.5), "radius": 0.25, "factor": 2.0,
@@ -922,7 +924,8 @@ if HDRVolumeRenderer is not None:
     @smproxy.filter(name="HDRUpsample", label="HDR Upsample", support_reload=False)
     @smhint.xml('<ShowInMenu category="pv_hdrvol"/>')
     @smproperty.input(name="Dataset", port_index=1)
-    @smdomain.datatype(dataTypes=["vtkImageData", "vtkUnstructuredGrid"], composite_data_supported=False)
+    @smdomain.datatype(dataTypes=["vtkImageData", "vtkRectilinearGrid", "vtkStructuredGrid", "vtkUnstructuredGrid"],
+                       composite_data_supported=True)
     @smproperty.input(name="Input", port_index=0)
     @smdomain.datatype(dataTypes=["vtkImageData"], composite_data_supported=False)
     class HDRUpsample(vtk_image.HDRUpsampler):

@@ -128,3 +128,23 @@ def test_editor_model_and_progressive_renderer_take_blocks():
     frames = list(ProgressiveRenderer(blocks, _tf(), precision="float64").frames("iso", SIZE))
     full = ProgressiveRenderer(image, _tf(), precision="float64")
     np.testing.assert_array_equal(frames[-1].image.rgba, list(full.frames("iso", SIZE))[-1].image.rgba)
+
+
+@pytest.mark.parametrize("make", [_curvilinear, lambda: pv.MultiBlock([_curvilinear()])],
+                         ids=["curvilinear", "multiblock"])
+def test_vtk_algorithm_renders_as_render(make):
+    from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
+
+    data = make()
+    alg = HDRVolumeRenderer()
+    alg.SetInputDataObject(data)
+    alg.SetImageSize(*SIZE)
+    alg.SetCamera("iso")
+    alg.SetOptions(hv.RenderOptions(precision="float64"))
+    assert alg.Update(), alg.GetLastError()
+    ref = hv.render(data, None, hv.Camera.fit(_curvilinear().bounds, "iso"), SIZE, **OPTS)
+    np.testing.assert_array_equal(hv.HDRImage.from_pyvista(alg.GetOutput()).rgba, ref.rgba)
+    alg.SetLens(hv.Fisheye())
+    assert not alg.Update()
+    assert alg.GetLastError() == ("ValueError: SetLens, SetLabels and SetCull apply to image data only, not to a "
+                                  f"{data.GetClassName()}")

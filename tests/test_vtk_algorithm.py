@@ -117,7 +117,7 @@ def test_tetrahedral_mesh_input():
     alg.SetLens(hv.Fisheye())
     assert not alg.Update()
     assert alg.GetLastError() == ("ValueError: SetLens, SetLabels and SetCull apply to image data only, not to "
-                                  "tetrahedral meshes")
+                                  "a vtkUnstructuredGrid")
 
 
 def test_defaults_and_source_connection():

@@ -162,21 +162,39 @@ def test_camera_fields_are_checked_together_when_the_filter_runs():
         alg.SetCamera({"zoom": 2.0})
 
 
-def test_a_multiblock_input_is_refused_not_rendered_block_by_block():
+def test_a_multiblock_input_renders_as_one_scene():
+    """Two halves of an image as a vtkMultiBlockDataSet render as the image (gathered
+    onto its lattice: bit for bit), and the blocks' default transfer function is the
+    image's; blocks that do not gather are named."""
+    import pyvista as pv
     from vtkmodules.vtkCommonDataModel import vtkMultiBlockDataSet
 
     source = vtkRTAnalyticSource()
+    source.SetWholeExtent(0, 8, 0, 6, 0, 5)
     source.Update()
+    image = pv.wrap(source.GetOutput())
     blocks = vtkMultiBlockDataSet()
-    blocks.SetBlock(0, source.GetOutput())
+    blocks.SetBlock(0, image.extract_subset((0, 4, 0, 6, 0, 5)))
+    blocks.SetBlock(1, image.extract_subset((4, 8, 0, 6, 0, 5)))
+    images = []
+    for data in (blocks, image):
+        alg = HDRVolumeRenderer()
+        alg.SetInputDataObject(data)
+        alg.SetImageSize(12, 10)
+        alg.SetCamera("iso")
+        alg.SetOptions(hv.RenderOptions(precision="float64"))
+        assert alg.Update(), alg.GetLastError()
+        images.append(hv.HDRImage.from_pyvista(alg.GetOutput()).rgba.copy())
+    np.testing.assert_array_equal(images[0], images[1])
+    assert images[0][..., 3].max() > 0.05
+    fine = pv.ImageData(dimensions=(3, 7, 6), spacing=(0.5, 1.0, 1.0), origin=(8.0, 0.0, 0.0))
+    fine["RTData"] = np.ones(fine.n_points, dtype=np.float32)
+    blocks.SetBlock(1, fine)
     alg = HDRVolumeRenderer()
     alg.SetInputDataObject(blocks)
     alg.SetImageSize(8, 8)
-    alg.Update()
-    assert alg.GetLastError() == (
-        "ValueError: HDRVolumeRenderer renders one vtkImageData or vtkUnstructuredGrid; got a "
-        "vtkMultiBlockDataSet (the output of a reader of several blocks): merge the blocks into one mesh first "
-        "(ParaView's Merge Blocks, vtkMergeBlocks) or extract one block")
+    assert not alg.Update()
+    assert alg.GetLastError().startswith("ValueError: the image blocks of this dataset are rendered one by one (")
     assert alg.GetOutput().GetNumberOfPoints() == 0
 
 

@@ -18,6 +18,7 @@ from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from .._validate import as_choice, as_size
+from ..data.kinds import BLOCKS, IMAGE_CLASSES, MESH, SUPPORTED, as_renderable, data_kind
 from ..parallel.comm import PointToPointComm
 from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
 from ..params import RenderOptions
@@ -115,12 +116,18 @@ def _request_whole_extent(info):
 
 
 class HDRVolumeRenderer(_ReportingAlgorithm):
-    """Volume render a ``vtkImageData`` or a tetrahedral ``vtkUnstructuredGrid`` into a 2-D
-    float RGBA ``vtkImageData``.
+    """Volume render a ``vtkImageData``, a ``vtkRectilinearGrid``, a curvilinear
+    ``vtkStructuredGrid``, a tetrahedral ``vtkUnstructuredGrid`` or a composite dataset of
+    those into a 2-D float RGBA ``vtkImageData``.
 
-    Input port 0: ``vtkImageData`` (the whole extent is requested) or
+    Input port 0: ``vtkImageData`` (the whole extent is requested), ``vtkRectilinearGrid``,
+    ``vtkStructuredGrid`` (each hexahedron split into six tetrahedra) or
     ``vtkUnstructuredGrid`` (tetrahedra; other 3-D cells are split, see
-    :func:`~pv_hdrvol.render_tets`; lenses and labels are for images only). Output: a
+    :func:`~pv_hdrvol.render_tets`), or a ``vtkMultiBlockDataSet`` /
+    ``vtkPartitionedDataSet(Collection)`` whose blocks gather onto one volume or merge into
+    one mesh (:func:`pv_hdrvol.data.kinds.as_renderable`); lenses, labels and culling are
+    for image data only. Distributed over processes, image data and meshes are rendered
+    where they live; the other kinds are rendered whole by piece 0. Output: a
     ``width x height x 1`` ``vtkImageData`` with point arrays ``"rgba"`` (4 components,
     linear premultiplied RGBA, float32 or float64 as the precision) and ``"depth"``,
     VTK row order (row 0 at the bottom), as :meth:`HDRImage.to_vtk
@@ -622,8 +629,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         info = outInfo.GetInformationObject(0)
         n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
         in_info = inInfo[0].GetInformationObject(0)
-        structured = in_info.Has(_SDDP.WHOLE_EXTENT())
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
+        # rectilinear and curvilinear grids have extents too, but are not rendered where they
+        # live yet: piece 0 renders them whole
+        structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (data is None or data.GetClassName() in IMAGE_CLASSES)
         mesh = not structured and data is not None and data.GetClassName() == "vtkUnstructuredGrid"
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
                 or self._labels is not None or self._cull is not None or self._options.tolerance is not None:
@@ -658,25 +667,25 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             out.Initialize()
             return 1
         kind = inp.GetClassName() if inp is not None else None
-        if inp is not None and inp.IsA("vtkCompositeDataSet"):
-            raise ValueError(f"HDRVolumeRenderer renders one vtkImageData or vtkUnstructuredGrid; got a {kind} "
-                             f"(the output of a reader of several blocks): merge the blocks into one mesh first "
-                             f"(ParaView's Merge Blocks, vtkMergeBlocks) or extract one block")
-        if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkUnstructuredGrid") \
-                or inp.GetNumberOfPoints() == 0:
-            raise ValueError(f"HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on input "
-                             f"port 0; got {'nothing' if inp is None else kind}")
-        if kind == "vtkUnstructuredGrid" and (self._lens is not None or self._labels is not None
-                                              or self._cull is not None):
-            raise ValueError("SetLens, SetLabels and SetCull apply to image data only, not to tetrahedral meshes")
+        try:
+            what = None if inp is None else data_kind(inp)
+        except TypeError:
+            what = None
+        if what is None or inp.GetNumberOfPoints() == 0:
+            raise ValueError(f"HDRVolumeRenderer needs a non-empty volume on input port 0 ({SUPPORTED}); got "
+                             f"{'nothing' if inp is None else kind}")
+        if kind not in IMAGE_CLASSES and (self._lens is not None or self._labels is not None
+                                          or self._cull is not None):
+            raise ValueError(f"SetLens, SetLabels and SetCull apply to image data only, not to a {kind}")
         scalars, preference = self._scalars_to_render()
         camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
-                           inp.GetBounds())
+                           _bounds(inp))
         self._last_camera = camera
         tf = self._transfer_function()
         self._last_tolerance = None
 
-        first = _first_use(kind == "vtkUnstructuredGrid", _compiled_precision(self._options))
+        mesh = what == MESH or (what == BLOCKS and _blocks_are_meshes(inp))
+        first = _first_use(mesh, _compiled_precision(self._options))
         if first:  # numba compiles (or loads from its cache) the kernels now: say so
             self.SetProgressText("compiling the ray caster (first render)")
             _display_text(f"pv_hdrvol: first {first} render in this process: compiling the ray caster, or loading "
@@ -693,7 +702,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             # a plan (validated options, tables, skip structures) is made once and
             # executed for each camera and size: rotating the view re-renders only
             plan = self._plan_for(inp, kind, scalars, preference, tf)
-            if kind == "vtkUnstructuredGrid":
+            if mesh:
                 image = plan.execute(camera, self._size, progress=progress, progress_bar=False)
             else:
                 # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm
@@ -893,9 +902,13 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         of the data is kept while the data and its keywords are unchanged (it reads every
         value: 0.6 s for engine). The same pixels as ``render_volume``/``render_tets``,
         which resolve the transfer function, make a plan and execute it once."""
+        from ..data.tets import TetMesh
         from ..raycast.grid import resolve_transfer_function
 
-        data = self._volumes.get(inp, scalars, preference)
+        if inp.IsA("vtkCompositeDataSet"):  # gathered onto one volume or merged into one mesh, cached
+            data = as_renderable(inp, scalars=scalars, preference=preference)
+        else:
+            data = self._volumes.get(inp, scalars, preference)
         if tf is None:
             keywords = tuple((name, None if value is None else default_transfer_function_keyword(name, value))
                              for name, value in self._tf_keywords.items())
@@ -911,7 +924,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             if old[0] is data and old[1] is tf and old[2:] == (self._options, labels):
                 return self._plan[1]
         self._plan = None  # drop the old plan (and its arrays) before making the new one
-        if kind == "vtkUnstructuredGrid":
+        if isinstance(data, TetMesh):
             from ..raycast.tets import TetPlan
 
             plan = TetPlan(data, tf, self._options)
@@ -923,6 +936,25 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             plan = GridPlan(data, tf, self._options, labels=label_array, label_styles=self._label_styles)
         self._plan = ((data, tf, self._options, labels), plan)
         return plan
+
+
+def _bounds(data):
+    """``GetBounds()`` of a dataset or a composite dataset (whose wrapped method fills a
+    list)."""
+    if data.IsA("vtkCompositeDataSet"):
+        bounds = [0.0] * 6
+        data.GetBounds(bounds)
+        return tuple(bounds)
+    return data.GetBounds()
+
+
+def _blocks_are_meshes(data):
+    """Whether the volumetric blocks of a composite dataset are meshes (rendered by the
+    tetrahedral ray caster), not grids."""
+    from ..data.blocks import classify, flatten
+
+    kinds = classify(flatten(data)[0])
+    return bool(kinds["mesh"]) and not (kinds["image"] or kinds["rectilinear"])
 
 
 class HDRProxyWriter(HDRVolumeRenderer):

@@ -144,8 +144,9 @@ def test_bad_input_gives_the_clear_message(plugin, shared_data):
     # a script that forces one gets the algorithm's message
     render = plugin["HDRVolumeRender"](Input=simple.Sphere(), ImageSize=[8, 8], Camera="iso")
     text = _error_text(render)
-    assert text == ("ValueError: HDRVolumeRenderer needs a non-empty vtkImageData or vtkUnstructuredGrid on "
-                    "input port 0; got vtkPolyData")
+    from pv_hdrvol.data.kinds import SUPPORTED
+
+    assert text == f"ValueError: HDRVolumeRenderer needs a non-empty volume on input port 0 ({SUPPORTED}); got vtkPolyData"
     simple.Delete(render)
     # size 0 is refused where it is set
     render = plugin["HDRVolumeRender"](Input=reader, Camera="iso")
@@ -444,3 +445,26 @@ def test_meshes_in_front_hide_the_volume_and_behind_are_hidden(plugin, shared_da
     simple.Delete(sphere)
     simple.Delete(render)
     simple.Delete(view)
+
+
+def test_a_plot3d_reader_renders_its_curvilinear_block(plugin, shared_data):
+    """What a user of a CFD code does: open a PLOT3D grid and solution with ParaView's
+    reader (a multiblock of one curvilinear vtkStructuredGrid) and apply HDR Volume
+    Render: each hexahedron is split into six tetrahedra, as hv.render splits it."""
+    folder = shared_data / "unstructured" / "plot3d_original"
+    reader = simple.PLOT3DReader(FileName=str(folder / "bluntfinxyz.bin"), QFileName=[str(folder / "bluntfinq.bin")])
+    reader.UpdatePipeline()
+    data = servermanager.Fetch(reader)
+    assert data.GetClassName() == "vtkMultiBlockDataSet" and data.GetBlock(0).GetClassName() == "vtkStructuredGrid"
+    lut, pwf = simple.GetColorTransferFunction("Density"), simple.GetOpacityTransferFunction("Density")
+    lut.ApplyPreset("Inferno (matplotlib)", True)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[40, 32], Camera="iso", LookupTable=lut,
+                                       ScalarOpacityFunction=pwf)
+    render.Scalars = ["POINTS", "Density"]
+    image = _image(render)
+    tf = transfer_function_from_vtk(lut.GetClientSideObject(), pwf.GetClientSideObject())
+    camera = hv.Camera.fit(reader.GetDataInformation().GetBounds(), "iso")
+    direct = hv.render(data, tf, camera, (40, 32), scalars="Density", progress_bar=False)
+    assert direct.metadata["blocks"]["kind"] == "mesh" and image.rgba[..., 3].max() > 0.01
+    np.testing.assert_allclose(image.rgba, direct.rgba, rtol=1e-6, atol=1e-7)
+    simple.Delete(render)

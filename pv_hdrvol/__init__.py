@@ -8,7 +8,7 @@ import numpy as np
 from . import datasets
 from .culling.cull import Culling
 from .culling.pof import PlenopticOpacity
-from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset
+from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset, volume_from_rectilinear
 from .data.tets import TetMesh, tetmesh_from_arrays, tetmesh_from_dataset
 from .data.transfer import TransferFunction, TransferFunctionFamily
 from .editor.model import TransferFunctionModel
@@ -164,6 +164,6 @@ __all__ = [
     "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
     "TransferFunction", "TransferFunctionFamily", "TransferFunctionModel", "depth_layers", "load", "render", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
-    "volume_from_array", "volume_from_dataset", "view", "add_hdr_volume", "TransferFunctionEditor",
+    "volume_from_array", "volume_from_dataset", "volume_from_rectilinear", "view", "add_hdr_volume", "TransferFunctionEditor",
     "make_proxies", "load_proxies", "ProxySet", "ProxyFormatError", "VolumeDistortionCamera",
 ]

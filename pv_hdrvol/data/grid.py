@@ -42,6 +42,11 @@ class GridVolume:
         ``value_range`` is then a placeholder ``(0.0, 0.0)``).
     integer : bool
         Whether the caller's values were integers (``values`` may be a float copy).
+    axes : tuple of 3 ndarray (float64) or None
+        A rectilinear grid's point coordinates along x, y and z (``None``: uniform).
+        ``origin`` is then the first coordinates and ``spacing`` the *nominal* spacing
+        ``(last - first) / (n - 1)``, so that ``bounds`` and cameras read it as they
+        read a uniform grid's; the kernels sample the true cells (``raycast/grid.py``).
     """
 
     values: np.ndarray
@@ -52,6 +57,7 @@ class GridVolume:
     name: str = ""
     any_finite: bool = True
     integer: bool = False
+    axes: tuple = None
     #: Derived arrays (bricks, block ranges) built on first render and reused.
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
@@ -66,6 +72,14 @@ class GridVolume:
         """``(xmin, xmax, ymin, ymax, zmin, zmax)`` of the sampled domain."""
         hi = self.origin + (np.array(self.dims) - 1) * self.spacing
         return (self.origin[0], hi[0], self.origin[1], hi[1], self.origin[2], hi[2])
+
+    @property
+    def min_cell_width(self):
+        """The smallest distance between neighbouring points on any axis (world units):
+        the smallest spacing of a uniform grid, the narrowest cell of a rectilinear one."""
+        if self.axes is None:
+            return float(self.spacing.min())
+        return float(min(np.diff(a).min() for a in self.axes))
 
 
 def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *, order="zyx", name=""):
@@ -129,6 +143,98 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
     return GridVolume(arr, origin, spacing, vr, has_nan, name, any_finite, integer)
 
 
+#: Axes whose points deviate from even spacing by at most this much, relative to the
+#: coordinates' magnitude ``max(|first|, |last|)``, are uniform (``volume_from_rectilinear``):
+#: 1e-12 is some 4,500 float64 ulps, far above the rounding of ``first + i * h`` or of
+#: ``np.linspace``, and moves a sample by at most ~1e-12 of a cell. (Float32 coordinates
+#: get 4 of their own ulps, ~5e-7: a uniform axis stored in float32 stays uniform.)
+UNIFORM_AXIS_TOLERANCE = 1e-12
+
+
+def volume_from_rectilinear(values, x, y, z, *, name=""):
+    """Make a :class:`GridVolume` from point values on a rectilinear grid.
+
+    Parameters
+    ----------
+    values : ndarray, shape (nz, ny, nx), any real numeric dtype
+        Point values, x fastest (as :func:`volume_from_array` with ``order="zyx"``).
+    x, y, z : 1-D arrays of nx, ny, nz finite, strictly increasing coordinates
+        At least 2 each. Copied as float64; the caller's arrays are not modified.
+
+    Returns
+    -------
+    GridVolume
+        ``axes`` holds the coordinates; ``origin`` the first of each, ``spacing`` the
+        nominal ``(last - first) / (n - 1)``. Axes that are all evenly spaced (to
+        :data:`UNIFORM_AXIS_TOLERANCE`) give a plain uniform volume (``axes=None``),
+        rendered as the same ``ImageData`` would be.
+
+    Raises
+    ------
+    ValueError
+        An axis that is not 1-D, has fewer than 2 points, a non-finite coordinate, a
+        coordinate not above the one before it (named with its index and value), or a
+        length other than ``values``' along that axis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v = volume_from_rectilinear(np.zeros((2, 2, 3)), [0.0, 1.0, 3.0], [0, 1], [0, 2])
+    >>> v.spacing.tolist(), v.axes[0].tolist()
+    ([1.5, 1.0, 2.0], [0.0, 1.0, 3.0])
+    """
+    arr = np.asarray(values)
+    if arr.ndim != 3:
+        raise ValueError(f"volume values must be a 3-D array; got {arr.ndim}-D with shape {arr.shape}")
+    axes = tuple(_check_axis(label, c, n, arr.shape) for label, c, n in zip("xyz", (x, y, z), arr.shape[::-1]))
+    origin = np.array([a[0] for a in axes])
+    spacing = np.array([(a[-1] - a[0]) / (a.size - 1) for a in axes])
+    volume = volume_from_array(arr, spacing, origin, name=name)
+    if all(_is_uniform(a, raw) for a, raw in zip(axes, (x, y, z))):
+        return volume
+    for a in axes:
+        a.flags.writeable = False
+    return GridVolume(volume.values, volume.origin, volume.spacing, volume.value_range, volume.has_nan,
+                      volume.name, volume.any_finite, volume.integer, axes)
+
+
+def _check_axis(label, coords, n, shape):
+    """The coordinates ``coords`` of axis ``label`` as a fresh float64 array, checked."""
+    raw = np.asarray(coords)
+    if raw.ndim != 1:
+        raise ValueError(f"{label} must be a 1-D array of coordinates; got shape {raw.shape}")
+    if raw.dtype == np.bool_ or not (np.issubdtype(raw.dtype, np.integer) or np.issubdtype(raw.dtype, np.floating)):
+        raise TypeError(f"{label} coordinates must be real numbers; got dtype {raw.dtype}")
+    if raw.size < 2:
+        raise ValueError(f"{label} needs at least 2 coordinates (a grid without thickness has nothing to render); "
+                         f"got {raw.size}")
+    if raw.size != n:
+        raise ValueError(f"{label} has {raw.size} coordinates but the values have {n} points along {label} "
+                         f"(values' shape (z, y, x) = {shape})")
+    a = np.array(raw, dtype=np.float64)  # a copy: never the caller's array
+    bad = np.flatnonzero(~np.isfinite(a))
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"{label} coordinates must be finite; {label}[{i}] = {float(a[i])!r}")
+    bad = np.flatnonzero(np.diff(a) <= 0.0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise ValueError(f"{label} coordinates must be strictly increasing; {label}[{i}] = {float(a[i])!r} <= "
+                         f"{label}[{i - 1}] = {float(a[i - 1])!r}")
+    return a
+
+
+def _is_uniform(a, raw):
+    """Whether the points ``a`` are evenly spaced to :data:`UNIFORM_AXIS_TOLERANCE` (or
+    to 4 ulps of the caller's float type ``raw``, where that is coarser)."""
+    n = a.size
+    h = (a[-1] - a[0]) / (n - 1)
+    even = a[0] + np.arange(n) * h
+    eps = np.finfo(np.asarray(raw).dtype).eps if np.issubdtype(np.asarray(raw).dtype, np.floating) else 0.0
+    tol = max(UNIFORM_AXIS_TOLERANCE, 4.0 * eps) * max(abs(a[0]), abs(a[-1]))
+    return bool(np.abs(a - even).max() <= tol)
+
+
 def _kernel_dtype(arr):
     """The dtype a non-native array is converted to: float32 where it holds every value
     exactly (floats of <= 4 bytes, integers of <= 2 bytes, wider integers whose values
@@ -183,14 +289,23 @@ class DatasetCache(dict):
 def cached_volume_from_dataset(dataset, scalars=None, preference="point"):
     """:func:`volume_from_dataset`, cached per dataset with what the renderer derives from
     it (bricks, block grids, skip structures), so repeated renders of one
-    ``pyvista.ImageData`` skip that work.
+    ``pyvista.ImageData`` (or ``RectilinearGrid``) skip that work.
 
     The cache holds the dataset weakly and at most four volumes (:class:`DatasetCache`).
     It is used only while the dataset's modification time, the array (its memory, shape
-    and dtype), spacing and origin are unchanged *and* the array's :func:`content_digest`
-    is the same: an in-place numpy edit that did not call ``Modified()`` is still seen.
-    The hash reads the array once, a fraction of what rebuilding costs.
+    and dtype), spacing and origin (a rectilinear grid's coordinates) are unchanged *and*
+    the array's :func:`content_digest` is the same: an in-place numpy edit that did not
+    call ``Modified()`` is still seen. The hash reads the array once, a fraction of what
+    rebuilding costs.
     """
+    if _is_rectilinear(dataset):
+        arr, axes, name = _rectilinear_array(dataset, scalars, preference)
+        key = (int(dataset.GetMTime()), scalars, preference, name, arr.__array_interface__["data"][0],
+               content_digest(arr, *axes))
+        volume = _VOLUME_CACHE.lookup(dataset, key)
+        if volume is None:
+            volume = _VOLUME_CACHE.store(dataset, key, volume_from_rectilinear(arr, *axes, name=name))
+        return volume
     arr, spacing, origin, name = _image_array(dataset, scalars, preference)
     key = (int(dataset.GetMTime()), scalars, preference, name, arr.__array_interface__["data"][0],
            tuple(spacing.tolist()), tuple(origin.tolist()), content_digest(arr))
@@ -204,7 +319,8 @@ _VOLUME_CACHE = DatasetCache(4)
 
 
 def volume_from_dataset(dataset, scalars=None, preference="point"):
-    """Make a :class:`GridVolume` from a ``pyvista.ImageData`` or ``vtkImageData``.
+    """Make a :class:`GridVolume` from a ``pyvista.ImageData``, ``vtkImageData``,
+    ``pyvista.RectilinearGrid`` or ``vtkRectilinearGrid`` (:func:`volume_from_rectilinear`).
 
     Parameters
     ----------
@@ -213,8 +329,12 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
     preference : {"point", "cell"}
         Which association to prefer when the name exists in both. Cell data is
         rendered as a point field at the cell centres (the domain shrinks by half a
-        cell on every side).
+        cell on every side; on a rectilinear grid the centres are the midpoints of
+        its coordinates).
     """
+    if _is_rectilinear(dataset):
+        arr, axes, scalars = _rectilinear_array(dataset, scalars, preference)
+        return volume_from_rectilinear(arr, *axes, name=scalars)
     arr, spacing, origin, scalars = _image_array(dataset, scalars, preference)
     # np.asarray of a VTK array is a view: volume_from_array copies before any change.
     return volume_from_array(arr, spacing, origin, name=scalars)
@@ -234,7 +354,8 @@ def _image_array(dataset, scalars, preference):
     as_choice("preference", preference, ("point", "cell"))
     cls_name = dataset.GetClassName() if hasattr(dataset, "GetClassName") else type(dataset).__name__
     if cls_name not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
-        raise TypeError(f"expected image data (pyvista.ImageData / vtkImageData); got {cls_name}")
+        raise TypeError(f"expected image data (pyvista.ImageData / vtkImageData) or a rectilinear grid "
+                        f"(pyvista.RectilinearGrid / vtkRectilinearGrid); got {cls_name}")
     ds = dataset
     dims = tuple(int(d) for d in ds.GetDimensions())
     if min(dims) < 1:
@@ -267,6 +388,38 @@ def _image_array(dataset, scalars, preference):
         raise ValueError(f"image data must be 3-D, with at least 2 {'cells' if use_cell else 'points'} along "
                          f"every axis; got {got}: a 2-D image or a single voxel has no thickness to render")
     return arr.reshape(shape), spacing, origin, scalars
+
+
+def _is_rectilinear(dataset):
+    return hasattr(dataset, "GetClassName") and dataset.GetClassName() == "vtkRectilinearGrid"
+
+
+def _rectilinear_array(dataset, scalars, preference):
+    """``(array (z, y, x) view, (x, y, z) coordinates, name)`` of one array of a
+    ``vtkRectilinearGrid``; cell data sits at the midpoints of the coordinates."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    as_choice("preference", preference, ("point", "cell"))
+    ds = dataset
+    dims = tuple(int(d) for d in ds.GetDimensions())
+    if min(dims) < 1:
+        raise ValueError(f"the rectilinear grid has no points (dimensions {dims})")
+    scalars, use_cell = choose_scalars(ds, scalars, preference, "dataset")
+    arr = (_arrays(ds.GetCellData()) if use_cell else _arrays(ds.GetPointData()))[scalars]()
+    if arr.ndim != 1:
+        raise ScalarsError(f"scalars {scalars!r} must have one component; got shape {arr.shape}")
+    coords = [np.asarray(vtk_to_numpy(c), dtype=np.float64).reshape(-1)
+              for c in (ds.GetXCoordinates(), ds.GetYCoordinates(), ds.GetZCoordinates())]
+    if use_cell:
+        coords = [0.5 * (c[:-1] + c[1:]) if c.size > 1 else c for c in coords]
+        shape = tuple(max(d - 1, 1) for d in dims)[::-1]
+    else:
+        shape = dims[::-1]
+    if min(shape) < 2:
+        got = f"{shape[::-1]} cells of cell data {scalars!r}" if use_cell else f"dimensions {dims}"
+        raise ValueError(f"a rectilinear grid must be 3-D, with at least 2 {'cells' if use_cell else 'points'} "
+                         f"along every axis; got {got}: a 2-D grid has no thickness to render")
+    return arr.reshape(shape), tuple(coords), scalars
 
 
 def choose_scalars(ds, scalars, preference, what="dataset"):

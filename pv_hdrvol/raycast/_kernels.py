@@ -410,6 +410,88 @@ def _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
     return kn if kn > k else k + 1
 
 
+# -- rectilinear grids: the warp from nominal voxel coordinates to index coordinates ----------
+# ``warp`` is ``0`` (a uniform grid: the helpers below compile to nothing, and the loops are
+# the uniform ones) or the tuple ``(cu, inv_w, first, bucket_base, bucket_scale)`` of
+# ``raycast.grid.warp_arrays``: per axis (x, then y, then z, concatenated; axis ``a``
+# starts at ``base = 0, nx, nx + ny``) the nominal coordinate ``cu[i]`` of point ``i``
+# (``(c_i - c_0) / h``, ``h`` the nominal spacing; ``cu[0] = 0``, ``cu[n - 1] = n - 1``) and
+# ``inv_w[i] = 1 / (cu[i + 1] - cu[i])``; and a table of uniform buckets over ``[0, n - 1]``:
+# ``first[bucket_base[a] + int(u * bucket_scale[a])]`` is a cell at or before the one holding
+# ``u`` (a bucket holds at most a cell boundary or two), so the cell is found in O(1).
+# Rays stay in nominal coordinates with ``t`` in world units (the map from world to nominal
+# coordinates is affine), so steps are world lengths; only the sample positions move.
+def warp_at(warp, base, axis, n, u):
+    """The index coordinate (cell ``i`` plus the fraction within it) of nominal voxel
+    coordinate ``u`` along ``axis`` (``n`` points, its entries from ``base``): ``u``
+    itself on a uniform grid, else clamped to ``[0, n - 1]`` and mapped through the
+    axis's cells (compiled only). Trilinear interpolation at the index coordinates is
+    the trilinear interpolant of the world cell."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(warp_at, jit_options=_FUSED_JIT, inline="always")
+def _warp_at_impl(warp, base, axis, n, u):
+    if isinstance(warp, numba.types.Integer):
+        return lambda warp, base, axis, n, u: u
+
+    def warped(warp, base, axis, n, u):
+        return _warp_lookup(warp[0], warp[1], warp[2], warp[3][axis], warp[4][axis], base, n, u)
+    return warped
+
+
+@fused_kernel
+def _warp_lookup(cu, inv_w, first, bucket_base, bucket_scale, base, n, u):
+    """``warp_at`` on a rectilinear axis, a call (inlined at numba IR level, its walk over
+    the bucket's cells warned of variables out of scope)."""
+    u = min(max(u, 0.0), n - 1.0)
+    c = np.int64(first[_u(bucket_base + int(u * bucket_scale))])
+    # a bucket holds at most one boundary (``raycast.grid.warp_arrays``): a select, not a
+    # branch, which mispredicted at every boundary a ray crossed (1.8x the uniform time
+    # with it, engine-sized, one thread). c = n - 1 at u = n - 1 gives n - 1 (inv_w 0 there).
+    c += np.int64(u >= cu[_u(base + c + 1)])
+    while c < n - 2 and u >= cu[_u(base + c + 1)]:  # more only where the bucket table was capped
+        c += 1
+    return min(c + (u - cu[_u(base + c)]) * inv_w[_u(base + c)], n - 1.0)
+
+
+@kernel
+def _warped_exit(cu, base, n, o, inv_d, b, radius, size):
+    """``_axis_exit`` on a rectilinear axis: the block edges are points ``(b + radius) size``
+    and ``(b - radius + 1) size`` (clamped to the grid: the box), at nominal ``cu``."""
+    if inv_d > 0.0:
+        return (cu[base + min((b + radius) * size, n - 1)] - o) * inv_d
+    if inv_d < 0.0:
+        return (cu[base + max((b - radius + 1) * size, 0)] - o) * inv_d
+    return math.inf
+
+
+def leap_past(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
+    """``_leap_to`` on the grid ``warp`` describes (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(leap_past, jit_options=_JIT)
+def _leap_past_impl(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
+    if isinstance(warp, numba.types.Integer):
+        def uniform(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
+            return _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+        return uniform
+
+    def warped(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
+        # block edges lie on points, whose nominal coordinates cu holds: the ray leaves the
+        # empty cube where it crosses them, so no sample of a block to sample is skipped
+        cu = warp[0]
+        nx = g[0]
+        ny = g[1]
+        te = min(_warped_exit(cu, 0, nx, ox, rx, ib, radius, size),
+                 _warped_exit(cu, nx, ny, oy, ry, jb, radius, size),
+                 _warped_exit(cu, nx + ny, g[2], oz, rz, kb, radius, size))
+        kn = int(math.ceil((te - t0) / step - 0.5))
+        return kn if kn > k else k + 1
+    return warped
+
+
 @fused_kernel
 def _lookup(table, v, n, p):
     """Interpolated table row ``(r, g, b, a)`` of data value ``v``, and its entry and fraction."""
@@ -884,8 +966,8 @@ def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
 
 
 @fused_kernel
-def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch,
-                 k0, k1, last):
+def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step,
+                 scratch, k0, k1, last):
     """The sampling and compositing loop of ``_march`` for trilinear sampling of
     ``bricks``, compiled once per precision ``marker``.
 
@@ -920,8 +1002,14 @@ def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz,
     ``scratch`` is float64 with ``2 * SCRATCH`` entries (values, then their ``k``),
     one per lane of ``render_tiles`` (a lane runs on one thread at a time). Segments
     ``k0 <= k < k1`` and, if ``last``, the last one are sampled (``piece_segments``).
+
+    ``warp`` (``warp_at``): 0 samples a uniform grid; a rectilinear grid's warp moves each
+    sample from its nominal position to its index coordinates (and the leaps and lit
+    positions with it); the samples' ``t`` and the arithmetic after are the same.
     """
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    y_base = nx
+    z_base = nx + ny
     size = 1 << p.block_shift
     n_table = table.shape[0] // 4
     u8 = p.precision == U8
@@ -952,9 +1040,9 @@ def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz,
         # (k after the sample), leaping empty blocks
         j = 0
         while j < chunk and k < k1:
-            x = min(max(bx0 + kf * sx, 0.0), x_max)
-            y = min(max(by0 + kf * sy, 0.0), y_max)
-            z = min(max(bz0 + kf * sz, 0.0), z_max)
+            x = warp_at(warp, 0, 0, nx, min(max(bx0 + kf * sx, 0.0), x_max))
+            y = warp_at(warp, y_base, 1, ny, min(max(by0 + kf * sy, 0.0), y_max))
+            z = warp_at(warp, z_base, 2, nz, min(max(bz0 + kf * sz, 0.0), z_max))
             xi = int(x)
             yi = int(y)
             zi = int(z)
@@ -963,7 +1051,7 @@ def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz,
             kb = min(zi, nz - 2) >> shift
             radius = leap[_u((kb * by + jb) * bx + ib)]
             if radius != 0:
-                k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
+                k = leap_past(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
                 kf = float(k)
                 continue
             fx = x - xi
@@ -1003,8 +1091,9 @@ def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz,
             r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
             if a_i > 0.0:  # as skipped samples: skipping then changes no bit
                 kk = scratch[_u(cap + jj)] - 1.0  # the sample's k, as phase 1 placed it
-                r, gg, b = lit(light, eye, bricks, offs, g, bx0 + kk * sx, by0 + kk * sy, bz0 + kk * sz, v, r, gg, b,
-                               p.scale, p.axis_inv_range, p.linthresh)
+                r, gg, b = lit(light, eye, bricks, offs, g, warp_at(warp, 0, 0, nx, bx0 + kk * sx),
+                               warp_at(warp, y_base, 1, ny, by0 + kk * sy), warp_at(warp, z_base, 2, nz, bz0 + kk * sz),
+                               v, r, gg, b, p.scale, p.axis_inv_range, p.linthresh)
                 state = _accumulate(marker, p.precision, state, a_i, r, gg, b)
                 alpha = _opacity(marker, state)
                 if depth == math.inf and alpha >= p.depth_alpha:
@@ -1020,14 +1109,17 @@ def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz,
         # opacity comes from the extinction column (the per-step one may have rounded to 1)
         ta = t0 + n_full * step
         tm = 0.5 * (ta + t1)
-        radius, ib, jb, kb, v = _sample(0, bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
+        xm = warp_at(warp, 0, 0, nx, ox + tm * dx)
+        ym = warp_at(warp, y_base, 1, ny, oy + tm * dy)
+        zm = warp_at(warp, z_base, 2, nz, oz + tm * dz)
+        radius, ib, jb, kb, v = _sample(0, bricks, leap, g, xm, ym, zm)
         if radius == 0 and v == v:
             samples += 1
             r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
             if a_i > 0.0:
                 sg = sigma_at(sigma, i, f)
-                r, gg, b = lit(light, eye, bricks, offs, g, ox + tm * dx, oy + tm * dy, oz + tm * dz, v, r, gg, b,
-                               p.scale, p.axis_inv_range, p.linthresh)
+                r, gg, b = lit(light, eye, bricks, offs, g, xm, ym, zm, v, r, gg, b, p.scale, p.axis_inv_range,
+                               p.linthresh)
                 state = _accumulate(marker, p.precision, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
                 if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
                     depth = tm
@@ -1035,25 +1127,26 @@ def _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz,
     return cr, cg, cb, alpha, depth, samples
 
 
-def _march_loop(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                step, scratch, k0, k1, last):
+def _march_loop(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
+                t1, p, step, scratch, k0, k1, last):
     """``_march_plain`` for the plain sampler, ``_march_in`` for a mip-map sampler (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
 @overload(_march_loop, jit_options=_JIT)
-def _march_loop_impl(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1,
-                     p, step, scratch, k0, k1, last):
+def _march_loop_impl(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
+                     t0, t1, p, step, scratch, k0, k1, last):
     if isinstance(sampler, numba.types.Integer):
-        def plain(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                  step, scratch, k0, k1, last):
-            return _march_plain(marker, light, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                                step, scratch, k0, k1, last)
+        def plain(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
+                  t1, p, step, scratch, k0, k1, last):
+            return _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
+                                t1, p, step, scratch, k0, k1, last)
         return plain
 
-    # the mip-map loop is not lit (a shaded render with a level of detail is extended)
-    def mipmapped(marker, sampler, light, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                  step, scratch, k0, k1, last):
+    # the mip-map loop is not lit (a shaded render with a level of detail is extended) and
+    # samples uniform grids only (warp 0: raycast/grid.py refuses a lens on a rectilinear grid)
+    def mipmapped(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
+                  t1, p, step, scratch, k0, k1, last):
         return _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
                          step, k0, k1, last)
     return mipmapped
@@ -1076,8 +1169,8 @@ def _marker_precision_impl(marker, p):
 
 
 @kernel
-def _march(marker, sampler, light, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi,
-           piece, p, step, scratch, t_far):
+def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo,
+           hi, piece, p, step, scratch, t_far):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
@@ -1121,7 +1214,8 @@ def _march(marker, sampler, light, bricks, offs, table, sigma, leap, grids, dims
     ``_march_in`` for the mip-map) is compiled; float16 and uint8 share the emulated one
     (``_marker_precision``). ``light`` is 0 (unshaded) or the lighting tuple
     ``(shading, lights, gvec)`` (``lit``), also chosen at compile time: an unshaded render compiles
-    and runs no lighting. Only the plain sampler's loop is lit.
+    and runs no lighting. Only the plain sampler's loop is lit. ``warp`` (``warp_at``) is 0
+    for a uniform grid, else a rectilinear grid's warp (plain sampler only), also by type.
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
     if not t1 > t0:
@@ -1136,13 +1230,13 @@ def _march(marker, sampler, light, bricks, offs, table, sigma, leap, grids, dims
     ny = dims[1]
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
-    return _march_loop(marker, sampler, light, _marker_precision(marker, p), bricks, offs, table, sigma, leap, g, ox,
-                       oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
+    return _march_loop(marker, sampler, light, warp, _marker_precision(marker, p), bricks, offs, table, sigma, leap, g,
+                       ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
 
 
 @fused_parallel_kernel
 def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, far, width, height,
-                 tile, tile_rows, lanes, lo, hi, piece, p, light, out_rgba, out_depth, out_samples):
+                 tile, tile_rows, lanes, lo, hi, piece, p, light, warp, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
     Rays come from ``cam`` (``Camera.kernel_array``, then the volume's origin and the
@@ -1150,7 +1244,7 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
     empty, from ``origins`` and ``directions`` (one row per pixel, voxel coordinates).
     ``far`` (one per pixel, world distance along the ray; or empty: no limit) stops
     each ray there: opaque geometry in front of or inside the volume. ``light``: 0, or
-    the lighting of a shaded render (``_march``).
+    the lighting of a shaded render; ``warp``: 0, or a rectilinear grid's (``_march``).
 
     Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
     (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
@@ -1181,8 +1275,9 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
                         dy = directions[pix, 1]
                         dz = directions[pix, 2]
                     t_far = far[pix] if has_far else math.inf
-                    r, g, b, a, dep, ns = _march(marker, 0, light, bricks, offs, table, sigma, leap, grids, dims,
-                                                 ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_far)
+                    r, g, b, a, dep, ns = _march(marker, 0, light, warp, bricks, offs, table, sigma, leap, grids,
+                                                 dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
+                                                 t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

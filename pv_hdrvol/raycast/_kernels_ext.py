@@ -524,14 +524,14 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
                     lod = lods[pix]
                     t_far = far[pix] if has_far else math.inf
                     if lod == 0.0:
-                        r, gg, b, a, dep, ns = _march(marker, 0, 0, bricks, offs, table, sigma, leap, grids, dims,
+                        r, gg, b, a, dep, ns = _march(marker, 0, 0, 0, bricks, offs, table, sigma, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
                                                       lo, hi, piece, p, p.step, scratch, t_far)
                     else:
                         # the plain loop, sampling two mip levels
                         level = min(int(lod), n_levels - 1)
-                        r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), 0, pyr, offs,
+                        r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), 0, 0, pyr, offs,
                                                       level_tables[level], sigma, leap_lod[level], grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],

@@ -38,7 +38,8 @@ _SKIP_CACHE = 4
 
 
 def as_volume(data, scalars=None, preference="point"):
-    """A :class:`GridVolume` from a GridVolume, a 3-D numpy array or an image dataset."""
+    """A :class:`GridVolume` from a GridVolume, a 3-D numpy array, an image dataset or a
+    rectilinear grid (``pyvista.RectilinearGrid``, ``vtkRectilinearGrid``)."""
     if isinstance(data, GridVolume):
         return data
     if isinstance(data, np.ndarray):
@@ -62,17 +63,101 @@ def default_transfer_function(volume, *, cmap=None, clim=None, opacity=None, sca
     diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
     keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     if isinstance(volume, GridVolume):
-        unit = float(volume.spacing.min())
+        unit = volume.min_cell_width
         if volume.integer and scale is None:
             keywords["scale"] = "linear"
+        # a rectilinear grid's points weighted by the volume each stands for (as a mesh's):
+        # a finely resolved region does not dominate the histogram
+        weights = None if volume.axes is None else point_volumes(volume.axes)
         return auto_transfer_function(volume.values, diagonal / unit, spacing=volume.spacing / unit,
-                                      integer=volume.integer, **keywords)
+                                      weights=weights, integer=volume.integer, **keywords)
     # a mesh's values weighted by the volume they stand for: what fills space, not where
     # the mesh is fine, is its background
     volumes = np.abs(volume.cell_volumes())
     values = np.asarray(volume.values)
     weights = np.broadcast_to((volumes / values.shape[1])[:, None], values.shape) if values.ndim == 2 else volumes
     return auto_transfer_function(values, diagonal / volume.default_unit_distance(), weights=weights, **keywords)
+
+
+def point_volumes(axes):
+    """The volume (z, y, x) each point of a rectilinear grid with coordinates ``axes``
+    (x, y, z) stands for: the product of its dual cell's widths, half of each
+    neighbouring cell's along every axis."""
+    dual = []
+    for c in axes:
+        w = np.diff(c)
+        d = np.zeros(c.size)
+        d[:-1] += 0.5 * w
+        d[1:] += 0.5 * w
+        dual.append(d)
+    return dual[2][:, None, None] * dual[1][None, :, None] * dual[0][None, None, :]
+
+
+#: At most this many buckets per nominal voxel in a rectilinear axis's lookup table
+#: (:func:`warp_arrays`): enough for one cell boundary per bucket while the narrowest
+#: cell is at least 1/64 of the mean; beyond, a lookup walks a few boundaries more.
+_MAX_BUCKETS_PER_VOXEL = 64
+
+
+def warp_arrays(volume):
+    """The kernels' ``warp`` (``_kernels.warp_at``): ``0`` for a uniform volume, else the
+    tuple ``(cu, inv_w, first, bucket_base, bucket_scale)`` of its axes, built once and
+    cached on the volume.
+
+    Per axis of ``n`` points: ``cu`` the nominal voxel coordinates of the points
+    (``(c - c[0]) / h``, ``h`` the nominal spacing; ends exactly ``0`` and ``n - 1``),
+    ``inv_w`` the reciprocal widths of the cells in those units (0 after the last point),
+    and ``M + 1`` buckets over ``[0, n - 1]``, ``M = ceil((n - 1) / narrowest cell)``
+    (capped at :data:`_MAX_BUCKETS_PER_VOXEL` per voxel), each holding the cell where
+    the bucket's lookups start: the number of interior points whose own bucket
+    ``floor(cu * scale)`` -- computed as the kernel computes it -- lies before it. Every
+    such point lies below every ``u`` of the bucket, so the kernel's forward walk from
+    there never passes the right cell. Axes concatenated x, y, z.
+    """
+    if volume.axes is None:
+        return 0
+    cached = volume.cache.get("warp")
+    if cached is not None:
+        return cached
+    cus, invs, firsts, bases, scales = [], [], [], [], []
+    base = 0
+    for label, c in zip("xyz", volume.axes):
+        n = c.size
+        h = (c[-1] - c[0]) / (n - 1)
+        cu = (c - c[0]) / h
+        cu[0], cu[-1] = 0.0, n - 1.0
+        w = np.diff(cu)
+        if not (w > 0).all():
+            i = int(np.flatnonzero(w <= 0)[0])
+            raise ValueError(f"the {label} axis has a cell too narrow for float64 against its extent: "
+                             f"{label}[{i}] = {float(c[i])!r}, {label}[{i + 1}] = {float(c[i + 1])!r}")
+        inv = np.zeros(n)
+        inv[:-1] = 1.0 / w
+        m = int(min(math.ceil((n - 1) / float(w.min())), _MAX_BUCKETS_PER_VOXEL * (n - 1)))
+        scale = m / (n - 1)
+        keys = np.floor(cu[1:n - 1] * scale)
+        first = np.minimum(np.searchsorted(keys, np.arange(m + 1, dtype=np.float64), side="left"), n - 2)
+        cus.append(cu)
+        invs.append(inv)
+        firsts.append(first.astype(np.int32))
+        bases.append(base)
+        scales.append(scale)
+        base += m + 1
+    warp = (np.concatenate(cus), np.concatenate(invs), np.concatenate(firsts), np.array(bases, dtype=np.int64),
+            np.array(scales, dtype=np.float64))
+    volume.cache["warp"] = warp
+    return warp
+
+
+def check_rectilinear(volume, **features):
+    """Raise ``ValueError`` for each feature given a truthy value that a rectilinear
+    ``volume`` cannot render yet (nothing for a uniform one)."""
+    if volume.axes is None:
+        return
+    for name, value in features.items():
+        if value is not None and value is not False:
+            raise ValueError(f"{name} is not supported for rectilinear grids yet; resample the grid to an ImageData "
+                             f"(e.g. pyvista's sample()) to use it")
 
 
 def resolve_transfer_function(data, tf=None, *, cmap=None, clim=None, opacity=None, scale=None):
@@ -549,9 +634,12 @@ class GridPlan:
                              "transfer function")
         prec = opts.precision
         table_dtype = np.float64 if prec == "float64" else np.float32
-        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else float(volume.spacing.min())
+        check_rectilinear(volume, **{"labels=": labels, "gradient_opacity=": opts.gradient_opacity,
+                                     f"blending={opts.blending!r}": opts.blending != "composite" or None})
+        # a voxel: the smallest spacing, or a rectilinear grid's narrowest cell
+        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else volume.min_cell_width
         table_size = 256 if prec == "uint8" else tf.table_size
-        step_world = opts.step * float(volume.spacing.min())
+        step_world = opts.step * volume.min_cell_width
         rgb, sigma = tf.table(np.float64, opts.global_alpha, unit, table_size)
         # opacity correction on the host: the opacity of one full step, 1 - exp(-sigma step)
         alpha_step = -np.expm1(-sigma * step_world)
@@ -635,6 +723,8 @@ class GridPlan:
 
             return execute_grid(self, camera, size, lens=lens, block_mask=block_mask, cull=cull, window=window,
                                 progress=progress, progress_bar=progress_bar, chunk_seconds=chunk_seconds, far=far)
+        check_rectilinear(self.source, **{"piece=": piece, "cull=": cull, "lens=": lens,
+                                          "tolerance=": opts.tolerance})
         if piece is not None:
             if self.labels is not None or cull is not None or block_mask is not None:
                 raise ValueError("a piece of a distributed volume renders without labels, cull= and block_mask=")
@@ -662,6 +752,7 @@ class GridPlan:
             rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
             width, height = rays.width, rays.height
         lod = _check_lod(rays) if rays is not None else None
+        check_rectilinear(self.source, **{"Rays with a level of detail (Rays.lod)": lod is not None or None})
         if piece is not None and lod is not None:
             raise ValueError("a piece of a distributed volume renders without a level-of-detail (sampling-rate) lens")
         prec = opts.precision
@@ -745,6 +836,7 @@ class GridPlan:
         # precision's loop, lit or not, only
         marker = _MARKERS[prec]
         light = _light(volume, opts, prec) if not flat else 0
+        warp = warp_arrays(volume)
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
@@ -753,7 +845,7 @@ class GridPlan:
             elif not extended:
                 K.render_tiles(marker, bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
                                dims, cam, origins, directions, far, width, height, _TILE, rows, lanes, lo, hi,
-                               piece_box, params, light, rgba, depth, samples)
+                               piece_box, params, light, warp, rgba, depth, samples)
             elif value is not None:
                 a = kernel_args
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
@@ -948,7 +1040,8 @@ def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=No
     kernel_dtype = np.dtype(np.float64 if prec == "float64" else np.float32).str
     if opts.gradient_opacity is not None and ("gradient", kernel_dtype) not in cache:
         parts["gradient bricks"] = (n + brick_points) * kernel_item
-    if opts.shade and opts.shade_gradient == "interpolated" and ("gradient_vectors", kernel_dtype) not in cache:
+    if opts.shade and (opts.shade_gradient == "interpolated" or volume.axes is not None) \
+            and ("gradient_vectors", kernel_dtype) not in cache:
         # three components per point as float64, then bricked in the kernel precision
         parts["gradient vector bricks"] = 3 * (8 * n + brick_points * kernel_item)
     if lod is not None and ("mip", kernel_dtype) not in cache:
@@ -1050,6 +1143,12 @@ def _light(volume, opts, prec):
     if not opts.shade:
         return 0
     dtype = np.float64 if prec == "float64" else np.float32
+    if volume.axes is not None:
+        # a rectilinear grid lights from its points' gradients (central differences over
+        # the true neighbours, exact for linear fields), interpolated at the sample's index
+        # coordinates: the sampled gradient's stencil assumes even spacing
+        shading, lights = shading_arrays(opts, volume.spacing, unit=volume.min_cell_width, sampled=False)
+        return shading, lights, _gradient_vector_bricks(volume, dtype)
     interpolated = opts.shade_gradient == "interpolated"
     gvec = _gradient_vector_bricks(volume, dtype) if interpolated else np.zeros(1, dtype)
     shading, lights = shading_arrays(opts, volume.spacing)
@@ -1142,8 +1241,11 @@ def _gradient_vector_bricks(volume, dtype):
     after the other in one flat array (``_kernels.lit``); cached on the volume."""
     key = ("gradient_vectors", np.dtype(dtype).str)
     if key not in volume.cache:
-        grad = np.empty((3,) + volume.values.shape, np.float64)
-        KX.gradient_vectors(volume.values, np.ascontiguousarray(1.0 / volume.spacing, dtype=np.float64), grad)
+        if volume.axes is not None:
+            grad = rectilinear_gradient(volume.values, volume.axes)
+        else:
+            grad = np.empty((3,) + volume.values.shape, np.float64)
+            KX.gradient_vectors(volume.values, np.ascontiguousarray(1.0 / volume.spacing, dtype=np.float64), grad)
         size = 1 << K.BRICK_SHIFT
         shape = _brick_shape(volume.dims)
         n = int(np.prod(shape)) * (size + 1) ** 3
@@ -1152,6 +1254,24 @@ def _gradient_vector_bricks(volume, dtype):
             K.make_bricks(grad[axis].astype(dtype), K.BRICK_SHIFT, *shape, b[axis * n:(axis + 1) * n])
         volume.cache[key] = b
     return volume.cache[key]
+
+
+def rectilinear_gradient(values, axes):
+    """``grad v`` (3, z, y, x), world units, at the points of a rectilinear grid: per axis
+    ``(v[i + 1] - v[i - 1]) / (c[i + 1] - c[i - 1])``, one-sided at the ends (as
+    ``_kernels_ext._grid_gradient`` on a uniform grid; exact for a linear field)."""
+    v = np.asarray(values, dtype=np.float64)
+    grad = np.empty((3,) + v.shape)
+    for axis, c in enumerate(axes):
+        n = c.size
+        i0 = np.maximum(np.arange(n) - 1, 0)
+        i1 = np.minimum(np.arange(n) + 1, n - 1)
+        inv = 1.0 / (c[i1] - c[i0])
+        along = 2 - axis  # values are (z, y, x)
+        shape = [1, 1, 1]
+        shape[along] = n
+        grad[axis] = (np.take(v, i1, axis=along) - np.take(v, i0, axis=along)) * inv.reshape(shape)
+    return grad
 
 
 _LABEL_BLENDINGS = ("composite", "maximum", "minimum")

@@ -22,6 +22,7 @@ from .proxy.proxies import ProxyFormatError, ProxySet, load_proxies
 from .rays.camera import Camera, Rays
 from .rays.lenses import FeatureLens, Fisheye, Lens, Magnifier, SamplingRateLens
 from .raycast.grid import BlockGrid, EmptyRenderWarning, render_volume
+from .raycast.blocks import render_blocks
 from .raycast.layers import DepthLayers, depth_layers
 from .raycast.tets import render_tets
 from .settings import RenderSettings
@@ -162,7 +163,7 @@ __all__ = [
     "datasets", "BlockGrid", "Camera", "Culling", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye",
     "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
     "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
-    "TransferFunction", "TransferFunctionFamily", "TransferFunctionModel", "depth_layers", "load", "render", "render_parallel",
+    "TransferFunction", "TransferFunctionFamily", "TransferFunctionModel", "depth_layers", "load", "render", "render_blocks", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
     "volume_from_array", "volume_from_dataset", "volume_from_rectilinear", "view", "add_hdr_volume", "TransferFunctionEditor",
     "make_proxies", "load_proxies", "ProxySet", "ProxyFormatError", "VolumeDistortionCamera",

@@ -148,3 +148,13 @@ def test_vtk_algorithm_renders_as_render(make):
     assert not alg.Update()
     assert alg.GetLastError() == ("ValueError: SetLens, SetLabels and SetCull apply to image data only, not to a "
                                   f"{data.GetClassName()}")
+
+
+def test_the_data_types_page_prints_what_it_says(tmp_path, monkeypatch):
+    from conftest import REPO_ROOT
+    from test_docs import python_blocks, run_blocks
+
+    page = REPO_ROOT / "docs" / "data_types.md"
+    blocks, _ = python_blocks(page)
+    expected = re.search(r"^prints\n\n```text\n(.*?)^```", page.read_text(), re.S | re.M).group(1)
+    assert run_blocks(blocks, tmp_path, monkeypatch) == expected

@@ -40,9 +40,9 @@ def test_every_python_block_is_runnable_or_marked_a_fragment():
     counted = {path.name: python_blocks(path) for path in docs}
     assert len(counted["README.md"][0]) == 3
     # the fragments are the known excerpts
-    assert sorted(name for name, (_, frag) in counted.items() if frag) == ["development.md", "interactive.md",
-                                                                          "lenses.md", "proxy.md", "shading.md",
-                                                                          "tetrahedra.md"]
+    assert sorted(name for name, (_, frag) in counted.items() if frag) == ["data_types.md", "development.md",
+                                                                          "interactive.md", "lenses.md", "proxy.md",
+                                                                          "shading.md", "tetrahedra.md"]
 
 
 def test_readme_examples_run_and_print_what_the_readme_says(tmp_path, monkeypatch):

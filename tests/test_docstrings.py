@@ -9,6 +9,8 @@ MODULES = [
     "pv_hdrvol.rays.camera",
     "pv_hdrvol.rays.lenses",
     "pv_hdrvol.raycast.grid",
+    "pv_hdrvol.raycast.blocks",
+    "pv_hdrvol.data.grid",
     "pv_hdrvol.image.hdr",
     "pv_hdrvol.image.tonemap",
     "pv_hdrvol.image.detail",

@@ -185,3 +185,9 @@ def test_warp_tables_and_point_volumes():
     w = point_volumes(vol.axes)
     assert w.shape == (2, 2, 4)
     np.testing.assert_allclose(w.sum(), 1.0 * 1.0 * 2.0)  # the dual cells tile the box
+
+
+def test_proxies_name_what_they_are_made_of():
+    values, axes = linear_grid(n=6)
+    with pytest.raises(TypeError, match=r"^proxies are made of image data \(ImageData\); got a rectilinear grid"):
+        hv.make_proxies(volume_from_rectilinear(values, *axes), "iso", (8, 8))

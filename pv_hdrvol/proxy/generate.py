@@ -308,7 +308,15 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
         raise TypeError(f"proxies are made of image data (ImageData); got a tetrahedral mesh "
                         f"({type(data).__name__}): resample it onto an image first "
                         f"(pyvista.ImageData(...).sample(mesh))")
+    from ..data.kinds import BLOCKS, data_kind
+
+    if data_kind(data) == BLOCKS:
+        raise TypeError(f"proxies are made of image data (ImageData); got a {type(data).__name__} of blocks: "
+                        f"render it with pv_hdrvol.render, or make proxies of one image block")
     volume = as_volume(data, scalars=scalars, preference=preference)
+    if volume.axes is not None:  # the proxy pass marches voxels of even spacing
+        raise TypeError("proxies are made of image data (ImageData); got a rectilinear grid (uneven axes): resample "
+                        "it onto an image first (pyvista.ImageData(...).sample(grid))")
     if isinstance(training, bool):
         raise TypeError(f"training must be an int or a list of opacity scales; got {training!r}")
     intervals = as_int("intervals", intervals, low=2, high=64)

@@ -1,6 +1,6 @@
 """
 Every grid a simulation writes: rectilinear, curvilinear and multiblock
-=====================================================================
+=======================================================================
 
 ``hv.render`` takes the datasets simulation codes and their readers produce, not only
 uniform image data and tetrahedral meshes:

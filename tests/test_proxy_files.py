@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import pv_hdrvol as hv
+from pv_hdrvol.integrations.files import IMAGE_FORMATS
 from pv_hdrvol.integrations.cli import main
 
 pytest.importorskip("OpenEXR")
@@ -181,7 +182,7 @@ def test_proxies_are_refused_for_meshes_with_one_message(tmp_path, capsys):
         main(["proxy", "make", str(tmp_path / "tets.vtu"), str(tmp_path / "out")])
     assert exit_info.value.code == 2
     assert (f"pv-hdrvol proxy make: error: '{tmp_path / 'tets.vtu'}' is a mesh file; proxies are made of image "
-            f"volumes (the proxy pass marches voxels): use one of .vti, .vtk, .nrrd, .nhdr, .mha, .mhd, .cube, or "
+            f"volumes (the proxy pass marches voxels): use one of {', '.join(IMAGE_FORMATS)}, or "
             f"render the mesh with pv-hdrvol render") in capsys.readouterr().err
     _tets().save(tmp_path / "tets.vtk")  # .vtk holds either kind: refused once read
     with pytest.raises(SystemExit):
@@ -192,8 +193,9 @@ def test_proxies_are_refused_for_meshes_with_one_message(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["proxy", "make", "--help"])
     help_text = " ".join(capsys.readouterr().out.split())
-    assert "image volume, one of .vti, .vtk, .nrrd, .nhdr, .mha, .mhd, .cube (proxies are made of image data" \
+    assert f"image volume, one of {', '.join(IMAGE_FORMATS)} (proxies are made of image data" \
         in help_text and ".vtu" not in help_text  # was: listed, then refused
+    assert IMAGE_FORMATS[:2] == (".vti", ".pvti") and ".vtr" not in IMAGE_FORMATS and ".vtm" not in IMAGE_FORMATS
 
 
 def test_layers_outside_the_data_are_refused_not_left_empty():

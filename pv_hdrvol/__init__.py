@@ -85,9 +85,11 @@ def view(data, tf=None, **kwargs):
     transfer-function editor, tone mapping, probe, lens, saving). Needs Qt and pyvistaqt
     (``pip install 'pv_hdrvol[gui]'``).
 
-    ``data`` is anything :func:`render` takes, or the path of a file ``pv-hdrvol view``
-    opens (``.vti``, ``.vtk``, ``.vtu``, ``.nrrd``, ``.nhdr``, ``.mha``, ``.mhd``,
-    ``.cube``), read as it reads them (:func:`pv_hdrvol.integrations.files.read_volume`;
+    ``data`` is anything :func:`render` takes (blocks that gather onto one volume or
+    merge into one mesh: :func:`pv_hdrvol.data.kinds.as_renderable`), or the path of a
+    file ``pv-hdrvol view`` opens (``pv_hdrvol.integrations.files.READABLE``: ``.vti``,
+    ``.vtr``, ``.vts``, ``.vtu``, ``.vtm``, ``.vtpc``, ``.vtk``, ``.nrrd``, ``.mha``,
+    ``.cube``, ...), read as it reads them (:func:`pv_hdrvol.integrations.files.read_volume`;
     ``scalars=`` picks the array). ``tf`` is a :class:`TransferFunction` or, as
     ``pv-hdrvol view --tf``, the path of the editor's JSON, a transfer function's JSON or
     a ParaView preset file.

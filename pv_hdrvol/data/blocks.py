@@ -457,7 +457,7 @@ def _mesh_arrays(ds, scalars, use_cell):
     grid (values per point, or per tetrahedron for cell data)."""
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
-    from .tets import VTK_TETRA, _cell_types, _tetrahedralize
+    from .tets import VTK_TETRA, _cell_types, _tetrahedralize, mesh_scalars
 
     if ds.GetClassName() == "vtkStructuredGrid":
         from .structured import _check_dims, grid_dims, structured_tets, visible_cells
@@ -466,7 +466,7 @@ def _mesh_arrays(ds, scalars, use_cell):
         points = vtk_to_numpy(ds.GetPoints().GetData())
         visible = visible_cells(ds)
         tets = structured_tets(points, dims, visible)
-        arr = _one_component(ds, scalars, use_cell)
+        arr = mesh_scalars(ds, scalars, use_cell)
         if use_cell:
             arr = np.repeat(arr if visible is None else arr[visible], 6)
         return points, tets, arr
@@ -476,17 +476,7 @@ def _mesh_arrays(ds, scalars, use_cell):
     offsets = vtk_to_numpy(ug.GetCells().GetOffsetsArray()).astype(np.int64)
     if conn.size != 4 * ug.GetNumberOfCells() or not np.all(np.diff(offsets) == 4):
         raise ValueError("the mesh's tetrahedra are malformed (a cell without 4 points)")
-    return vtk_to_numpy(ug.GetPoints().GetData()), conn.reshape(-1, 4), _one_component(ug, scalars, use_cell)
-
-
-def _one_component(ds, scalars, use_cell):
-    arrays = _arrays(ds.GetCellData() if use_cell else ds.GetPointData())
-    if scalars not in arrays:  # the tetrahedralize filter keeps arrays; this guards odd inputs
-        raise ScalarsError(f"scalars {scalars!r} were lost when splitting cells into tetrahedra")
-    arr = np.asarray(arrays[scalars]())
-    if arr.ndim != 1:
-        raise ScalarsError(f"scalars {scalars!r} must have one component; got shape {arr.shape}")
-    return arr
+    return vtk_to_numpy(ug.GetPoints().GetData()), conn.reshape(-1, 4), mesh_scalars(ug, scalars, use_cell)
 
 
 class BlockScene(NamedTuple):

@@ -235,6 +235,18 @@ def _is_uniform(a, raw):
     return bool(np.abs(a - even).max() <= tol)
 
 
+def as_volume(data, scalars=None, preference="point"):
+    """A :class:`GridVolume` from a GridVolume, a 3-D numpy array, an image dataset or a
+    rectilinear grid (``pyvista.RectilinearGrid``, ``vtkRectilinearGrid``)."""
+    if isinstance(data, GridVolume):
+        return data
+    if isinstance(data, np.ndarray):
+        if scalars is not None:
+            raise ValueError("scalars names an array of a dataset; a numpy volume has none")
+        return volume_from_array(data)
+    return cached_volume_from_dataset(data, scalars=scalars, preference=preference)
+
+
 def _kernel_dtype(arr):
     """The dtype a non-native array is converted to: float32 where it holds every value
     exactly (floats of <= 4 bytes, integers of <= 2 bytes, wider integers whose values

@@ -82,17 +82,9 @@ def as_renderable(data, scalars=None, preference="point"):
 
         return as_tetmesh(data, scalars=scalars, preference=preference)
     if kind == GRID:
-        from .grid import GridVolume, cached_volume_from_dataset, volume_from_array
+        from .grid import as_volume
 
-        if isinstance(data, GridVolume):
-            if scalars is not None:
-                raise ValueError("scalars names an array of a dataset; a GridVolume has its values already")
-            return data
-        if isinstance(data, np.ndarray):
-            if scalars is not None:
-                raise ValueError("scalars names an array of a dataset; a numpy volume has none")
-            return volume_from_array(data)
-        return cached_volume_from_dataset(data, scalars=scalars, preference=preference)
+        return as_volume(data, scalars=scalars, preference=preference)
     from .blocks import prepare_blocks
 
     scene = prepare_blocks(data, scalars=scalars, preference=preference)

@@ -213,13 +213,19 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
         raise ValueError("the mesh's tetrahedra are malformed (a cell without 4 points)")
     tets_orig = conn.reshape(-1, 4)
     points = vtk_to_numpy(ug.GetPoints().GetData())
-    arrays = _arrays(ug.GetCellData() if use_cell else ug.GetPointData())
+    arr = mesh_scalars(ug, name, use_cell)
+    return tetmesh_from_arrays(points, tets_orig, arr, association="cell" if use_cell else "point", name=name)
+
+
+def mesh_scalars(ds, name, use_cell):
+    """The one-component array ``name`` of a (tetrahedralised) mesh's cell or point data."""
+    arrays = _arrays(ds.GetCellData() if use_cell else ds.GetPointData())
     if name not in arrays:  # the tetrahedralize filter keeps arrays; this guards odd inputs
         raise ScalarsError(f"scalars {name!r} were lost when splitting cells into tetrahedra")
     arr = np.asarray(arrays[name]())
     if arr.ndim != 1:
         raise ScalarsError(f"scalars {name!r} must have one component; got shape {arr.shape}")
-    return tetmesh_from_arrays(points, tets_orig, arr, association="cell" if use_cell else "point", name=name)
+    return arr
 
 
 def tetmesh_from_arrays(points, tets, values, *, association="point", name=""):

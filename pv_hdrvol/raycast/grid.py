@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..data.grid import GridVolume, cached_volume_from_dataset, content_digest, volume_from_array
+from ..data.grid import GridVolume, as_volume, content_digest, volume_from_array  # as_volume: re-exported
 from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction, auto_transfer_function,
                              scale_forward, table_entry_span)
 from ..image.hdr import HDRImage
@@ -35,18 +35,6 @@ _CHUNK_SECONDS = 0.25
 _clock = time.perf_counter
 # empty-space structures kept per volume (one per transfer function and block mask)
 _SKIP_CACHE = 4
-
-
-def as_volume(data, scalars=None, preference="point"):
-    """A :class:`GridVolume` from a GridVolume, a 3-D numpy array, an image dataset or a
-    rectilinear grid (``pyvista.RectilinearGrid``, ``vtkRectilinearGrid``)."""
-    if isinstance(data, GridVolume):
-        return data
-    if isinstance(data, np.ndarray):
-        if scalars is not None:
-            raise ValueError("scalars names an array of a dataset; a numpy volume has none")
-        return volume_from_array(data)
-    return cached_volume_from_dataset(data, scalars=scalars, preference=preference)
 
 
 def default_transfer_function(volume, *, cmap=None, clim=None, opacity=None, scale=None):

@@ -218,6 +218,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._label_styles = None
         self._comm = None
         self._last_piece = None
+        self._rectilinear = None  # (key, (GridVolume, VolumePiece)) of a distributed rectilinear grid's piece
         self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
         self._moved = None  # a mesh piece: (key, summary, (box, the cells moved to it, points) or None)
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
@@ -630,9 +631,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
         in_info = inInfo[0].GetInformationObject(0)
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
-        # rectilinear and curvilinear grids have extents too, but are not rendered where they
-        # live yet: piece 0 renders them whole
-        structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (data is None or data.GetClassName() in IMAGE_CLASSES)
+        # images and rectilinear grids: each process asks for its extent (curvilinear grids
+        # have extents too, but are rendered as meshes: piece 0 renders them whole)
+        structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (
+            data is None or data.GetClassName() in IMAGE_CLASSES + ("vtkRectilinearGrid",))
         mesh = not structured and data is not None and data.GetClassName() == "vtkUnstructuredGrid"
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
                 or self._labels is not None or self._cull is not None or self._options.tolerance is not None:
@@ -731,29 +733,47 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         owned = distribution.owned
         tf = self._shared_transfer_function(distribution.comm)
         _share_cores(distribution.comm)
+        rectilinear = inp is not None and inp.GetClassName() == "vtkRectilinearGrid"
+        whole_axes = _whole_axes(inp, distribution) if rectilinear else None  # collective
         try:
             if owned[1] <= owned[0] or owned[3] <= owned[2] or owned[5] <= owned[4]:
-                raise ValueError(f"the image of extent {distribution.whole} has too few cells for "
-                                 f"{distribution.comm.size} processes: process {distribution.comm.rank} owns "
-                                 f"{owned}; render it on fewer processes")
+                raise ValueError(f"the {'grid' if rectilinear else 'image'} of extent {distribution.whole} has too "
+                                 f"few cells for {distribution.comm.size} processes: process "
+                                 f"{distribution.comm.rank} owns {owned}; render it on fewer processes")
             kind = inp.GetClassName() if inp is not None else None
-            if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
-                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkImageData; process "
-                                 f"{distribution.comm.rank} got {'nothing' if inp is None else kind}")
+            if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkRectilinearGrid"):
+                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkImageData or vtkRectilinearGrid; "
+                                 f"process {distribution.comm.rank} got {'nothing' if inp is None else kind}")
             scalars, preference = self._scalars_to_render()
-            data = self._volumes.get(inp, scalars, preference)
-            if tuple(data.dims) != tuple(inp.GetDimensions()):
-                raise ValueError(f"a distributed image volume is rendered from a point array; "
-                                 f"{data.name or 'the active scalars'!r} is a cell array (apply Cell Data to Point "
-                                 f"Data, or render it on one process)")
-            spacing = data.spacing
-            piece = VolumePiece.from_extents(inp.GetOrigin(), inp.GetSpacing(), distribution.whole, inp.GetExtent(),
-                                             owned)
-            bounds = piece.bounds(spacing)
+            if rectilinear:
+                data, piece = self._rectilinear_piece(inp, distribution, whole_axes, scalars, preference)
+                spacing = data  # gather_pieces reads the owned box from its axes
+                bounds = piece.bounds(data.spacing)
+            else:
+                data = self._volumes.get(inp, scalars, preference)
+                if tuple(data.dims) != tuple(inp.GetDimensions()):
+                    raise ValueError(f"a distributed image volume is rendered from a point array; "
+                                     f"{data.name or 'the active scalars'!r} is a cell array (apply Cell Data to "
+                                     f"Point Data, or render it on one process)")
+                spacing = data.spacing
+                piece = VolumePiece.from_extents(inp.GetOrigin(), inp.GetSpacing(), distribution.whole,
+                                                 inp.GetExtent(), owned)
+                bounds = piece.bounds(spacing)
             camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera, bounds)
             self._last_camera = camera
             rays = camera.rays(self._size)
-            plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf)
+            if rectilinear:
+                from ..raycast.grid import GridPlan
+
+                # by identity as _plan_for: _rectilinear_piece keeps the data while unchanged
+                key = (data, tf, self._options, "piece")
+                old = None if self._plan is None else self._plan[0]
+                if old is None or old[0] is not data or old[1] is not tf or old[2:] != key[2:]:
+                    self._plan = None
+                    self._plan = (key, GridPlan(data, tf, self._options))
+                plan = self._plan[1]
+            else:
+                plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf)
 
             def progress(fraction):
                 self.UpdateProgress(fraction)
@@ -773,6 +793,44 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         else:
             out.ShallowCopy(whole.to_vtk())
         return 1
+
+    def _rectilinear_piece(self, inp, distribution, whole_axes, scalars, preference):
+        """``(GridVolume, VolumePiece)`` of this process's piece of a distributed
+        ``vtkRectilinearGrid`` whose whole axes are ``whole_axes``: a uniform piece where
+        the whole grid is evenly spaced (as the serial render makes it an image), else the
+        piece's own coordinates in the whole grid's nominal frame and voxel. Kept while the
+        piece and its values are unchanged."""
+        import numpy as np
+
+        from ..data.grid import (_is_uniform, _rectilinear_array, content_digest, volume_from_array,
+                                 volume_from_rectilinear)
+        from ..raycast.grid import VolumePiece
+
+        arr, coords, name = _rectilinear_array(inp, scalars, preference)
+        if arr.shape != tuple(inp.GetDimensions())[::-1]:
+            raise ValueError(f"a distributed rectilinear grid is rendered from a point array; {name!r} is a cell "
+                             f"array (apply Cell Data to Point Data, or render it on one process)")
+        whole = np.asarray(distribution.whole, dtype=np.int64).reshape(3, 2)
+        offset = np.asarray(inp.GetExtent(), dtype=np.int64).reshape(3, 2)[:, 0] - whole[:, 0]
+        owned = np.asarray(distribution.owned, dtype=np.int64).reshape(3, 2) - whole[:, :1]
+        key = (content_digest(arr, *coords), tuple(offset.tolist()), tuple(owned.reshape(-1).tolist()),
+               content_digest(*whole_axes), name)
+        cached = self._rectilinear
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        origin = tuple(float(a[0]) for a in whole_axes)
+        spacing = np.array([(a[-1] - a[0]) / (a.size - 1) for a in whole_axes])
+        dims = tuple(int(a.size) for a in whole_axes)
+        lo, hi = tuple(owned[:, 0].tolist()), tuple(owned[:, 1].tolist())
+        if all(_is_uniform(a, a) for a in whole_axes):  # the serial render's image
+            data = volume_from_array(arr, spacing, np.asarray(origin) + offset * spacing, name=name)
+            piece = VolumePiece(origin, dims, tuple(offset.tolist()), lo, hi)
+        else:
+            data = volume_from_rectilinear(arr, *coords, name=name, collapse=False)
+            voxel = float(min(np.diff(a).min() for a in whole_axes))
+            piece = VolumePiece(origin, dims, tuple(offset.tolist()), lo, hi, tuple(spacing.tolist()), voxel)
+        self._rectilinear = (key, (data, piece))
+        return data, piece
 
     def _shared_transfer_function(self, comm):
         """Piece 0's transfer function, on every process (collective). In a symmetric
@@ -1087,6 +1145,38 @@ class _Distribution(NamedTuple):
     owned: tuple
     extent: tuple
     ghosts: int
+
+
+def _whole_axes(inp, distribution):
+    """The whole coordinates (x, y, z; float64) of a ``vtkRectilinearGrid`` spread over
+    the processes of ``distribution`` (collective: each tells the others its extent and
+    coordinates). Every process gets the same axes or raises the same error."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    from ..parallel.pieces import allgather_or_raise
+
+    local = error = None
+    try:
+        coords = [np.asarray(vtk_to_numpy(c), dtype=np.float64).reshape(-1) if c is not None else np.empty(0)
+                  for c in (inp.GetXCoordinates(), inp.GetYCoordinates(), inp.GetZCoordinates())]
+        local = (tuple(inp.GetExtent()), coords)
+    except Exception as e:  # every process learns of it
+        error = e
+    everyone = allgather_or_raise(distribution.comm, local, error)
+    whole = distribution.whole
+    axes = []
+    for a, label in enumerate("xyz"):
+        c = np.full(whole[2 * a + 1] - whole[2 * a] + 1, np.nan)
+        for extent, cs in everyone:
+            if cs[a].size and cs[a].size == extent[2 * a + 1] - extent[2 * a] + 1:
+                start = extent[2 * a] - whole[2 * a]
+                c[start:start + cs[a].size] = cs[a]
+        if np.isnan(c).any() or c.size < 2:
+            raise ValueError(f"the processes' pieces of the rectilinear grid of extent {tuple(whole)} do not cover "
+                             f"its {label} axis (points {np.flatnonzero(np.isnan(c))[:8].tolist()} are missing)")
+        axes.append(c)
+    return axes
 
 
 def _mesh_summary(mesh, scalars, sample=4096):

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import contextlib
+import copy
 import dataclasses
 import math
 import sys
@@ -87,7 +88,7 @@ def point_volumes(axes):
 _MAX_BUCKETS_PER_VOXEL = 64
 
 
-def warp_arrays(volume):
+def warp_arrays(volume, frame=None):
     """The kernels' ``warp`` (``_kernels.warp_at``): ``0`` for a uniform volume, else the
     tuple ``(cu, inv_w, first, bucket_base, bucket_scale)`` of its axes, built once and
     cached on the volume.
@@ -95,25 +96,38 @@ def warp_arrays(volume):
     Per axis of ``n`` points: ``cu`` the nominal voxel coordinates of the points
     (``(c - c[0]) / h``, ``h`` the nominal spacing; ends exactly ``0`` and ``n - 1``),
     ``inv_w`` the reciprocal widths of the cells in those units (0 after the last point),
-    and ``M + 1`` buckets over ``[0, n - 1]``, ``M = ceil((n - 1) / narrowest cell)``
+    and ``M + 1`` buckets over ``[0, cu[n - 1]]``, ``M = ceil(cu[n - 1] / narrowest cell)``
     (capped at :data:`_MAX_BUCKETS_PER_VOXEL` per voxel), each holding the cell where
     the bucket's lookups start: the number of interior points whose own bucket
     ``floor(cu * scale)`` -- computed as the kernel computes it -- lies before it. Every
     such point lies below every ``u`` of the bucket, so the kernel's forward walk from
     there never passes the right cell. Axes concatenated x, y, z.
+
+    ``frame``: for a piece of a distributed rectilinear grid (:class:`VolumePiece`), the
+    tuple ``(whole_origin, whole_spacing, whole_dims, offset)``: ``cu`` is then the
+    whole grid's nominal coordinates of the piece's points, less those of its first
+    point (so ``cu[0] = 0`` and ``cu[n - 1]`` is the piece's nominal length, not
+    ``n - 1``): the piece samples where the whole grid's render does, shifted by
+    :func:`piece_frame`'s ``shift``.
     """
     if volume.axes is None:
         return 0
-    cached = volume.cache.get("warp")
+    key = "warp" if frame is None else ("warp",) + tuple(tuple(np.asarray(f, dtype=np.float64).tolist()) for f in frame)
+    cached = volume.cache.get(key)
     if cached is not None:
         return cached
     cus, invs, firsts, bases, scales = [], [], [], [], []
     base = 0
-    for label, c in zip("xyz", volume.axes):
+    for a, (label, c) in enumerate(zip("xyz", volume.axes)):
         n = c.size
-        h = (c[-1] - c[0]) / (n - 1)
-        cu = (c - c[0]) / h
-        cu[0], cu[-1] = 0.0, n - 1.0
+        if frame is None:
+            h = (c[-1] - c[0]) / (n - 1)
+            cu = (c - c[0]) / h
+            cu[0], cu[-1] = 0.0, n - 1.0
+        else:
+            cu = _whole_nominal(c, *(f[a] for f in frame))
+            cu = cu - cu[0]
+            cu[0] = 0.0
         w = np.diff(cu)
         if not (w > 0).all():
             i = int(np.flatnonzero(w <= 0)[0])
@@ -121,8 +135,9 @@ def warp_arrays(volume):
                              f"{label}[{i}] = {float(c[i])!r}, {label}[{i + 1}] = {float(c[i + 1])!r}")
         inv = np.zeros(n)
         inv[:-1] = 1.0 / w
-        m = int(min(math.ceil((n - 1) / float(w.min())), _MAX_BUCKETS_PER_VOXEL * (n - 1)))
-        scale = m / (n - 1)
+        length = float(cu[-1])
+        m = int(min(math.ceil(length / float(w.min())), _MAX_BUCKETS_PER_VOXEL * (n - 1)))
+        scale = m / length
         keys = np.floor(cu[1:n - 1] * scale)
         first = np.minimum(np.searchsorted(keys, np.arange(m + 1, dtype=np.float64), side="left"), n - 2)
         cus.append(cu)
@@ -133,8 +148,44 @@ def warp_arrays(volume):
         base += m + 1
     warp = (np.concatenate(cus), np.concatenate(invs), np.concatenate(firsts), np.array(bases, dtype=np.int64),
             np.array(scales, dtype=np.float64))
-    volume.cache["warp"] = warp
+    volume.cache[key] = warp
     return warp
+
+
+def _whole_nominal(c, origin, spacing, whole_n, offset):
+    """The whole grid's nominal coordinates ``(c - origin) / spacing`` of a piece's
+    coordinates ``c`` along one axis (its first point the whole's point ``offset``), with
+    the whole's first and last points exactly ``0`` and ``whole_n - 1`` as
+    :func:`warp_arrays` makes them for the whole grid."""
+    cu = (np.asarray(c, dtype=np.float64) - origin) / spacing
+    offset = int(offset)
+    if offset == 0:
+        cu[0] = 0.0
+    if offset + c.size == int(whole_n):
+        cu[-1] = whole_n - 1.0
+    return cu
+
+
+def piece_frame(volume, piece):
+    """``(warp, shift, owned_lo, owned_hi)`` of a piece of a distributed rectilinear grid:
+    the piece's warp in the whole grid's nominal frame (:func:`warp_arrays` with a
+    frame), the whole grid's nominal coordinates of the piece's first point (the rays are
+    shifted by them into the piece's warp) and of the owned box's corners (where
+    ``piece_segments`` cuts the whole lattice). Neighbouring pieces compute their shared
+    face from the same coordinate with the same arithmetic, so every sample has one owner."""
+    origin = np.asarray(piece.whole_origin, dtype=np.float64)
+    spacing = np.asarray(piece.whole_spacing, dtype=np.float64)
+    whole = np.asarray(piece.whole_dims, dtype=np.int64)
+    offset = np.asarray(piece.offset, dtype=np.int64)
+    frame = (origin, spacing, whole, offset)
+    warp = warp_arrays(volume, frame)
+    shift, lo, hi = np.empty(3), np.empty(3), np.empty(3)
+    for a, c in enumerate(volume.axes):
+        cu = _whole_nominal(c, origin[a], spacing[a], whole[a], offset[a])
+        shift[a] = cu[0]
+        lo[a] = cu[piece.owned_lo[a] - offset[a]]
+        hi[a] = cu[piece.owned_hi[a] - offset[a]]
+    return warp, shift, lo, hi
 
 
 def check_rectilinear(volume, **features):
@@ -620,28 +671,49 @@ class GridPlan:
         if opts.precision == "uint8" and labels is not None:
             raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
                              "transfer function")
-        prec = opts.precision
-        table_dtype = np.float64 if prec == "float64" else np.float32
         check_rectilinear(volume, **{"labels=": labels, "gradient_opacity=": opts.gradient_opacity,
                                      f"blending={opts.blending!r}": opts.blending != "composite" or None})
+        #: the volume as given; the kernels read ``_prepare().volume``
+        self.source = volume
+        self.tf, self.options = tf, opts
+        self.labels, self.label_styles = labels, label_styles
         # a voxel: the smallest spacing, or a rectilinear grid's narrowest cell
-        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else volume.min_cell_width
+        self._set_voxel(volume.min_cell_width)
+        self._voxel_plans = {}
+
+    def _set_voxel(self, voxel):
+        """The tables of the world length of one voxel ``voxel`` (``step=`` and the default
+        opacity unit distance are in voxels)."""
+        tf, opts, prec = self.tf, self.options, self.options.precision
+        table_dtype = np.float64 if prec == "float64" else np.float32
+        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else voxel
         table_size = 256 if prec == "uint8" else tf.table_size
-        step_world = opts.step * volume.min_cell_width
+        step_world = opts.step * voxel
         rgb, sigma = tf.table(np.float64, opts.global_alpha, unit, table_size)
         # opacity correction on the host: the opacity of one full step, 1 - exp(-sigma step)
         alpha_step = -np.expm1(-sigma * step_world)
         if prec == "uint8":
             rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
             alpha_step = np.round(alpha_step * 255) / 255
-        #: the volume as given; the kernels read ``_prepare().volume``
-        self.source = volume
-        self.tf, self.options = tf, opts
         self.table = np.ascontiguousarray(np.column_stack([rgb, alpha_step]), dtype=table_dtype)
         self.sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
-        self.unit, self.step_world = unit, step_world
-        self.labels, self.label_styles = labels, label_styles
+        self.unit, self.step_world, self._voxel = unit, step_world, float(voxel)
         self._prepared = None
+
+    def _with_voxel(self, voxel):
+        """This plan with the voxel of a whole rectilinear grid that its volume is a piece
+        of (:class:`VolumePiece` ``whole_voxel``): steps and opacities as the whole grid's
+        render has them. Kept per voxel."""
+        voxel = float(voxel)
+        if voxel == self._voxel:
+            return self
+        plan = self._voxel_plans.get(voxel)
+        if plan is None:
+            plan = copy.copy(self)
+            plan._voxel_plans = {}
+            plan._set_voxel(voxel)
+            self._voxel_plans[voxel] = plan
+        return plan
 
     def _prepare(self):
         """The arrays the kernels read, built on the first execution."""
@@ -711,13 +783,19 @@ class GridPlan:
 
             return execute_grid(self, camera, size, lens=lens, block_mask=block_mask, cull=cull, window=window,
                                 progress=progress, progress_bar=progress_bar, chunk_seconds=chunk_seconds, far=far)
-        check_rectilinear(self.source, **{"piece=": piece, "cull=": cull, "lens=": lens,
-                                          "tolerance=": opts.tolerance})
+        check_rectilinear(self.source, **{"cull=": cull, "lens=": lens, "tolerance=": opts.tolerance})
+        if isinstance(piece, VolumePiece) and piece.whole_voxel is not None and self.source.axes is not None:
+            voxel = _check_voxel(piece.whole_voxel)
+            if voxel != self._voxel:  # the whole grid's steps and opacities
+                return self._with_voxel(voxel).execute(camera, size, lens=lens, block_mask=block_mask, cull=cull,
+                                                       window=window, progress=progress, progress_bar=progress_bar,
+                                                       chunk_seconds=chunk_seconds, far=far, piece=piece)
         if piece is not None:
             if self.labels is not None or cull is not None or block_mask is not None:
                 raise ValueError("a piece of a distributed volume renders without labels, cull= and block_mask=")
             ghosts = 1 if (opts.shade or opts.gradient_opacity is not None) else 0
-            piece_box, whole_hi, whole_origin = _check_piece(piece, self.source, opts, ghosts)
+            piece_box, whole_hi, whole_origin, piece_warp, piece_inv_spacing = _check_piece(piece, self.source, opts,
+                                                                                            ghosts)
         camera = as_camera(camera, self.source.bounds if piece is None else piece.bounds(self.source.spacing))
         if lens is not None:
             if not callable(getattr(lens, "rays", None)):
@@ -753,6 +831,8 @@ class GridPlan:
         # rays in voxel coordinates with t still in world units (see _kernels._march); a
         # piece's rays are in the whole volume's points, as the whole render's
         inv_spacing = 1.0 / volume.spacing
+        if piece is not None and piece_inv_spacing is not None:
+            inv_spacing = piece_inv_spacing  # a rectilinear piece: the whole grid's nominal frame
         ray_origin = volume.origin if piece is None else whole_origin
         if rays is None:
             cam = np.concatenate([camera.kernel_array((width, height)), ray_origin, inv_spacing])
@@ -823,8 +903,9 @@ class GridPlan:
         # the precision's marker and the lighting (0: none): each kernel compiles that
         # precision's loop, lit or not, only
         marker = _MARKERS[prec]
-        light = _light(volume, opts, prec) if not flat else 0
-        warp = warp_arrays(volume)
+        light = _light(volume, opts, prec, self._voxel, None if piece is None else piece.whole_spacing) \
+            if not flat else 0
+        warp = warp_arrays(volume) if piece is None or piece_warp is None else piece_warp
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
@@ -910,8 +991,16 @@ class VolumePiece(NamedTuple):
     shading and gradient opacity (central differences). ``whole_origin`` is the world
     position of the whole volume's first point, as the whole volume's ``origin``.
 
-    :func:`pv_hdrvol.parallel.pieces.split_volume` makes pieces of an array;
-    :meth:`from_extents` reads them from VTK extents.
+    A piece of a rectilinear grid (a volume with ``axes``, its own points' coordinates)
+    also gives ``whole_spacing``, the whole grid's nominal spacing ``(last - first) /
+    (n - 1)`` per axis, with ``whole_origin`` the whole grid's first coordinates: the
+    piece then samples the whole grid's lattice in the whole grid's nominal coordinates,
+    as the serial render does (:func:`piece_frame`), and ``whole_voxel``, the whole
+    grid's narrowest cell (``GridVolume.min_cell_width``), in which steps and opacity
+    units are. Both ``None`` for an image piece.
+
+    :func:`pv_hdrvol.parallel.pieces.split_volume` makes pieces of an array or a
+    rectilinear volume; :meth:`from_extents` reads them from VTK extents.
     """
 
     whole_origin: tuple
@@ -919,6 +1008,8 @@ class VolumePiece(NamedTuple):
     offset: tuple
     owned_lo: tuple
     owned_hi: tuple
+    whole_spacing: tuple = None
+    whole_voxel: float = None
 
     @classmethod
     def from_extents(cls, origin, spacing, whole_extent, extent, owned_extent):
@@ -932,16 +1023,40 @@ class VolumePiece(NamedTuple):
                    tuple((oe[:, 0] - we[:, 0]).tolist()), tuple((oe[:, 1] - we[:, 0]).tolist()))
 
     def bounds(self, spacing):
-        """The whole volume's ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
+        """The whole volume's ``(xmin, xmax, ymin, ymax, zmin, zmax)`` (a rectilinear
+        piece's ``whole_spacing``, when given, overrides ``spacing``)."""
+        if self.whole_spacing is not None:
+            spacing = self.whole_spacing
         lo = np.asarray(self.whole_origin, dtype=np.float64)
         hi = lo + (np.asarray(self.whole_dims) - 1) * np.asarray(spacing, dtype=np.float64)
         return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
 
+    def owned_bounds(self, volume):
+        """``(lo, hi)``: the owned box in world coordinates, of the piece's ``volume``:
+        for a rectilinear piece the coordinates of its owned points (its own axes), else
+        :meth:`world_box` of the volume's spacing."""
+        if getattr(volume, "axes", None) is None or self.whole_spacing is None:
+            return self.world_box(volume.spacing)
+        lo = np.array([c[l - o] for c, l, o in zip(volume.axes, self.owned_lo, self.offset)])
+        hi = np.array([c[h - o] for c, h, o in zip(volume.axes, self.owned_hi, self.offset)])
+        return lo, hi
+
     def world_box(self, spacing):
-        """``(lo, hi)``: the owned box in world coordinates."""
+        """``(lo, hi)``: the owned box in world coordinates (an image piece's; a
+        rectilinear piece's is :meth:`owned_bounds`)."""
         o = np.asarray(self.whole_origin, dtype=np.float64)
         sp = np.asarray(spacing, dtype=np.float64)
         return o + np.asarray(self.owned_lo) * sp, o + np.asarray(self.owned_hi) * sp
+
+
+def _check_voxel(voxel):
+    try:
+        value = float(voxel)
+    except (TypeError, ValueError):
+        raise ValueError(f"whole_voxel must be a number > 0; got {voxel!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"whole_voxel must be a finite number > 0; got {voxel!r}")
+    return value
 
 
 def _check_piece(piece, volume, opts, ghosts):
@@ -958,6 +1073,24 @@ def _check_piece(piece, volume, opts, ghosts):
     except (TypeError, ValueError):
         raise ValueError(f"piece must hold three numbers per field; got {piece!r}") from None
     dims = np.array(volume.dims, dtype=np.int64)
+    if volume.axes is not None and piece.whole_spacing is None:
+        raise ValueError("a piece of a rectilinear grid needs the whole grid's nominal spacing: give "
+                         "VolumePiece(whole_spacing=...), (last - first) / (n - 1) of the whole grid's coordinates")
+    if piece.whole_spacing is not None:
+        try:
+            whole_spacing = np.array(piece.whole_spacing, dtype=np.float64).reshape(3)
+        except (TypeError, ValueError):
+            raise ValueError(f"whole_spacing must be three numbers; got {piece.whole_spacing!r}") from None
+        if not (np.isfinite(whole_spacing).all() and (whole_spacing > 0).all()):
+            raise ValueError(f"whole_spacing must be three finite numbers > 0; got {tuple(whole_spacing.tolist())}")
+        if volume.axes is None and not np.allclose(whole_spacing, volume.spacing, rtol=1e-9, atol=0.0):
+            raise ValueError(f"the piece's volume is uniform with spacing {tuple(volume.spacing.tolist())}, not the "
+                             f"whole_spacing {tuple(whole_spacing.tolist())}: give a piece of a graded rectilinear grid "
+                             f"its axes (a GridVolume with axes), or whole_spacing=None for an image piece")
+        if volume.axes is not None and piece.whole_voxel is None:
+            raise ValueError("a piece of a rectilinear grid needs the whole grid's narrowest cell: give "
+                             "VolumePiece(whole_voxel=...), the world width of the whole grid's narrowest cell "
+                             "(GridVolume.min_cell_width): steps and opacities are in it")
     if (whole < 2).any() or (lo < 0).any() or (hi > whole - 1).any() or (hi <= lo).any():
         raise ValueError(f"piece's owned box {tuple(lo.tolist())}..{tuple(hi.tolist())} must be a box of at least one "
                          f"cell per axis inside the whole volume's points 0..{tuple((whole - 1).tolist())}")
@@ -968,14 +1101,19 @@ def _check_piece(piece, volume, opts, ghosts):
                          f"cover its owned box {tuple(lo.tolist())}..{tuple(hi.tolist())} with {ghosts} ghost "
                          f"layer(s) inside the volume ({'shading and gradient opacity read' if ghosts else 'samples read'} "
                          f"them)")
-    expected = origin + offset * volume.spacing
-    if not np.allclose(volume.origin, expected, rtol=0.0, atol=1e-6 * float(volume.spacing.min())):
+    expected = origin + offset * (volume.spacing if piece.whole_spacing is None else whole_spacing)
+    if volume.axes is None and \
+            not np.allclose(volume.origin, expected, rtol=0.0, atol=1e-6 * float(volume.spacing.min())):
         raise ValueError(f"the piece's origin {tuple(volume.origin.tolist())} is not the whole volume's origin plus "
                          f"offset x spacing {tuple(expected.tolist())}")
     if opts.blending != "composite":
         raise ValueError(f"a piece of a distributed volume composites in depth order: blending='composite' only; got "
                          f"{opts.blending!r}")
-    return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin
+    if volume.axes is not None:
+        warp, shift, nominal_lo, nominal_hi = piece_frame(volume, piece)
+        return np.concatenate([nominal_lo, nominal_hi, shift]), (whole - 1).astype(np.float64), origin, warp, \
+            1.0 / whole_spacing
+    return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin, None, None
 
 
 def _check_far(far, width, height):
@@ -1124,10 +1262,12 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
                      e)
 
 
-def _light(volume, opts, prec):
+def _light(volume, opts, prec, voxel=None, spacing=None):
     """The kernels' ``light`` (``_kernels.lit``): 0 for an unshaded render, else the
     tuple ``(shading, lights, gradient vectors)`` (the vectors bricked in the kernel
-    precision for ``shade_gradient="interpolated"``, else a placeholder)."""
+    precision for ``shade_gradient="interpolated"``, else a placeholder). ``voxel`` and
+    ``spacing``: a rectilinear piece's whole grid's narrowest cell and nominal spacing
+    (default the volume's)."""
     if not opts.shade:
         return 0
     dtype = np.float64 if prec == "float64" else np.float32
@@ -1135,7 +1275,8 @@ def _light(volume, opts, prec):
         # a rectilinear grid lights from its points' gradients (central differences over
         # the true neighbours, exact for linear fields), interpolated at the sample's index
         # coordinates: the sampled gradient's stencil assumes even spacing
-        shading, lights = shading_arrays(opts, volume.spacing, unit=volume.min_cell_width, sampled=False)
+        shading, lights = shading_arrays(opts, volume.spacing if spacing is None else spacing,
+                                         unit=volume.min_cell_width if voxel is None else voxel, sampled=False)
         return shading, lights, _gradient_vector_bricks(volume, dtype)
     interpolated = opts.shade_gradient == "interpolated"
     gvec = _gradient_vector_bricks(volume, dtype) if interpolated else np.zeros(1, dtype)

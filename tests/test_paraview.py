@@ -108,10 +108,11 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
     lines += [f"rank {r}: read its piece (" for r in range(1, ranks)]
     lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
               for how in ("the reader", "RedistributeDataSet")]
-    lines += [f"the whole image of {ranks} boxes, within"]
+    lines += [f"the whole image of {ranks} boxes, within", f"the whole curvilinear image of {ranks} boxes, within"]
+    lines += [f"rank {r}: curvilinear.vts: read " for r in range(ranks)]
     for line in lines:
         assert line in done.stdout, line
-    assert sorted(os.listdir(tmp_path)) == ["render.exr", "render.png"]
+    assert sorted(os.listdir(tmp_path)) == ["curvilinear.vts", "render.exr", "render.png"]
     for bad in ("Traceback", "outside the whole extent", "is not set (no colour map"):
         assert bad not in done.stdout, f"{bad!r} in the output:\n{done.stdout[-3000:]}"
 

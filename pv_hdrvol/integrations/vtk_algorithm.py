@@ -126,8 +126,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     :func:`~pv_hdrvol.render_tets`), or a ``vtkMultiBlockDataSet`` /
     ``vtkPartitionedDataSet(Collection)`` whose blocks gather onto one volume or merge into
     one mesh (:func:`pv_hdrvol.data.kinds.as_renderable`); lenses, labels and culling are
-    for image data only. Distributed over processes, image data and meshes are rendered
-    where they live; the other kinds are rendered whole by piece 0. Output: a
+    for image data only. Distributed over processes, image data, rectilinear and
+    curvilinear grids and meshes are rendered where they live; composite datasets are
+    rendered whole by piece 0. Output: a
     ``width x height x 1`` ``vtkImageData`` with point arrays ``"rgba"`` (4 components,
     linear premultiplied RGBA, float32 or float64 as the precision) and ``"depth"``,
     VTK row order (row 0 at the bottom), as :meth:`HDRImage.to_vtk
@@ -151,10 +152,13 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     back) and :meth:`GetLastTolerance`.
 
     Pieces (MPI: ``pvbatch --mpi``, ``pvserver`` on several ranks): data with a transfer
-    function (set, or a lookup table) is rendered where it lives. For an image each
-    process asks its input for its own piece of the extent (VTK's extent translator,
-    plus one ghost layer for shading and gradient opacity); a tetrahedral mesh's cells
-    are moved to one box per process (VTK's processes only). Each renders what it owns,
+    function (set, or a lookup table) is rendered where it lives. For an image or a
+    rectilinear grid each process asks its input for its own piece of the extent (VTK's
+    extent translator, plus one ghost layer for shading and gradient opacity; a
+    rectilinear piece samples the whole grid's lattice through its own coordinates, the
+    whole axes exchanged once); a tetrahedral mesh's cells are moved to one box per
+    process (VTK's processes only), and so are a curvilinear grid's, each process first
+    splitting its extent into the serial render's tetrahedra. Each renders what it owns,
     and piece 0 composites the partial images in depth order into the whole image
     (:mod:`pv_hdrvol.parallel.pieces`; equal to the serial render to rounding); the
     other pieces output empty images. Otherwise (the default transfer function -- it
@@ -219,6 +223,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._comm = None
         self._last_piece = None
         self._rectilinear = None  # (key, (GridVolume, VolumePiece)) of a distributed rectilinear grid's piece
+        self._tets_of = None  # (key, vtkUnstructuredGrid): a distributed curvilinear grid's piece as tetrahedra
         self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
         self._moved = None  # a mesh piece: (key, summary, (box, the cells moved to it, points) or None)
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
@@ -589,6 +594,14 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         info = inInfo[0].GetInformationObject(0)
         plan = self._distribution(inInfo, outInfo)
         if plan is not None and plan.whole is None:
+            if info.Has(_SDDP.WHOLE_EXTENT()):
+                # a curvilinear grid: its extent translator's piece, without ghosts (the
+                # image's extent left in the request would lie outside the whole extent)
+                whole = tuple(info.Get(_SDDP.WHOLE_EXTENT()))
+                info.Set(_SDDP.UPDATE_EXTENT(), _piece_extent(whole, plan.comm.rank, plan.comm.size, 0), 6)
+                info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
+                info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
+                info.Set(_SDDP.UPDATE_NUMBER_OF_GHOST_LEVELS(), 0)
             return 1  # a mesh: each process takes the piece its reader gives
         if plan is not None:
             # the extent itself, ghost points included, as "piece 0 of 1": XML image
@@ -635,7 +648,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         # have extents too, but are rendered as meshes: piece 0 renders them whole)
         structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (
             data is None or data.GetClassName() in IMAGE_CLASSES + ("vtkRectilinearGrid",))
-        mesh = not structured and data is not None and data.GetClassName() == "vtkUnstructuredGrid"
+        # curvilinear grids are split into tetrahedra where they live and rendered as meshes
+        mesh = not structured and data is not None and data.GetClassName() in ("vtkUnstructuredGrid",
+                                                                                "vtkStructuredGrid")
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
                 or self._labels is not None or self._cull is not None or self._options.tolerance is not None:
             return None  # a tolerance's knobs are chosen on a pilot of the whole image
@@ -868,9 +883,12 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         summary = error = None
         try:
             kind = inp.GetClassName() if inp is not None else None
+            if kind == "vtkStructuredGrid":  # this process's piece of a curvilinear grid, as the serial tets
+                inp = self._structured_tets(inp, scalars, preference)
+                kind = inp.GetClassName()
             if kind != "vtkUnstructuredGrid":
-                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkUnstructuredGrid; process {comm.rank} "
-                                 f"got {'nothing' if inp is None else kind}")
+                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkUnstructuredGrid or vtkStructuredGrid; "
+                                 f"process {comm.rank} got {'nothing' if inp is None else kind}")
             if scalars is None and inp.GetNumberOfCells():
                 active = inp.GetPointData().GetScalars()
                 scalars = active.GetName() if active is not None else None
@@ -947,6 +965,63 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             out.ShallowCopy(whole.to_vtk())
         self._last_piece = part
         return 1
+
+    def _structured_tets(self, grid, scalars, preference):
+        """This process's piece of a curvilinear grid as a ``vtkUnstructuredGrid`` of the
+        tetrahedra the serial render splits its cells into (``data.structured``: the
+        same split, blanked cells and collapsed tetrahedra dropped), with the rendered
+        array only; kept while the piece is unchanged. A piece without cells gives an
+        empty grid (the processes then take cells from the others)."""
+        import numpy as np
+        from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkUnstructuredGrid
+
+        from ..data import structured as S
+        from ..data.grid import ScalarsError, _arrays, choose_scalars
+        from ..data.tets import VTK_TETRA
+
+        key = (_content_key(grid), scalars, preference)
+        if self._tets_of is not None and self._tets_of[0] == key:
+            return self._tets_of[1]
+        out = vtkUnstructuredGrid()
+        dims = S.grid_dims(grid)
+        if grid.GetNumberOfCells() and grid.GetPoints() is not None and min(dims) > 1:
+            name, use_cell = choose_scalars(grid, scalars, preference, "grid")
+            values = np.asarray(_arrays(grid.GetCellData() if use_cell else grid.GetPointData())[name]())
+            if values.ndim != 1:
+                raise ScalarsError(f"scalars {name!r} must have one component; got shape {values.shape}")
+            points = np.asarray(numpy_support_points(grid))
+            visible = S.visible_cells(grid)
+            ghosts = grid.GetCellGhostArray()
+            if ghosts is not None:  # ghost cells another process owns (a ghost level): theirs to render
+                from vtkmodules.util.numpy_support import vtk_to_numpy
+                from vtkmodules.vtkCommonDataModel import vtkDataSetAttributes
+
+                mine = (vtk_to_numpy(ghosts).astype(np.uint8) & vtkDataSetAttributes.DUPLICATECELL) == 0
+                if not mine.all():
+                    visible = mine if visible is None else visible & mine
+            start = getattr(S, "grid_start", None)  # a split whose tets alternate with the global index
+            tets = S.structured_tets(points, dims, visible) if start is None else \
+                S.structured_tets(points, dims, visible, start(grid))
+            cells = int(np.count_nonzero(visible)) if visible is not None else int(np.prod(np.subtract(dims, 1)))
+            keep = ~S.collapsed_tets(points, tets)
+            per_cell = len(tets) // max(cells, 1)  # tets per cell, in cell order
+            tets = np.ascontiguousarray(tets[keep], dtype=np.int64)
+            n = len(tets)
+            connectivity = vtkCellArray()
+            connectivity.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 4 * n + 1, 4, dtype=np.int64), deep=True),
+                                 numpy_to_vtkIdTypeArray(tets.reshape(-1), deep=True))
+            out.SetPoints(grid.GetPoints())
+            out.SetCells(VTK_TETRA, connectivity)
+            if use_cell:
+                kept = values if visible is None else values[visible]
+                array = numpy_to_vtk(np.repeat(kept, per_cell)[keep], deep=True)
+                array.SetName(name)
+                out.GetCellData().SetScalars(array)
+            else:
+                out.GetPointData().SetScalars(grid.GetPointData().GetAbstractArray(name))
+        self._tets_of = (key, out)
+        return out
 
     def GetLastPiece(self):
         """The data this process rendered last when the input was spread over processes
@@ -1145,6 +1220,13 @@ class _Distribution(NamedTuple):
     owned: tuple
     extent: tuple
     ghosts: int
+
+
+def numpy_support_points(dataset):
+    """A dataset's point coordinates as a numpy view (n, 3)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    return vtk_to_numpy(dataset.GetPoints().GetData())
 
 
 def _whole_axes(inp, distribution):

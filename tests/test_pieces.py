@@ -225,6 +225,23 @@ def test_rectilinear_pieces_composited_are_the_whole_render(n, view, shade):
     assert image.metadata["pieces"] == n
 
 
+def test_every_sample_of_a_rectilinear_grid_has_one_owner():
+    """Without skipping and early termination, the pieces' sample counts add up to the
+    serial render's exactly (the owned faces are cut at the whole grid's nominal
+    coordinates with the same arithmetic on both sides)."""
+    volume = _graded()
+    tf = resolve_transfer_function(volume)
+    options = dict(precision="float64", skip_empty=False, termination=0.0)
+    camera = hv.Camera.fit(volume.bounds, "xy")
+    whole = GridPlan(volume, tf, **options).execute(camera, SIZE, progress_bar=False)
+    for n in (2, 5):
+        parts = split_volume(volume, n, ghosts=0)
+        images = [GridPlan(p, tf, **options).execute(camera, SIZE, piece=pc, progress_bar=False) for p, pc in parts]
+        assert sum(im.metadata["samples"] for im in images) == whole.metadata["samples"] == 52700, n
+        image = composite_pieces(images, [pc.owned_bounds(p) for p, pc in parts], camera.rays(SIZE))
+        np.testing.assert_allclose(image.rgba, whole.rgba, rtol=0, atol=1e-13)
+
+
 def test_rectilinear_pieces_through_render_pieces_and_refusals():
     volume = _graded()
     tf = resolve_transfer_function(volume)

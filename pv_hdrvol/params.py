@@ -118,12 +118,12 @@ class ClipPlane:
     origin : sequence of 3 floats
         A point of the plane (world coordinates).
     normal : sequence of 3 floats
-        Towards the kept side; any non-zero length (stored normalised).
+        Towards the kept side; any non-zero length (kept as given).
 
     Examples
     --------
     >>> ClipPlane((0, 0, 1), (0, 0, 2)).normal
-    (0.0, 0.0, 1.0)
+    (0.0, 0.0, 2.0)
     """
 
     origin: object = (0.0, 0.0, 0.0)
@@ -132,11 +132,11 @@ class ClipPlane:
     def __post_init__(self):
         o = as_vector("clip plane origin", self.origin)
         n = as_vector("clip plane normal", self.normal)
-        length = float(np.sqrt(n @ n))
-        if not length > 0.0:
+        if not np.any(n):
             raise ValueError(f"a clip plane's normal must not be the zero vector; got {self.normal!r}")
+        # kept as given: the cut depends on its direction only, and a saved plane reads back bit for bit
         object.__setattr__(self, "origin", tuple(float(x) for x in o))
-        object.__setattr__(self, "normal", tuple(float(x) for x in n / length))
+        object.__setattr__(self, "normal", tuple(float(x) for x in n))
 
 
 #: at most this many clip planes (VTK's GPU mapper takes 6; the kept set stays convex)

@@ -21,7 +21,7 @@ from .._validate import as_choice, as_size
 from ..data.kinds import BLOCKS, IMAGE_CLASSES, MESH, SUPPORTED, as_renderable, data_kind
 from ..parallel.comm import PointToPointComm
 from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
-from ..params import RenderOptions
+from ..params import RenderOptions, as_clip_planes
 from ..rays.camera import Camera, Rays, as_camera
 from . import VolumeCache, _content_key
 
@@ -274,6 +274,46 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         "shade_gradient", "'sampled' (central differences at each sample) or 'interpolated'.")
     SetShadeThreshold, GetShadeThreshold = _option_methods(
         "shade_threshold", "fraction of the TF axis per voxel at which shading is at full strength (>= 0).")
+
+    # -- clipping: vtkVolumeMapper's clipping-plane methods, and a crop box -------------
+    def AddClippingPlane(self, plane):
+        """Cut the volume with ``plane`` (a ``vtkPlane``, or ``(origin, normal)``), keeping
+        the side its normal points to, as ``vtkVolumeMapper.AddClippingPlane``: a copy of
+        its origin and normal now (call it again after changing the plane; the Qt
+        viewer's and ParaView's widgets do)."""
+        self._set_options(clip_planes=self._options.clip_planes + as_clip_planes(plane))
+
+    def RemoveAllClippingPlanes(self):
+        """Remove every clipping plane."""
+        self._set_options(clip_planes=())
+
+    def SetClippingPlanes(self, planes):
+        """Replace the clipping planes: a ``vtkPlaneCollection``, ``vtkPlanes``, a
+        sequence of planes, or ``None`` (``RenderOptions.clip_planes``)."""
+        self._set_options(clip_planes=planes)
+
+    def GetClippingPlanes(self):
+        """The clipping planes, as a new ``vtkPlaneCollection`` of new ``vtkPlane``\\ s."""
+        from vtkmodules.vtkCommonDataModel import vtkPlane, vtkPlaneCollection
+
+        out = vtkPlaneCollection()
+        for p in self._options.clip_planes:
+            plane = vtkPlane()
+            plane.SetOrigin(*p.origin)
+            plane.SetNormal(*p.normal)
+            out.AddItem(plane)
+        return out
+
+    def SetCropBox(self, *bounds):
+        """Keep only this world box: ``(xmin, xmax, ymin, ymax, zmin, zmax)`` as 6 numbers
+        or one sequence (VTK's bounds order, as ``SetCroppingRegionPlanes``); ``None``:
+        no crop (``RenderOptions.crop_box``)."""
+        value = bounds[0] if len(bounds) == 1 else bounds
+        self._set_options(crop_box=value)
+
+    def GetCropBox(self):
+        """``RenderOptions.crop_box``: the 6 bounds, or ``None``."""
+        return self._options.crop_box
 
     def SetTolerance(self, tolerance):
         """Set ``RenderOptions.tolerance``: the RMS error of the linear, premultiplied RGB
@@ -923,6 +963,13 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             old = self._plan[0]  # the data and the transfer function by identity, the rest by value
             if old[0] is data and old[1] is tf and old[2:] == (self._options, labels):
                 return self._plan[1]
+            unclipped = self._options.replace(clip_planes=(), crop_box=None)
+            if old[0] is data and old[1] is tf and old[3] == labels \
+                    and old[2].replace(clip_planes=(), crop_box=None) == unclipped:
+                # only the clip changed (a plane dragged): the plan's tables and arrays stay
+                plan = self._plan[1].with_clip(self._options.clip_planes, self._options.crop_box)
+                self._plan = ((data, tf, self._options, labels), plan)
+                return plan
         self._plan = None  # drop the old plan (and its arrays) before making the new one
         if isinstance(data, TetMesh):
             from ..raycast.tets import TetPlan

@@ -15,10 +15,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import as_size
+from . import _kernels as K
+
 
 def has_clip(options):
     """Whether ``options`` (a :class:`~pv_hdrvol.RenderOptions`) cut anything."""
     return bool(options.clip_planes) or options.crop_box is not None
+
+
+def _clip_arrays(planes, box):
+    """The kernels' plane rows ``(origin, normal)`` and box (empty: none)."""
+    rows = np.array([p.origin + p.normal for p in planes], dtype=np.float64).reshape(-1, 6)
+    return rows, np.empty(0) if box is None else np.asarray(box, dtype=np.float64)
 
 
 def clip_spans(origins, directions, planes=(), box=None, far=None):
@@ -36,39 +45,18 @@ def clip_spans(origins, directions, planes=(), box=None, far=None):
     Returns
     -------
     near, far : float64 arrays (n,)
-        ``near >= 0``; ``far < near`` (or both ``inf``) where nothing is kept. A ray
-        lying in a plane (``d . normal == 0``) is kept whole when its origin is on the
-        kept side (``>= 0``), else not at all.
+        ``near >= 0``; ``far < near`` where nothing is kept. A ray parallel to a plane
+        (``d . normal == 0``) is kept whole when its origin is on the kept side
+        (``>= 0``), else not at all; one parallel to a face of the box, when it lies
+        between the box's faces on that axis.
     """
-    o = np.asarray(origins, dtype=np.float64)
-    d = np.asarray(directions, dtype=np.float64)
-    n = o.shape[0]
-    near = np.zeros(n)
-    stop = np.full(n, np.inf) if far is None else np.array(far, dtype=np.float64).reshape(n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for plane in planes:
-            normal = np.asarray(plane.normal)
-            s = (o - np.asarray(plane.origin)) @ normal  # signed distance of the origin (kept: >= 0)
-            r = d @ normal
-            t = -s / r
-            ahead = r > 0.0   # entering the kept side at t
-            behind = r < 0.0  # leaving it at t
-            near = np.where(ahead, np.maximum(near, t), near)
-            stop = np.where(behind, np.minimum(stop, t), stop)
-            outside = (r == 0.0) & ~(s >= 0.0)
-            stop = np.where(outside, -np.inf, stop)
-        if box is not None:
-            for axis in range(3):
-                lo, hi = box[2 * axis], box[2 * axis + 1]
-                oa, da = o[:, axis], d[:, axis]
-                ta = (lo - oa) / da
-                tb = (hi - oa) / da
-                t_in = np.where(da != 0.0, np.minimum(ta, tb), -np.inf)
-                t_out = np.where(da != 0.0, np.maximum(ta, tb), np.inf)
-                outside = (da == 0.0) & ~((oa >= lo) & (oa <= hi))
-                near = np.maximum(near, t_in)
-                stop = np.where(outside, -np.inf, np.minimum(stop, t_out))
-    return near, stop
+    o = np.ascontiguousarray(origins, dtype=np.float64)
+    d = np.ascontiguousarray(directions, dtype=np.float64)
+    limit = np.empty(0) if far is None else np.ascontiguousarray(far, dtype=np.float64).reshape(o.shape[0])
+    out = np.empty((o.shape[0], 2))
+    rows, b = _clip_arrays(planes, box)
+    K.clip_spans_of_rays(o, d, rows, b, limit, out)
+    return out[:, 0], out[:, 1]
 
 
 def ray_spans(rays_or_camera, size, options, far=None):
@@ -76,15 +64,25 @@ def ray_spans(rays_or_camera, size, options, far=None):
     (``far`` alone when ``options`` cut nothing; an empty ``(0, 2)`` array when there
     is neither a clip nor ``far``).
 
-    ``rays_or_camera``: the render's :class:`~pv_hdrvol.Rays`, or a camera whose rays
-    (``Camera.rays(size)``) are the ones the kernel makes. ``far``: the checked flat
-    ``far`` of the render (empty: none).
+    ``rays_or_camera``: the render's :class:`~pv_hdrvol.Rays`, or the camera whose rays
+    the kernel makes (``camera_ray``, bit for bit ``Camera.rays(size)``). ``far``: the
+    checked flat ``far`` of the render (empty: none). A few milliseconds at 512 x 512:
+    the spans are made by a parallel kernel, without the rays' arrays.
     """
     far = None if far is None or np.size(far) == 0 else np.asarray(far, dtype=np.float64).reshape(-1)
     if not has_clip(options):
         if far is None:
             return np.empty((0, 2))
         return np.ascontiguousarray(np.column_stack([np.zeros(far.size), far]))
-    rays = rays_or_camera if hasattr(rays_or_camera, "origins") else rays_or_camera.rays(size)
-    near, stop = clip_spans(rays.origins, rays.directions, options.clip_planes, options.crop_box, far)
-    return np.ascontiguousarray(np.column_stack([near, stop]))
+    rows, box = _clip_arrays(options.clip_planes, options.crop_box)
+    limit = np.empty(0) if far is None else np.ascontiguousarray(far)
+    if hasattr(rays_or_camera, "origins"):
+        rays = rays_or_camera
+        out = np.empty((rays.origins.shape[0], 2))
+        K.clip_spans_of_rays(np.ascontiguousarray(rays.origins, dtype=np.float64),
+                             np.ascontiguousarray(rays.directions, dtype=np.float64), rows, box, limit, out)
+        return out
+    width, height = as_size(size)
+    out = np.empty((width * height, 2))
+    K.clip_spans_of_camera(rays_or_camera.kernel_array((width, height)), width, height, rows, box, limit, out)
+    return out

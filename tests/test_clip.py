@@ -220,3 +220,15 @@ def test_spans_of_rays_in_a_plane_or_outside_the_box():
     assert not far[1] >= near[1]
     assert not far[2] >= near[2]  # parallel to the box's x faces, outside them
     assert (near[3], far[3]) == (0.0, 2.0)
+
+
+def test_the_clipping_page_prints_what_it_says(tmp_path, monkeypatch):
+    import re
+
+    from conftest import REPO_ROOT
+    from test_docs import python_blocks, run_blocks
+
+    page = REPO_ROOT / "docs" / "clipping.md"
+    blocks, _ = python_blocks(page)
+    expected = re.search(r"^prints\n\n```text\n(.*?)^```", page.read_text(), re.S | re.M).group(1)
+    assert run_blocks(blocks, tmp_path, monkeypatch) == expected

@@ -264,3 +264,11 @@ def test_blocks_are_cut_as_the_whole_they_make():
     halves = pv.MultiBlock([mesh.extract_cells(np.flatnonzero(xc < c[0])), mesh.extract_cells(np.flatnonzero(xc >= c[0]))])
     np.testing.assert_allclose(hv.render(halves, tf, cam, (40, 32), precision="float64", **clip).rgba,
                                hv.render(mesh, tf, cam, (40, 32), precision="float64", **clip).rgba, rtol=0, atol=1e-12)
+
+
+def test_the_accessor_cuts_as_render_does():
+    grid = hv.datasets.hydrogen_orbital(size=20)
+    clip = {"clip_planes": ((0, 0, 0), (1, 0, 0)), "crop_box": (-30, 30, -45, 45, -45, 45)}
+    mine = grid.hdrvol.render(camera="iso", size=24, **clip)
+    np.testing.assert_array_equal(mine.rgba, hv.render(grid, None, "iso", 24, **clip).rgba)
+    assert mine.settings().options.clip_planes == (ClipPlane((0, 0, 0), (1, 0, 0)),)

@@ -994,18 +994,19 @@ def _check_piece(piece, volume, opts, ghosts):
     return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin
 
 
-def _check_far(far, width, height):
-    """``far`` as a flat float64 array (empty for ``None``), checked."""
+def _check_far(far, width, height, name="far"):
+    """``far`` (or another per-pixel distance, ``name``) as a flat float64 array (empty
+    for ``None``), checked."""
     if far is None:
         return np.empty(0)
     a = np.asarray(far)
     if a.dtype.kind not in "fiu":
-        raise TypeError(f"far must be a numeric array; got dtype {a.dtype}")
+        raise TypeError(f"{name} must be a numeric array; got dtype {a.dtype}")
     if a.shape != (height, width):
-        raise ValueError(f"far must have the image's shape (rows, cols) = {(height, width)}; got {a.shape}")
+        raise ValueError(f"{name} must have the image's shape (rows, cols) = {(height, width)}; got {a.shape}")
     a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
     if np.isnan(a).any() or (a < 0).any():
-        raise ValueError("far must hold distances >= 0 (inf: no limit); got NaN or negative values")
+        raise ValueError(f"{name} must hold distances >= 0 (inf: no limit); got NaN or negative values")
     return a
 
 

@@ -165,7 +165,7 @@ class TetPlan:
         return plan
 
     def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, chunk_seconds=None,
-                far=None, piece=None):
+                far=None, piece=None, near=None):
         """Render the plan for ``camera`` and ``size`` (as :func:`render_tets`); an
         :class:`~pv_hdrvol.HDRImage`. ``chunk_seconds`` and ``far``: as
         :meth:`~pv_hdrvol.raycast.grid.GridPlan.execute`.
@@ -179,12 +179,14 @@ class TetPlan:
         (:func:`pv_hdrvol.parallel.pieces.composite_pieces`) are the whole render to
         rounding; the default camera frames the whole mesh."""
         return self.execute_with_view(camera, size, progress=progress, progress_bar=progress_bar,
-                                      chunk_seconds=chunk_seconds, far=far, piece=piece)[0]
+                                      chunk_seconds=chunk_seconds, far=far, piece=piece, near=near)[0]
 
     def execute_with_view(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, view=None,
-                          chunk_seconds=None, far=None, piece=None):
+                          chunk_seconds=None, far=None, piece=None, near=None):
         """:meth:`execute`, and the boundary's ``_view`` for this camera (reused when
-        ``view`` was made for it): ``(image, view)``."""
+        ``view`` was made for it): ``(image, view)``. ``near`` (as ``far``: rows x cols,
+        world distances): where each ray starts compositing -- the mesh between the
+        boxes of a scene's grid blocks (``raycast/blocks.py``)."""
         mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
         if opts.tolerance is not None:
             if piece is not None:
@@ -204,7 +206,11 @@ class TetPlan:
         _check_progress_bar(progress_bar)
         width, height = as_size(size)
         far = _check_far(far, width, height)
-        span = ray_spans(camera, (width, height), opts, far)  # clip planes, crop box, far (rays/clip.py)
+        if near is not None:
+            if opts.tolerance is not None:
+                raise ValueError("near= and tolerance= do not go together: give tau_max= and termination=")
+            near = _check_far(near, width, height, "near")
+        span = ray_spans(camera, (width, height), opts, far, near)  # clip planes, crop box, far (rays/clip.py)
         own = np.empty((0, 2))
         if piece is not None:  # the span of each ray in the owned box
             lo, hi = piece.world_box()

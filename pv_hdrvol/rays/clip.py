@@ -59,21 +59,27 @@ def clip_spans(origins, directions, planes=(), box=None, far=None):
     return out[:, 0], out[:, 1]
 
 
-def ray_spans(rays_or_camera, size, options, far=None):
+def ray_spans(rays_or_camera, size, options, far=None, near=None):
     """The ``(n, 2)`` array of ``[near, far]`` per pixel that the ray casters take
     (``far`` alone when ``options`` cut nothing; an empty ``(0, 2)`` array when there
     is neither a clip nor ``far``).
 
     ``rays_or_camera``: the render's :class:`~pv_hdrvol.Rays`, or the camera whose rays
     the kernel makes (``camera_ray``, bit for bit ``Camera.rays(size)``). ``far``: the
-    checked flat ``far`` of the render (empty: none). A few milliseconds at 512 x 512:
-    the spans are made by a parallel kernel, without the rays' arrays.
+    checked flat ``far`` of the render (empty: none); ``near``: a flat array of where each
+    ray starts (``None``: at 0), as the scenes of image and mesh blocks cut a mesh
+    between the grids' boxes. A few milliseconds at 512 x 512: the spans are made by a
+    parallel kernel, without the rays' arrays.
     """
     far = None if far is None or np.size(far) == 0 else np.asarray(far, dtype=np.float64).reshape(-1)
+    if near is not None:
+        near = np.asarray(near, dtype=np.float64).reshape(-1)
+        far = np.full(near.size, np.inf) if far is None else far
     if not has_clip(options):
         if far is None:
             return np.empty((0, 2))
-        return np.ascontiguousarray(np.column_stack([np.zeros(far.size), far]))
+        start = np.zeros(far.size) if near is None else np.maximum(near, 0.0)
+        return np.ascontiguousarray(np.column_stack([start, far]))
     rows, box = _clip_arrays(options.clip_planes, options.crop_box)
     limit = np.empty(0) if far is None else np.ascontiguousarray(far)
     if hasattr(rays_or_camera, "origins"):
@@ -81,8 +87,10 @@ def ray_spans(rays_or_camera, size, options, far=None):
         out = np.empty((rays.origins.shape[0], 2))
         K.clip_spans_of_rays(np.ascontiguousarray(rays.origins, dtype=np.float64),
                              np.ascontiguousarray(rays.directions, dtype=np.float64), rows, box, limit, out)
-        return out
-    width, height = as_size(size)
-    out = np.empty((width * height, 2))
-    K.clip_spans_of_camera(rays_or_camera.kernel_array((width, height)), width, height, rows, box, limit, out)
+    else:
+        width, height = as_size(size)
+        out = np.empty((width * height, 2))
+        K.clip_spans_of_camera(rays_or_camera.kernel_array((width, height)), width, height, rows, box, limit, out)
+    if near is not None:
+        np.maximum(out[:, 0], near, out=out[:, 0])
     return out

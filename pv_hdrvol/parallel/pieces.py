@@ -29,7 +29,6 @@ import numpy as np
 
 from .._validate import as_int, as_size
 from ..data.grid import volume_from_array
-from ..image.hdr import HDRImage
 from ..rays.camera import Rays, ray_box_spans
 from ..raycast.blocks import composite_in_order
 from ..raycast.grid import GridPlan, VolumePiece, as_volume

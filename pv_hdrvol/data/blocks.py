@@ -416,7 +416,7 @@ def _fill(blocks, offsets):
 
 def merge_meshes(leaves, scalars, use_cell):
     """One :class:`~pv_hdrvol.TetMesh` of the mesh leaves (unstructured grids, their
-    non-tetrahedral cells split with a warning; curvilinear grids split 6 tets a
+    non-tetrahedral cells split with a warning; curvilinear grids split 5 tets a
     hexahedron).
 
     Points, tetrahedra and scalars are concatenated; :func:`~pv_hdrvol.tetmesh_from_arrays`
@@ -460,15 +460,15 @@ def _mesh_arrays(ds, scalars, use_cell):
     from .tets import VTK_TETRA, _cell_types, _tetrahedralize, mesh_scalars
 
     if ds.GetClassName() == "vtkStructuredGrid":
-        from .structured import _check_dims, grid_dims, structured_tets, visible_cells
+        from .structured import TETS_PER_CELL, _check_dims, grid_dims, grid_start, structured_tets, visible_cells
 
         dims = _check_dims(grid_dims(ds))
         points = vtk_to_numpy(ds.GetPoints().GetData())
         visible = visible_cells(ds)
-        tets = structured_tets(points, dims, visible)
+        tets = structured_tets(points, dims, visible, grid_start(ds))
         arr = mesh_scalars(ds, scalars, use_cell)
         if use_cell:
-            arr = np.repeat(arr if visible is None else arr[visible], 6)
+            arr = np.repeat(arr if visible is None else arr[visible], TETS_PER_CELL)
         return points, tets, arr
     types = _cell_types(ds)
     ug = ds if np.all(types == VTK_TETRA) else _tetrahedralize(ds, types)

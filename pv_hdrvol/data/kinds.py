@@ -5,7 +5,7 @@
   (non-uniform axes), a :class:`~pv_hdrvol.GridVolume` or a 3-D numpy array;
 - ``"mesh"``: the tetrahedral ray caster (``raycast/tets.py``):
   ``pyvista.UnstructuredGrid`` / ``vtkUnstructuredGrid``, curvilinear
-  ``pyvista.StructuredGrid`` / ``vtkStructuredGrid`` (each hexahedron split into six
+  ``pyvista.StructuredGrid`` / ``vtkStructuredGrid`` (each hexahedron split into five
   tetrahedra), a :class:`~pv_hdrvol.TetMesh`;
 - ``"blocks"``: several datasets rendered as one scene (``raycast/blocks.py``):
   ``pyvista.MultiBlock`` / ``vtkMultiBlockDataSet``, ``vtkPartitionedDataSet`` and

@@ -121,7 +121,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     those into a 2-D float RGBA ``vtkImageData``.
 
     Input port 0: ``vtkImageData`` (the whole extent is requested), ``vtkRectilinearGrid``,
-    ``vtkStructuredGrid`` (each hexahedron split into six tetrahedra) or
+    ``vtkStructuredGrid`` (each hexahedron split into five tetrahedra) or
     ``vtkUnstructuredGrid`` (tetrahedra; other 3-D cells are split, see
     :func:`~pv_hdrvol.render_tets`), or a ``vtkMultiBlockDataSet`` /
     ``vtkPartitionedDataSet(Collection)`` whose blocks gather onto one volume or merge into

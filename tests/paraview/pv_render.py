@@ -450,7 +450,7 @@ def test_meshes_in_front_hide_the_volume_and_behind_are_hidden(plugin, shared_da
 def test_a_plot3d_reader_renders_its_curvilinear_block(plugin, shared_data):
     """What a user of a CFD code does: open a PLOT3D grid and solution with ParaView's
     reader (a multiblock of one curvilinear vtkStructuredGrid) and apply HDR Volume
-    Render: each hexahedron is split into six tetrahedra, as hv.render splits it."""
+    Render: each hexahedron is split into five tetrahedra, as hv.render splits it."""
     folder = shared_data / "unstructured" / "plot3d_original"
     reader = simple.PLOT3DReader(FileName=str(folder / "bluntfinxyz.bin"), QFileName=[str(folder / "bluntfinq.bin")])
     reader.UpdatePipeline()

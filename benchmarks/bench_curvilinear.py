@@ -72,7 +72,7 @@ references differ by their own O(h^2/r^2) error; against the Kuhn reference the 
 split was 3.97e-4 and 2.06e-5, 2.3x and 4.8x.) The LOX post and the Blunt Fin's first
 step converge as h^2 (RMS ratio 5.5-5.6 against a finite reference); the Blunt Fin's
 r = 3 step (ratio 2.3) is measured against r = 4 only. VTK's UG ray cast mapper took
-2.7x (Blunt Fin) and 3.5x (LOX post) our render time of (a) in both runs. Render
+2.7-2.8x (Blunt Fin) and 3.5x (LOX post) our render time of (a) in the two runs. Render
 seconds of different runs are not comparable here: the Kuhn run's (b), the same tets as
 now, took 0.21 s on the Blunt Fin where this run's took 0.09-0.12 s.
 """

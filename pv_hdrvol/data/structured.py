@@ -18,10 +18,10 @@ VTK's hexahedron is trilinear: the two agree at the corners and for every field 
 is linear in the coordinates of a grid whose cells are parallelepipeds; on curved cells
 they differ by O(h^2). The five-tetrahedron split is the closer of the two conforming
 lattice splits measured (``benchmarks/bench_curvilinear.py``, docs/data_types.md): on
-the Blunt Fin and LOX post at native resolution it is 2.3x and 4.8x closer to the
-trilinear field (RMS of the image's peak) than the six-tetrahedron Kuhn split around
-the diagonal ``(i, j, k) -> (i+1, j+1, k+1)`` used before, with 5/6 of the tetrahedra
-at the same render time.
+the Blunt Fin and LOX post at native resolution it is 3.9e-4 and 1.7e-5 RMS of the
+image's peak from the trilinear field, 2.3x and 5.8x closer than the six-tetrahedron
+Kuhn split around the diagonal ``(i, j, k) -> (i+1, j+1, k+1)`` used before (9.0e-4 and
+9.9e-5), with 5/6 of the tetrahedra at the same render time.
 """
 from __future__ import annotations
 
@@ -69,7 +69,7 @@ def structured_tets(points, dims, visible=None, start=(0, 0, 0)):
     Each cell gives four corner tetrahedra and a central one; the central tetrahedron's
     corners alternate with the parity of ``i + j + k`` (module docstring), so that two
     cells sharing a face cut it along the same diagonal. Chosen over the six-tetrahedron
-    Kuhn split for its accuracy: 2.3x (Blunt Fin) and 4.8x (LOX post) closer to the
+    Kuhn split for its accuracy: 2.3x (Blunt Fin) and 5.8x (LOX post) closer to the
     trilinear field of the hexahedra at native resolution, with 5/6 of the tetrahedra
     (``benchmarks/bench_curvilinear.py``, docs/data_types.md).
 

@@ -76,13 +76,14 @@ def test_plugin_checks_pass_in_pvbatch(shared_data):
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
-def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
+def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_factory, ranks):
     """``mpiexec -n 2|3 pvbatch --mpi --symmetric`` (tests/paraview/mpi_render.py): with
     the array's colour map each rank reads and renders its piece of the image, or the
     cells of its box of a tetrahedral mesh (read on rank 0, or spread by
     RedistributeDataSet), and rank 0 composites the whole image (hv.render's to 1e-5);
     without a colour map rank 0 renders the whole dataset alone (hv.render's bit for
-    bit); the others output empty images."""
+    bit); the others output empty images. A curvilinear grid is read by pieces and
+    rendered as tetrahedra where it lives (hv.render's to 1e-10)."""
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     # Debian's mpiexec (Open MPI, which ParaView is built with), not the MPICH one of the
@@ -90,8 +91,11 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
     mpiexec = "/usr/bin/mpiexec" if os.access("/usr/bin/mpiexec", os.X_OK) else _tool("mpiexec")
     env = _paraview_environment()
     # more ranks than cores (3 on a 2-core machine): Open MPI refuses them unless told
+    curvilinear = tmp_path_factory.mktemp("curvilinear") / "sector.vts"
+    _curvilinear_sector().save(curvilinear)
     env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
-               PV_HDRVOL_DATA=str(shared_data), PV_HDRVOL_MPI_OUT=str(tmp_path))
+               PV_HDRVOL_DATA=str(shared_data), PV_HDRVOL_MPI_OUT=str(tmp_path),
+               PV_HDRVOL_MPI_CURVI=str(curvilinear))
     command = [xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", mpiexec, "-n", str(ranks), pvbatch, "--mpi",
                "--symmetric",
                str(REPO_ROOT / "tests" / "paraview" / "mpi_render.py")]
@@ -109,11 +113,25 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
     lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
               for how in ("the reader", "RedistributeDataSet")]
     lines += [f"the whole image of {ranks} boxes, within"]
+    lines += ["rank 0: curvilinear piece ("] + [f"rank {r}: curvilinear piece (" for r in range(1, ranks)]
     for line in lines:
         assert line in done.stdout, line
     assert sorted(os.listdir(tmp_path)) == ["render.exr", "render.png"]
     for bad in ("Traceback", "outside the whole extent", "is not set (no colour map"):
         assert bad not in done.stdout, f"{bad!r} in the output:\n{done.stdout[-3000:]}"
+
+
+def _curvilinear_sector():
+    """A curvilinear grid (a curved, sheared annular sector, 21 x 17 x 13 points) with a
+    smooth field ``f``."""
+    import pyvista as pv
+
+    i, j, k = np.meshgrid(np.linspace(0, 1, 21), np.linspace(0, 1, 17), np.linspace(0, 1, 13), indexing="ij")
+    radius, angle = 1.0 + i, 1.4 * j
+    grid = pv.StructuredGrid(radius * np.cos(angle), radius * np.sin(angle), 0.8 * k + 0.1 * np.sin(3 * i))
+    p = grid.points
+    grid["f"] = np.exp(-((p[:, 0] - 0.8) ** 2 + (p[:, 1] - 0.9) ** 2 + (p[:, 2] - 0.4) ** 2) * 3.0)
+    return grid
 
 
 def test_an_mpiexec_of_another_mpi_is_named():

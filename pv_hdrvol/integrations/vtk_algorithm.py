@@ -220,6 +220,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._last_piece = None
         self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
         self._moved = None  # a mesh piece: (key, summary, (box, the cells moved to it, points) or None)
+        self._tet_piece = None  # a curvilinear piece: (key, its tetrahedra as a vtkUnstructuredGrid)
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
         # by the input object, which ParaView hands over as a new shallow copy each time
         self._volumes = VolumeCache(dataset_mtime=False)
@@ -628,6 +629,12 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         info = inInfo[0].GetInformationObject(0)
         plan = self._distribution(inInfo, outInfo)
         if plan is not None and plan.whole is None:
+            if info.Has(_SDDP.WHOLE_EXTENT()):  # a curvilinear grid: its piece of the extent, as an image's
+                whole = tuple(info.Get(_SDDP.WHOLE_EXTENT()))
+                info.Set(_SDDP.UPDATE_EXTENT(), _piece_extent(whole, _output_piece(outInfo), plan.comm.size, 0), 6)
+                info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
+                info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
+                info.Set(_SDDP.UPDATE_NUMBER_OF_GHOST_LEVELS(), 0)
             return 1  # a mesh: each process takes the piece its reader gives
         if plan is not None:
             # the extent itself, ghost points included, as "piece 0 of 1": XML image
@@ -670,10 +677,13 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
         in_info = inInfo[0].GetInformationObject(0)
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
-        # rectilinear and curvilinear grids have extents too, but are not rendered where they
-        # live yet: piece 0 renders them whole
+        # rectilinear grids have extents too, but are not rendered where they live yet:
+        # piece 0 renders them whole
         structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (data is None or data.GetClassName() in IMAGE_CLASSES)
-        mesh = not structured and data is not None and data.GetClassName() == "vtkUnstructuredGrid"
+        # a curvilinear grid's pieces are rendered as the tetrahedra a whole grid's render
+        # makes of them, through the mesh path (_execute_mesh_piece)
+        mesh = not structured and data is not None and data.GetClassName() in ("vtkUnstructuredGrid",
+                                                                                "vtkStructuredGrid")
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
                 or self._labels is not None or self._cull is not None or self._options.tolerance is not None:
             return None  # a tolerance's knobs are chosen on a pilot of the whole image
@@ -849,6 +859,11 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         scalars, preference = self._scalars_to_render()
         summary = error = None
         try:
+            if inp is not None and inp.GetClassName() == "vtkStructuredGrid":
+                key = (_content_key(inp), tuple(inp.GetExtent()))
+                if self._tet_piece is None or self._tet_piece[0] != key:
+                    self._tet_piece = (key, _tet_grid_of_structured(inp))
+                inp = self._tet_piece[1]
             kind = inp.GetClassName() if inp is not None else None
             if kind != "vtkUnstructuredGrid":
                 raise ValueError(f"HDRVolumeRenderer renders a distributed vtkUnstructuredGrid; process {comm.rank} "
@@ -1134,6 +1149,45 @@ class _Distribution(NamedTuple):
     owned: tuple
     extent: tuple
     ghosts: int
+
+
+def _tet_grid_of_structured(grid):
+    """A curvilinear grid (a piece of one) as the ``vtkUnstructuredGrid`` of the
+    tetrahedra a render of the whole grid splits it into (:func:`~pv_hdrvol.data.
+    structured.structured_tets`: the lattice alone decides the split, so pieces that
+    share a face cut it alike; blanked cells and collapsed tetrahedra left out), with
+    its points and point data as they are and its cell data repeated per tetrahedron."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
+    from vtkmodules.vtkCommonDataModel import VTK_TETRA, vtkCellArray, vtkUnstructuredGrid
+
+    from ..data.structured import collapsed_tets, grid_dims, structured_tets, visible_cells
+
+    out = vtkUnstructuredGrid()
+    if grid.GetNumberOfPoints() == 0 or grid.GetNumberOfCells() == 0:
+        return out
+    points = vtk_to_numpy(grid.GetPoints().GetData())
+    visible = visible_cells(grid)
+    cells = np.arange(grid.GetNumberOfCells()) if visible is None else np.flatnonzero(visible)
+    tets = structured_tets(points, grid_dims(grid), visible, start=grid.GetExtent()[0::2])
+    of_cell = np.repeat(cells, tets.shape[0] // max(cells.size, 1))
+    keep = ~collapsed_tets(points, tets)
+    tets, of_cell = tets[keep], of_cell[keep]
+    out.SetPoints(grid.GetPoints())
+    out.GetPointData().ShallowCopy(grid.GetPointData())
+    connectivity = vtkCellArray()
+    connectivity.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 4 * len(tets) + 1, 4, dtype=np.int64), deep=True),
+                         numpy_to_vtkIdTypeArray(np.ascontiguousarray(tets.ravel(), dtype=np.int64), deep=True))
+    out.SetCells(VTK_TETRA, connectivity)
+    data = grid.GetCellData()
+    for i in range(data.GetNumberOfArrays()):
+        array = data.GetArray(i)
+        if array is None or array.GetName() == "vtkGhostType":
+            continue
+        values = numpy_to_vtk(np.ascontiguousarray(vtk_to_numpy(array)[of_cell]), deep=True)
+        values.SetName(array.GetName())
+        out.GetCellData().AddArray(values)
+    return out
 
 
 def _mesh_summary(mesh, scalars, sample=4096):

@@ -3,7 +3,8 @@
 With the Color Map Editor's function, each rank's reader reads only its piece of the
 image (VTK's extent translator's), the rank renders it, and rank 0 holds the whole
 image, equal to ``pv_hdrvol.render`` of the whole dataset to 1e-5; the other ranks an
-empty image. Without a function given (pv_hdrvol's default reads every value) and for a
+empty image. A curvilinear grid (``$PV_HDRVOL_MPI_CURVI``) is read by pieces too and
+rendered as tetrahedra where it lives. Without a function given (pv_hdrvol's default reads every value) and for a
 tetrahedral mesh, rank 0 reads and renders everything, bit for bit ``pv_hdrvol.render``.
 No rank renders a piece as if it were the whole. Exits non-zero on any rank that finds
 otherwise. Run by tests/test_paraview.py with 2 and 3 ranks.
@@ -59,6 +60,47 @@ def main():
         simple.Delete(render)
         simple.Delete(reader)
     color_map_editor(rank, size)
+    curvilinear_where_it_lives(rank, size)
+
+
+def curvilinear_where_it_lives(rank, size):
+    """A curvilinear grid (.vts of $PV_HDRVOL_MPI_CURVI, written by the test) with its
+    colour map: each rank's reader reads its piece of the extent, the rank splits it
+    into the tetrahedra a whole render makes (the lattice decides, so pieces agree on
+    their shared faces), the mesh path cuts them into boxes, and rank 0's composite is
+    hv.render of the whole grid to 1e-10 (float64)."""
+    from vtkmodules.vtkIOXML import vtkXMLStructuredGridReader
+
+    from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+    path = os.environ["PV_HDRVOL_MPI_CURVI"]
+    reader = simple.OpenDataFile(path)
+    render = simple.HDRVolumeRender(Input=reader, ImageSize=[48, 40], Camera="iso", Precision="float64")
+    render.Scalars = ["POINTS", "f"]
+    lut, opacity = simple.GetColorTransferFunction("f"), simple.GetOpacityTransferFunction("f")
+    render.UpdatePipeline()
+    piece = reader.GetClientSideObject().GetOutputDataObject(0)
+    out = render.GetClientSideObject().GetOutputDataObject(0)
+    whole = vtkXMLStructuredGridReader()
+    whole.SetFileName(path)
+    whole.Update()
+    cells = whole.GetOutput().GetNumberOfCells()
+    assert piece.GetNumberOfCells() < cells, (rank, piece.GetExtent())  # its piece, not the whole grid
+    if rank != 0:
+        assert out.GetNumberOfPoints() == 0
+        print(f"rank {rank}: curvilinear piece {piece.GetExtent()} of {cells} cells, rendered", flush=True)
+        simple.Delete(render)
+        return
+    tf = transfer_function_from_vtk(lut.GetClientSideObject(), opacity.GetClientSideObject())
+    expected = hv.render(whole.GetOutput(), tf, "iso", (48, 40), scalars="f", precision="float64", progress_bar=False)
+    got = hv.HDRImage.from_pyvista(out)
+    assert expected.rgba[..., 3].max() > 0.5
+    difference = float(np.abs(got.rgba - expected.rgba).max())
+    assert difference <= 1e-10, difference
+    print(f"rank 0: curvilinear piece {piece.GetExtent()} of {cells} cells; the whole image of {size} boxes, within "
+          f"{difference:.1e} of hv.render", flush=True)
+    simple.Delete(render)
+    simple.Delete(reader)
 
 
 def where_the_data_lives(rank, size):

@@ -146,8 +146,7 @@ def _multiblock_options(args):
 
     name = args.volume
     if args.pof:
-        raise UserError(f"--pof culls the blocks of one image volume; {name!r} is a multiblock file: leave out --pof "
-                        f"(or render it serially with: pv-hdrvol render {name} --pof ...)")
+        raise UserError(f"--pof culls the blocks of one image volume; {name!r} is a multiblock file: leave out --pof")
     if args.k is not None:
         raise UserError("--k weighs the bases of --pof; give --pof FILE.npz")
     try:

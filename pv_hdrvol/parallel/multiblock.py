@@ -185,12 +185,24 @@ def lattice_pieces(infos, vtm):
     for off, shape in zip(offsets - lo, shapes):
         o = tuple(int(v) for v in off)
         pieces.append(VolumePiece(tuple(first.tolist()), whole, o, o, tuple(int(v + n - 1) for v, n in zip(off, shape))))
+    cells = np.prod(shapes - 1, axis=1)
+    whole_cells = int(np.prod(dims - 1))
+    if int(cells.sum()) < whole_cells:
+        raise MultiblockError(f"the image blocks leave holes in their union box ({whole} points): they hold "
+                              f"{int(cells.sum())} of its {whole_cells} cells; python -m pv_hdrvol.parallel renders "
+                              f"blocks that tile one box; {hint}")
     try:
         check_tiling(pieces)
-    except ValueError as exc:
-        raise MultiblockError(f"the image blocks do not tile their union box of {whole} points (holes where no "
-                              f"block has points, or blocks that overlap beyond shared faces: {exc}): python -m "
-                              f"pv_hdrvol.parallel renders blocks that tile one box; {hint}") from None
+    except ValueError:
+        lo_, hi_ = offsets - lo, offsets - lo + shapes - 1
+        for i in range(len(infos)):
+            inner = (np.minimum(hi_[i], hi_[i + 1:]) > np.maximum(lo_[i], lo_[i + 1:])).all(axis=1)
+            if inner.any():
+                j = i + 1 + int(np.argmax(inner))
+                raise MultiblockError(f"blocks {infos[i].path!r} and {infos[j].path!r} overlap beyond a shared face "
+                                      f"(ghost layers?): python -m pv_hdrvol.parallel renders blocks that tile one "
+                                      f"box; {hint}") from None
+        raise
     return pieces
 
 

@@ -2,6 +2,7 @@
 
     python -m pv_hdrvol.parallel pof head.vti --tf skin.json --tf bone.json -o head.pof.npz
     mpiexec -n 4 python -m pv_hdrvol.parallel render head.vti --pof head.pof.npz --k 0.25,0.9 -o frame.exr
+    mpiexec -n 4 python -m pv_hdrvol.parallel render blocks.vtm --tf tf.json -o frame.exr
 
 Transfer functions are JSON files of ``TransferFunction.to_dict()``. ``render`` without
 ``--pof`` renders every non-empty block with ``--tf`` (or the default transfer
@@ -9,6 +10,16 @@ function, as ``pv-hdrvol render``'s) and no culling, with ``pv-hdrvol render``'s
 (perspective); with ``--pof`` the camera is orthographic, as ``pv-hdrvol render
 --pof``'s. Rank 0 writes the image, with its render settings (``pv_hdrvol.load(OUT)
 .settings()``), and prints the per-rank threads and times.
+
+A multiblock file (``.vtm``) of image blocks (``.vti`` leaves) on one lattice that tile
+their union box is rendered with each rank reading only its own leaf files (contiguous
+runs in file order, balanced by points) and rendering each block as a piece of the union
+volume; rank 0 composites them (:mod:`pv_hdrvol.parallel.multiblock`). The image is
+``pv_hdrvol.render(pyvista.read(FILE.vtm))``'s to rounding (1e-6 relative asked, 5e-16
+measured in float64). Without ``--tf`` rank 0 gathers every block's values once to
+choose the default transfer function, as the serial render does. Other ``.vtm``
+contents (leaves that are not ``.vti``, other lattices, holes, overlaps, cell data,
+``--pof``) are refused: render them serially with ``pv-hdrvol render FILE.vtm``.
 
 User errors (files that are missing or unreadable, volumes that are not image data,
 POF files that do not fit, outputs that cannot be written) end with one
@@ -36,7 +47,13 @@ RENDER_DESCRIPTION = (
     "the data (without --tf or --pof), as pv-hdrvol render's; the image equals its render to 2e-6 of the brightest "
     "value (blocks composited one after another, early ray termination per block). Each rank runs "
     "max(1, cores // ranks on its node) numba threads unless NUMBA_NUM_THREADS is set. Rank 0 writes OUT with the "
-    "render settings (pv_hdrvol.load(OUT).settings(); .npy keeps none) and prints each rank's threads and times.")
+    "render settings (pv_hdrvol.load(OUT).settings(); .npy keeps none) and prints each rank's threads and times. "
+    "A multiblock file (.vtm) of .vti blocks on one lattice that tile their union box: each rank reads only its own "
+    "block files (contiguous runs, balanced by points; --curve does not apply) and renders each block as a piece of "
+    "the whole; the image equals pv-hdrvol render FILE.vtm's (serial pv_hdrvol.render) to 1e-6 of the brightest "
+    "value. Without --tf rank 0 gathers all blocks' values once to choose the default transfer function. Other .vtm "
+    "files (non-.vti leaves, several lattices, holes, overlaps, cell data) and --pof with a .vtm are refused: render "
+    "them with pv-hdrvol render FILE.vtm.")
 
 
 class UserError(Exception):
@@ -58,7 +75,8 @@ def build_parser():
     p.add_argument("-o", "--output", required=True, help="the .npz file to write")
     p.set_defaults(subparser=p)
     r = sub.add_parser("render", help="render on the ranks of mpiexec (or alone)", description=RENDER_DESCRIPTION)
-    r.add_argument("volume", help="image volume (.vti, or anything pyvista.read gives as ImageData)")
+    r.add_argument("volume", help="image volume (.vti, or anything pyvista.read gives as ImageData), or a .vtm of .vti "
+                                  "blocks on one lattice (each rank reads its own)")
     r.add_argument("--pof", help="a .pof.npz file: cull with it (orthographic camera); the transfer function is its "
                                  "bases' family")
     r.add_argument("--k", help="the family's weights, comma-separated (default all 1)")

@@ -538,7 +538,10 @@ if HDRVolumeRenderer is not None:
         # -- clipping: one plane and a crop box ------------------------------------
         # ParaView's own widgets: the implicit plane of Clip/Slice (InteractivePlane: Origin,
         # Normal, Input for the bounds) and the box of the volume representation's cropping
-        # (InteractiveBox: Position and Scale, the box's min corner and side lengths). A
+        # (InteractiveBox: Position and Scale; without Input in its group ParaView's box is
+        # the unit box moved by Position and scaled by Scale, i.e. the world box from Crop
+        # Origin to Crop Origin + Crop Length; with Input it would be relative to the
+        # input's bounds, as the volume representation's cropping). A
         # PropertyGroup must follow the properties it names, and the decorators order
         # properties by method name: each group is in the XML of its group's last method.
         @smproperty.xml("""
@@ -626,7 +629,6 @@ if HDRVolumeRenderer is not None:
           <PropertyGroup label="Crop Box" panel_widget="InteractiveBox">
             <Property function="Position" name="CropOrigin"/>
             <Property function="Scale" name="CropLength"/>
-            <Property function="Input" name="Input"/>
             <Hints>
               <PropertyWidgetDecorator type="GenericDecorator" mode="visibility" property="Crop" value="1"/>
             </Hints>

@@ -1,10 +1,10 @@
-"""Curvilinear (PLOT3D) grids: accuracy and time of the Kuhn split (6 tets per hexahedron).
+"""Curvilinear (PLOT3D) grids: accuracy and time of our split (VTK's alternating 5 tets per hexahedron).
 
 Measured on the original PLOT3D files in ../shared/data/unstructured/plot3d_original
 (Blunt Fin 40x32x32, "Density"; LOX post 38x76x38, "StagnationEnergy"), read with
 ``vtkMultiBlockPLOT3DReader`` (block 0: the vtkStructuredGrid), one transfer function
 (``ramp`` over the data range, viridis, opacity 0 -> 0.3), camera "iso", float64, and
-one opacity unit distance for every render of a grid (the native Kuhn mesh's default).
+one opacity unit distance for every render of a grid (the native mesh's default).
 
 1. **Accuracy against the trilinear field** (``--part accuracy``). A hexahedral walker
    with trilinear interpolation is the reference model. It is approximated by refining
@@ -15,14 +15,15 @@ one opacity unit distance for every render of a grid (the native Kuhn mesh's def
    peak, and the ratio to the previous r's error (about 4 for each halving of h when
    the O(h^2) term dominates: the error of r = 1 against the limit is then ~ 4/3 of its
    error against r = 2).
-2. **Time** (``--part time``). (a) our Kuhn split (``tetmesh_from_structured``) through
+2. **Time** (``--part time``). (a) our split (``tetmesh_from_structured``) through
    the tet ray caster: prepare seconds, median of 3 renders after a warm-up;
    (b) VTK's ``vtkDataSetTriangleFilter`` (5 tets per hexahedron) through the same
    caster (prepare = filter + ``tetmesh_from_dataset``); (c) VTK's
    ``vtkUnstructuredGridVolumeRayCastMapper`` on the filtered grid, offscreen (median of
    3 renders after a warm-up), or why it cannot run. Tet counts; the RMS/max difference
    of images (a) and (b) relative to the peak, and each one's error against the finest
-   trilinear reference of part 1.
+   trilinear reference of part 1. Whether the raw split (``structured_tets``, before
+   collapsed tets are dropped) is the filter's, tet for tet up to order ("same tets").
 
 Usage::
 
@@ -32,38 +33,48 @@ Usage::
 
 The load average (1 min) is printed beside every row: the machine is shared.
 
-Measured 2026-12-05 on this 2-core machine (shared; load average 1.75 at the start,
-2.66 at the end, 2 numba threads; VTK's mapper offscreen), 2 min 38 s wall:
+Measured 2026-12-06 with the 5-tet split on this 2-core machine (shared; load average 0.69
+at the start, 1.80 at the end, 2 numba threads; VTK's mapper offscreen), 2 min 13 s wall:
 
     python3 benchmarks/bench_curvilinear.py --refine-bluntfin 1 2 3 4 --refine-post 1 2 3
 
-Accuracy of the Kuhn split against the trilinear field (256², float64; error of the premultiplied RGBA against the finest r, relative to its peak):
+Accuracy of our 5-tet split against the trilinear field (256², float64; error of the premultiplied RGBA against the finest r, relative to its peak):
 
 | grid | r | grid points | tets | prepare s | render s | RMS / peak | max / peak | RMS ratio to previous r | load |
 |---|--:|---|--:|--:|--:|--:|--:|--:|--:|
-| Blunt Fin | 1 | 40x32x32 | 224,759 | 0.35 | 0.17 | 9.04e-04 | 1.63e-02 | - | 1.75 |
-| Blunt Fin | 2 | 79x63x63 | 1,798,534 | 3.87 | 0.32 | 1.65e-04 | 2.86e-03 | 5.47 | 1.77 |
-| Blunt Fin | 3 | 118x94x94 | 6,070,811 | 16.90 | 0.54 | 4.48e-05 | 7.78e-04 | 3.69 | 1.98 |
-| Blunt Fin | 4 (reference) | 157x125x125 | 14,390,108 | 43.85 | 0.92 | 0.00e+00 | 0.00e+00 | - | 2.22 |
-| LOX post | 1 | 38x76x38 | 616,050 | 0.88 | 0.20 | 9.87e-05 | 2.53e-03 | - | 2.2 |
-| LOX post | 2 | 75x151x75 | 4,928,400 | 9.14 | 0.44 | 1.57e-05 | 4.35e-04 | 6.27 | 2.17 |
-| LOX post | 3 (reference) | 112x226x112 | 16,633,350 | 52.62 | 0.74 | 0.00e+00 | 0.00e+00 | - | 2.63 |
+| Blunt Fin | 1 | 40x32x32 | 187,318 | 0.22 | 0.09 | 3.85e-04 | 7.66e-03 | - | 0.69 |
+| Blunt Fin | 2 | 79x63x63 | 1,498,854 | 4.11 | 0.17 | 7.02e-05 | 1.50e-03 | 5.48 | 0.72 |
+| Blunt Fin | 3 | 118x94x94 | 5,059,140 | 14.67 | 0.27 | 3.08e-05 | 9.37e-04 | 2.28 | 1.0 |
+| Blunt Fin | 4 (reference) | 157x125x125 | 11,992,060 | 32.83 | 0.39 | 0.00e+00 | 0.00e+00 | - | 1.04 |
+| LOX post | 1 | 38x76x38 | 513,375 | 0.63 | 0.09 | 1.69e-05 | 5.25e-04 | - | 1.04 |
+| LOX post | 2 | 75x151x75 | 4,107,000 | 8.06 | 0.17 | 3.05e-06 | 1.34e-04 | 5.56 | 1.03 |
+| LOX post | 3 (reference) | 112x226x112 | 13,861,125 | 41.83 | 0.85 | 0.00e+00 | 0.00e+00 | - | 1.3 |
 
-Time (256², float64, median of renders after a warm-up) and the two piecewise-linear models (a: Kuhn 6 tets/hex; b: vtkDataSetTriangleFilter 5 tets/hex):
+Time (256², float64, median of renders after a warm-up) and the two piecewise-linear models (a: ours, tetmesh_from_structured, 5 tets/hex less collapsed ones; b: vtkDataSetTriangleFilter 5 tets/hex):
 
-| grid | tets a | tets b | prepare a s | prepare b s | render a s | render b s | VTK UG ray cast (on b) s | a vs b RMS / peak | a vs b max / peak | a vs trilinear RMS | b vs trilinear RMS | a vs trilinear max | b vs trilinear max | load |
-|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|
-| Blunt Fin | 224,759 | 187,395 | 0.238 | 0.186 | 0.202 | 0.208 | 0.454 | 1.08e-03 | 1.92e-02 | 9.04e-04 | 3.97e-04 | 1.63e-02 | 8.56e-03 | 2.22-2.22 |
-| LOX post | 616,050 | 513,375 | 0.763 | 0.608 | 0.278 | 0.244 | 0.556 | 1.11e-04 | 2.74e-03 | 9.87e-05 | 2.06e-05 | 2.53e-03 | 5.93e-04 | 2.63-2.66 |
+| grid | tets a | tets b | prepare a s | prepare b s | render a s | render b s | VTK UG ray cast (on b) s | a vs b RMS / peak | a vs b max / peak | a vs trilinear RMS | b vs trilinear RMS | a vs trilinear max | b vs trilinear max | same tets | load |
+|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|--:|
+| Blunt Fin | 187,318 | 187,395 | 0.193 | 0.178 | 0.086 | 0.122 | 0.230 | 2.72e-17 | 1.21e-15 | 3.85e-04 | 3.85e-04 | 7.66e-03 | 7.66e-03 | yes (187,395) | 1.04-1.04 |
+| LOX post | 513,375 | 513,375 | 1.093 | 0.846 | 0.231 | 0.358 | 0.800 | 7.99e-17 | 5.12e-15 | 1.69e-05 | 1.69e-05 | 5.25e-04 | 5.25e-04 | yes (513,375) | 1.43-1.8 |
 
-Measured 2026-12-05: the native Kuhn split is 9.0e-4 (Blunt Fin) and 9.9e-5 (LOX post) RMS
-of the peak from the trilinear field (max 1.6e-2 and 2.5e-3), converging about as h^2
-(RMS ratios per step against a finite reference: Blunt Fin 5.5, 3.7; LOX post 6.3; with h^2 the
-error against the limit is ~1.07x (r = 4 ref.) and ~1.13x (r = 3 ref.) the numbers
-given). vtkDataSetTriangleFilter's 5-tet split is closer to the trilinear field on both
-grids (RMS 4.0e-4 and 2.1e-5: 2.3x and 4.8x lower) with 17% fewer tets and about the
-same render time; the two models differ by 1.1e-3 and 1.1e-4 RMS. VTK's
-UG ray cast mapper took 2.2x (Blunt Fin) and 2.0x (LOX post) our render time of (a).
+A second ``--part time --repeat 5`` right after (load 2.2-2.3) gave render a / b 0.088 /
+0.088 s (Blunt Fin) and 0.240 / 0.241 s (LOX post), VTK's mapper 0.246 and 0.839 s: the
+a/b render gap of the first run was the load, the tets being the same.
+
+The raw split (``structured_tets``) is the filter's tet for tet (up to order); ours then
+drops the 77 Blunt Fin tets with two equal corners (its collapsed grid line), which
+cover no volume, so the images of (a) and (b) agree to 1e-15 of the peak. At native
+resolution the split is 3.85e-4 (Blunt Fin) and 1.69e-5 (LOX post) RMS of the peak from
+the trilinear field (max 7.7e-3 and 5.3e-4), against 9.04e-4 and 9.87e-5 (max 1.6e-2 and
+2.5e-3) for the 6-tet Kuhn split it replaces (2026-12-05, same command): 2.3x and 5.8x
+lower. (Each run's reference is the finest r split its own way, so the two runs'
+references differ by their own O(h^2/r^2) error; against the Kuhn reference the 5-tet
+split was 3.97e-4 and 2.06e-5, 2.3x and 4.8x.) The LOX post and the Blunt Fin's first
+step converge as h^2 (RMS ratio 5.5-5.6 against a finite reference); the Blunt Fin's
+r = 3 step (ratio 2.3) is measured against r = 4 only. VTK's UG ray cast mapper took
+2.7-2.8x (Blunt Fin) and 3.5x (LOX post) our render time of (a) in the two runs. Render
+seconds of different runs are not comparable here: the Kuhn run's (b), the same tets as
+now, took 0.21 s on the Blunt Fin where this run's took 0.09-0.12 s.
 """
 from __future__ import annotations
 
@@ -131,7 +142,7 @@ def refine(points, values, dims, r, visible=None):
     return a[..., :3].reshape(-1, 3), a[..., 3].ravel(), fdims, fvis
 
 
-def kuhn_mesh(points, values, dims, visible, name):
+def split_mesh(points, values, dims, visible, name):
     """As ``tetmesh_from_structured`` does it, from arrays (point scalars)."""
     from pv_hdrvol.data.structured import collapsed_tets, structured_tets
     from pv_hdrvol.data.tets import tetmesh_from_arrays
@@ -187,7 +198,7 @@ def part_accuracy(label, grid, scalars, size, rs):
     for r in sorted(rs):
         t = time.perf_counter()
         fp, fv, fd, fvis = refine(pts, vals, dims, r, vis) if r > 1 else (pts, vals, dims, vis)
-        mesh = kuhn_mesh(fp, fv, fd, fvis, scalars)
+        mesh = split_mesh(fp, fv, fd, fvis, scalars)
         t_prep = time.perf_counter() - t
         img = render(mesh, tf, camera, size, unit)
         imgs[r] = rgba(img)
@@ -218,6 +229,25 @@ def triangle_filter(grid, scalars):
     return ug
 
 
+def same_tets(grid, ug):
+    """'yes' when structured_tets (before dropping collapsed tets) gives the filter's
+    tetrahedra up to their order and corner order, on the same points; else what differs."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    from pv_hdrvol.data.structured import grid_dims, grid_start, structured_tets, visible_cells
+
+    gp = vtk_to_numpy(grid.GetPoints().GetData())
+    up = vtk_to_numpy(ug.GetPoints().GetData())
+    if gp.shape != up.shape or not np.array_equal(gp.astype(np.float32), up.astype(np.float32)):
+        return "no (points differ)"
+    ours = structured_tets(gp, grid_dims(grid), visible_cells(grid), grid_start(grid))
+    theirs = vtk_to_numpy(ug.GetCells().GetConnectivityArray()).reshape(-1, 4)
+    a, b = np.sort(np.sort(ours, axis=1), axis=0), np.sort(np.sort(theirs, axis=1), axis=0)
+    if a.shape == b.shape and np.array_equal(np.unique(a, axis=0), np.unique(b, axis=0)):
+        return f"yes ({len(a):,})"
+    return f"no ({len(a):,} vs {len(b):,})"
+
+
 def part_time(label, grid, scalars, size, repeat, ref, use_vtk):
     import pv_hdrvol as hv
     from pv_hdrvol.data.structured import tetmesh_from_structured
@@ -232,6 +262,7 @@ def part_time(label, grid, scalars, size, repeat, ref, use_vtk):
     kb = hv.tetmesh_from_dataset(ug, scalars)
     out["b_prep"] = time.perf_counter() - t
     out["a_tets"], out["b_tets"] = ka.n_cells, kb.n_cells
+    out["same"] = same_tets(grid, ug)
     imgs = {}
     for key, m in (("a", ka), ("b", kb)):
         render(m, tf, camera, size, unit)  # warm-up
@@ -267,7 +298,7 @@ def part_time(label, grid, scalars, size, repeat, ref, use_vtk):
 def tables(acc, tim, size):
     lines = []
     if acc:
-        lines += [f"Accuracy of the Kuhn split against the trilinear field ({size}², float64; error of the "
+        lines += [f"Accuracy of our 5-tet split against the trilinear field ({size}², float64; error of the "
                   "premultiplied RGBA against the finest r, relative to its peak):", "",
                   "| grid | r | grid points | tets | prepare s | render s | RMS / peak | max / peak | "
                   "RMS ratio to previous r | load |", "|---|--:|---|--:|--:|--:|--:|--:|--:|--:|"]
@@ -280,18 +311,19 @@ def tables(acc, tim, size):
         lines.append("")
     if tim:
         lines += [f"Time ({size}², float64, median of renders after a warm-up) and the two piecewise-linear "
-                  "models (a: Kuhn 6 tets/hex; b: vtkDataSetTriangleFilter 5 tets/hex):", "",
+                  "models (a: ours, tetmesh_from_structured, 5 tets/hex less collapsed ones; b: vtkDataSetTriangleFilter "
+                  "5 tets/hex):", "",
                   "| grid | tets a | tets b | prepare a s | prepare b s | render a s | render b s | "
                   "VTK UG ray cast (on b) s | a vs b RMS / peak | a vs b max / peak | a vs trilinear RMS | "
-                  "b vs trilinear RMS | a vs trilinear max | b vs trilinear max | load |",
-                  "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|"]
+                  "b vs trilinear RMS | a vs trilinear max | b vs trilinear max | same tets | load |",
+                  "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|---|--:|"]
         for r in tim:
             vtk = f"{r['vtk']:.3f}" if r["vtk"] is not None else "n/a"
             ref = (f"{r['a_ref_rms']:.2e} | {r['b_ref_rms']:.2e} | {r['a_ref_max']:.2e} | {r['b_ref_max']:.2e}"
                    if "a_ref_rms" in r else "- | - | - | -")
             lines.append(f"| {r['grid']} | {r['a_tets']:,} | {r['b_tets']:,} | {r['a_prep']:.3f} | "
                          f"{r['b_prep']:.3f} | {r['a_render']:.3f} | {r['b_render']:.3f} | {vtk} | "
-                         f"{r['ab_rms']:.2e} | {r['ab_max']:.2e} | {ref} | {r['load0']}-{r['load1']} |")
+                         f"{r['ab_rms']:.2e} | {r['ab_max']:.2e} | {ref} | {r['same']} | {r['load0']}-{r['load1']} |")
         errs = [f"{r['grid']}: {r['vtk_error']}" for r in tim if r.get("vtk_error")]
         if errs:
             lines += ["", "VTK ray cast not run: " + "; ".join(errs)]

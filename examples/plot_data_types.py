@@ -96,7 +96,7 @@ def main():
     img = hv.render(fin, None, "iso", SIZE, scalars="Density", progress_bar=False)
     axes[1].imshow(img.tonemap("reinhard").rgb)
     axes[1].set_title("Blunt Fin, PLOT3D (curvilinear 40x32x32)\n"
-                      f"{img.metadata['blocks']['kind']}: 6 tets a hexahedron", fontsize=8)
+                      f"{img.metadata['blocks']['kind']}: 5 tets a hexahedron", fontsize=8)
     with tempfile.TemporaryDirectory() as folder:
         image, blocks = eight_blocks(folder)
         tf = hv.TransferFunction.ramp(0.0, 1.2, cmap="viridis", opacity=(0.0, 0.4))

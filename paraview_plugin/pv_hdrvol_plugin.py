@@ -186,6 +186,9 @@ if HDRVolumeRenderer is not None:
                                  "view_up": (0.0, 0.0, 1.0), "view_angle": 30.0,
                                  "parallel_projection": False, "parallel_scale": 1.0}
             self._tf_source = TRANSFER_FUNCTIONS[0]
+            # Clip / Crop as the panel holds them (the renderer gets them only while switched on)
+            self._clip = {"on": False, "origin": (0.0, 0.0, 0.0), "normal": (1.0, 0.0, 0.0)}
+            self._crop = {"on": False, "origin": (0.0, 0.0, 0.0), "length": (1.0, 1.0, 1.0)}
             self._cmap = self._scale = None  # the default transfer function's keywords
             self._lut = None
             self._opacity_function = None
@@ -531,6 +534,116 @@ if HDRVolumeRenderer is not None:
                 HDRVolumeRenderer.SetCamera(self, "iso")
             else:  # validated together when the filter executes
                 HDRVolumeRenderer.SetCamera(self, dict(self._view_camera))
+
+        # -- clipping: one plane and a crop box ------------------------------------
+        # ParaView's own widgets: the implicit plane of Clip/Slice (InteractivePlane: Origin,
+        # Normal, Input for the bounds) and the box of the volume representation's cropping
+        # (InteractiveBox: Position and Scale; without Input in its group ParaView's box is
+        # the unit box moved by Position and scaled by Scale, i.e. the world box from Crop
+        # Origin to Crop Origin + Crop Length; with Input it would be relative to the
+        # input's bounds, as the volume representation's cropping). A
+        # PropertyGroup must follow the properties it names, and the decorators order
+        # properties by method name: each group is in the XML of its group's last method.
+        @smproperty.xml("""
+          <IntVectorProperty name="Clip" command="SetClip" number_of_elements="1" default_values="0">
+            <BooleanDomain name="bool"/>
+            <Documentation>Cut the volume with the plane of Clip Origin and Clip Normal (the render view shows
+            it as ParaView's interactive plane: drag it, or its normal arrow): the side the normal points to is
+            kept, as in VTK's volume mappers (AddClippingPlane) and pv_hdrvol.RenderOptions(clip_planes=).
+            Moving the plane re-renders without preparing the volume again.</Documentation>
+          </IntVectorProperty>""")
+        def SetClip(self, value):
+            self._clip["on"] = bool(value)
+            _setting(self, "Clip", self._push_clip)
+
+        @smproperty.xml("""
+          <DoubleVectorProperty name="ClipNormal" label="Clip Normal" command="SetClipNormal" number_of_elements="3"
+                                default_values="1.0 0.0 0.0">
+            <DoubleRangeDomain name="range"/>
+            <Documentation>The clipping plane's normal (any length but 0): the side it points to is kept.
+            Default +x.</Documentation>
+          </DoubleVectorProperty>""")
+        def SetClipNormal(self, x, y, z):
+            self._clip["normal"] = (x, y, z)
+            _setting(self, "Clip", self._push_clip)
+
+        @smproperty.xml("""
+          <DoubleVectorProperty name="ClipOrigin" label="Clip Origin" command="SetClipOrigin" number_of_elements="3"
+                                default_values="0.0 0.0 0.0">
+            <BoundsDomain name="range" mode="normal" default_mode="mid">
+              <RequiredProperties><Property name="Input" function="Input"/></RequiredProperties>
+            </BoundsDomain>
+            <Documentation>A point of the clipping plane, in world coordinates. Default: the centre of the
+            input's bounds.</Documentation>
+          </DoubleVectorProperty>
+          <PropertyGroup label="Clip Plane" panel_widget="InteractivePlane">
+            <Property function="Origin" name="ClipOrigin"/>
+            <Property function="Normal" name="ClipNormal"/>
+            <Property function="Input" name="Input"/>
+            <Hints>
+              <PropertyWidgetDecorator type="GenericDecorator" mode="visibility" property="Clip" value="1"/>
+            </Hints>
+          </PropertyGroup>""")
+        def SetClipOrigin(self, x, y, z):
+            self._clip["origin"] = (x, y, z)
+            _setting(self, "Clip", self._push_clip)
+
+        def _push_clip(self):
+            clip = self._clip
+            # the plane's own checks (a zero normal is refused) only while Clip is on
+            HDRVolumeRenderer.SetClippingPlanes(self, [(clip["origin"], clip["normal"])] if clip["on"] else None)
+
+        @smproperty.xml("""
+          <IntVectorProperty name="Crop" command="SetCrop" number_of_elements="1" default_values="0">
+            <BooleanDomain name="bool"/>
+            <Documentation>Keep only the axis-aligned box from Crop Origin to Crop Origin + Crop Length (the
+            render view shows it as ParaView's interactive box: drag its faces), as
+            pv_hdrvol.RenderOptions(crop_box=(xmin, xmax, ymin, ymax, zmin, zmax)).</Documentation>
+          </IntVectorProperty>""")
+        def SetCrop(self, value):
+            self._crop["on"] = bool(value)
+            _setting(self, "Crop", self._push_crop)
+
+        @smproperty.xml("""
+          <DoubleVectorProperty name="CropLength" label="Crop Length" command="SetCropLength" number_of_elements="3"
+                                default_values="1.0 1.0 1.0">
+            <BoundsDomain name="range" mode="component_magnitude" default_mode="max">
+              <RequiredProperties><Property name="Input" function="Input"/></RequiredProperties>
+            </BoundsDomain>
+            <Documentation>The crop box's side lengths along x, y and z (each above 0). Default: the input's
+            size, so that switching Crop on keeps everything until the box is moved.</Documentation>
+          </DoubleVectorProperty>""")
+        def SetCropLength(self, x, y, z):
+            self._crop["length"] = (x, y, z)
+            _setting(self, "Crop", self._push_crop)
+
+        @smproperty.xml("""
+          <DoubleVectorProperty name="CropOrigin" label="Crop Origin" command="SetCropOrigin" number_of_elements="3"
+                                default_values="0.0 0.0 0.0">
+            <BoundsDomain name="range" mode="normal" default_mode="min">
+              <RequiredProperties><Property name="Input" function="Input"/></RequiredProperties>
+            </BoundsDomain>
+            <Documentation>The crop box's corner of least x, y and z, in world coordinates. Default: the input's
+            lower bounds.</Documentation>
+          </DoubleVectorProperty>
+          <PropertyGroup label="Crop Box" panel_widget="InteractiveBox">
+            <Property function="Position" name="CropOrigin"/>
+            <Property function="Scale" name="CropLength"/>
+            <Hints>
+              <PropertyWidgetDecorator type="GenericDecorator" mode="visibility" property="Crop" value="1"/>
+            </Hints>
+          </PropertyGroup>""")
+        def SetCropOrigin(self, x, y, z):
+            self._crop["origin"] = (x, y, z)
+            _setting(self, "Crop", self._push_crop)
+
+        def _push_crop(self):
+            crop = self._crop
+            box = None
+            if crop["on"]:
+                (x, y, z), (lx, ly, lz) = crop["origin"], crop["length"]
+                box = (x, x + lx, y, y + ly, z, z + lz)
+            HDRVolumeRenderer.SetCropBox(self, box)
 
         # -- display ----------------------------------------------------------------
         @smproperty.stringvector(name="DisplayToneMap", label="Display Tone Map", default_values="reinhard",

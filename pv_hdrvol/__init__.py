@@ -16,7 +16,7 @@ from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
 from .image.upsample import upsample
 from .parallel.render import render_parallel
-from .params import PRECISIONS, Light, RenderOptions
+from .params import PRECISIONS, ClipPlane, Light, RenderOptions
 from .proxy.generate import VolumeDistortionCamera, make_proxies
 from .proxy.proxies import ProxyFormatError, ProxySet, load_proxies
 from .rays.camera import Camera, Rays
@@ -163,7 +163,7 @@ def __getattr__(name):
 
 __all__ = [
     "datasets", "BlockGrid", "Camera", "Culling", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye",
-    "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
+    "ClipPlane", "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
     "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
     "TransferFunction", "TransferFunctionFamily", "TransferFunctionModel", "depth_layers", "load", "render", "render_blocks", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",

@@ -105,6 +105,117 @@ def _as_lights(value):
     return tuple(x if isinstance(x, Light) else Light(x) for x in items)
 
 
+@dataclass(frozen=True)
+class ClipPlane:
+    """A clipping plane for :class:`RenderOptions` ``clip_planes``.
+
+    VTK's convention for a mapper's clipping planes (``vtkVolumeMapper.AddClippingPlane``):
+    the points ``x`` with ``(x - origin) . normal >= 0`` are kept -- the side the normal
+    points to -- and the rest of the volume is cut away.
+
+    Parameters
+    ----------
+    origin : sequence of 3 floats
+        A point of the plane (world coordinates).
+    normal : sequence of 3 floats
+        Towards the kept side; any non-zero length (kept as given).
+
+    Examples
+    --------
+    >>> ClipPlane((0, 0, 1), (0, 0, 2)).normal
+    (0.0, 0.0, 2.0)
+    """
+
+    origin: object = (0.0, 0.0, 0.0)
+    normal: object = (0.0, 0.0, 1.0)
+
+    def __post_init__(self):
+        o = as_vector("clip plane origin", self.origin)
+        n = as_vector("clip plane normal", self.normal)
+        if not np.any(n):
+            raise ValueError(f"a clip plane's normal must not be the zero vector; got {self.normal!r}")
+        # kept as given: the cut depends on its direction only, and a saved plane reads back bit for bit
+        object.__setattr__(self, "origin", tuple(float(x) for x in o))
+        object.__setattr__(self, "normal", tuple(float(x) for x in n))
+
+
+#: at most this many clip planes (VTK's GPU mapper takes 6; the kept set stays convex)
+MAX_CLIP_PLANES = 32
+
+
+def _is_vector(value):
+    try:
+        return len(value) == 3 and all(isinstance(x, (int, float, np.integer, np.floating))
+                                       and not isinstance(x, bool) for x in value)
+    except TypeError:
+        return False
+
+
+def _one_plane(value):
+    """One :class:`ClipPlane` from a ClipPlane, ``(origin, normal)``, a dict of those, a
+    ``vtkPlane`` (``GetOrigin``/``GetNormal``), else ``None``."""
+    if isinstance(value, ClipPlane):
+        return value
+    if hasattr(value, "keys"):
+        unknown = sorted(set(value) - {"origin", "normal"})
+        if unknown:
+            raise ValueError(f"a clip plane dict has keys 'origin' and 'normal'; got {sorted(value)}")
+        return ClipPlane(**value)
+    if callable(getattr(value, "GetOrigin", None)) and callable(getattr(value, "GetNormal", None)):
+        return ClipPlane(value.GetOrigin(), value.GetNormal())
+    if not isinstance(value, (str, bytes)) and hasattr(value, "__len__") and len(value) == 2 \
+            and _is_vector(value[0]) and _is_vector(value[1]):
+        return ClipPlane(value[0], value[1])
+    return None
+
+
+def as_clip_planes(value):
+    """``clip_planes=`` as a tuple of :class:`ClipPlane`: ``None`` (none), one plane
+    (a ClipPlane, ``(origin, normal)``, a ``vtkPlane``), VTK's ``vtkPlanes`` or
+    ``vtkPlaneCollection``, or a sequence of planes."""
+    if value is None:
+        return ()
+    one = _one_plane(value)
+    if one is not None:
+        return (one,)
+    if callable(getattr(value, "GetNumberOfPlanes", None)):  # vtkPlanes
+        items = [value.GetPlane(i) for i in range(value.GetNumberOfPlanes())]
+    elif callable(getattr(value, "GetNumberOfItems", None)) and callable(getattr(value, "GetItem", None)):
+        items = [value.GetItem(i) for i in range(value.GetNumberOfItems())]  # vtkPlaneCollection
+    elif isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"clip_planes must be None, a plane (ClipPlane, (origin, normal) or a vtkPlane) or a "
+                        f"sequence of planes; got {value!r}")
+    else:
+        items = list(value)
+    if len(items) > MAX_CLIP_PLANES:
+        raise ValueError(f"at most {MAX_CLIP_PLANES} clip planes; got {len(items)}")
+    planes = []
+    for i, item in enumerate(items):
+        plane = _one_plane(item)
+        if plane is None:
+            raise TypeError(f"clip_planes[{i}] must be a ClipPlane, (origin, normal) or a vtkPlane; got {item!r}")
+        planes.append(plane)
+    return tuple(planes)
+
+
+def as_crop_box(value):
+    """``crop_box=`` as ``(xmin, xmax, ymin, ymax, zmin, zmax)`` floats (VTK's bounds
+    order, as ``SetCroppingRegionPlanes``), each ``min < max``; ``None``: no crop."""
+    if value is None:
+        return None
+    if callable(getattr(value, "GetBounds", None)):  # a vtkBox, or a dataset whose bounds crop
+        value = value.GetBounds()
+    try:
+        b = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"crop_box must be (xmin, xmax, ymin, ymax, zmin, zmax); got {value!r}") from None
+    if b.shape != (6,):
+        raise ValueError(f"crop_box must be 6 numbers (xmin, xmax, ymin, ymax, zmin, zmax); got {value!r}")
+    if np.isnan(b).any() or not np.all(b[1::2] > b[0::2]):
+        raise ValueError(f"crop_box needs min < max on every axis (infinite ends allowed); got {value!r}")
+    return tuple(float(x) for x in b)
+
+
 #: the options ``tolerance=`` chooses (they must stay at their defaults beside it)
 TOLERANCE_KNOBS = ("step", "termination", "precision")
 
@@ -199,6 +310,17 @@ class RenderOptions:
         (:mod:`pv_hdrvol.raycast.tolerance`). ``step``, ``termination`` and
         ``precision`` must then stay at their defaults. The choices and the estimated
         error are in ``metadata["tolerance"]``. ``None`` (default): the knobs as given.
+    clip_planes : plane or sequence of planes
+        Cut the volume (grid, mesh or blocks) with planes, VTK's convention: each plane
+        keeps the points ``x`` with ``(x - origin) . normal >= 0``. A plane is a
+        :class:`ClipPlane`, an ``(origin, normal)`` pair or a ``vtkPlane``; VTK's
+        ``vtkPlanes`` and ``vtkPlaneCollection`` give several. The kept set (with
+        ``crop_box``) is convex, so each ray keeps one interval ``[near, far]``,
+        computed exactly: sampling starts at ``near`` and its last segment ends at
+        ``far``, with the opacity of the segment's true length. Default: none.
+    crop_box : (xmin, xmax, ymin, ymax, zmin, zmax) or None
+        Keep only this world box (VTK's bounds order; a ``vtkBox`` or a dataset gives
+        its bounds). Default ``None``: no crop.
     """
 
     step: float = 0.5
@@ -220,6 +342,8 @@ class RenderOptions:
     shade_gradient: str = "sampled"
     shade_threshold: float = 0.01
     tolerance: Optional[float] = None
+    clip_planes: tuple = ()
+    crop_box: Optional[tuple] = None
 
     def __post_init__(self):
         object.__setattr__(self, "step", as_real("step", self.step, low=0, low_open=True))
@@ -280,6 +404,8 @@ class RenderOptions:
             if chosen:
                 raise ValueError(f"tolerance= chooses {', '.join(TOLERANCE_KNOBS)}: leave them at their defaults or "
                                  f"drop tolerance; got {', '.join(f'{k}={v!r}' for k, v in chosen.items())}")
+        object.__setattr__(self, "clip_planes", as_clip_planes(self.clip_planes))
+        object.__setattr__(self, "crop_box", as_crop_box(self.crop_box))
 
     @property
     def light_list(self):

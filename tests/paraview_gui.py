@@ -20,6 +20,10 @@ BACKGROUND = (82, 87, 110)
 APPLY_GREEN = ((100, 200), (180, 255), (100, 200))  # (low, high) of R, G, B
 
 
+#: The Properties panel's search box ("Search ... (use Esc to clear text)") in the default layout
+PROPERTIES_SEARCH = (133, 455)
+
+
 class GUIError(AssertionError):
     pass
 
@@ -114,6 +118,25 @@ class ParaViewGUI:
             return None
         rows, cols = np.nonzero(mask)
         return int(cols.mean()), int(rows.mean()) + 300
+
+    def checkbox(self, shot=None, top=470, bottom=700, right=60):
+        """Centre of the topmost unchecked check box in the Properties panel's left column
+        (an all-white square of at least 9x9 pixels, ParaView's default style), or None."""
+        shot = self.screenshot() if shot is None else shot
+        white = np.all(shot[top:bottom, :right] >= 250, axis=2)
+        for y in range(white.shape[0] - 9):
+            for x in range(white.shape[1] - 9):
+                if white[y:y + 9, x:x + 9].all():
+                    return x + 5, y + 5 + top
+        return None
+
+    def search_properties(self, text):
+        """Type ``text`` into the Properties panel's search box (below Apply in the
+        default layout): the panel shows only the properties whose label matches."""
+        self.click(*PROPERTIES_SEARCH)
+        self.xdotool("key", "ctrl+a")
+        self.xdotool("type", "--delay", 20, text)
+        time.sleep(1.5)
 
     def press_apply(self, timeout=60):
         x, y = self.wait_for("the Apply button to turn green", self.apply_button, timeout)

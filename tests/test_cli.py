@@ -69,6 +69,20 @@ def test_render_matches_library(volume_file, tmp_path, capsys):
     assert _png_size(out_png) == (20, 16)
 
 
+def test_render_clipped_matches_library(volume_file, tmp_path):
+    out = tmp_path / "c.exr"
+    assert main(["render", str(volume_file), "-o", str(out), "--size", "18", "14", "--no-progress",
+                 "--clip-plane", "0", "0", "0.1", "0.2", "0", "-1", "--clip-plane", "0", "0", "0", "1", "0", "0",
+                 "--crop-box", "-40", "40", "-40", "40", "-30", "40"]) == 0
+    grid = pv.read(volume_file)
+    clip = {"clip_planes": [((0, 0, 0.1), (0.2, 0, -1)), ((0, 0, 0), (1, 0, 0))], "crop_box": (-40, 40, -40, 40, -30, 40)}
+    ref = hv.render(grid, None, hv.Camera.fit(grid.bounds, "iso"), (18, 14), **clip)
+    image = hv.load(out)
+    np.testing.assert_array_equal(image.rgba, ref.rgba)
+    assert image.settings().options == hv.RenderOptions(**clip)
+    assert np.abs(image.rgba - hv.render(grid, None, hv.Camera.fit(grid.bounds, "iso"), (18, 14)).rgba).max() > 0.01
+
+
 def test_render_shaded_matches_library(volume_file, tmp_path):
     out_exr = tmp_path / "s.exr"
     args = ["render", str(volume_file), "-o", str(out_exr), "--size", "18", "--shade", "--specular", "0.6",
@@ -221,6 +235,11 @@ def test_info(volume_file, tmp_path, capsys):
      "pv-hdrvol demo: error: argument --tolerance: not allowed with argument --step"),
     (["render", "{vol}", "--tolerance", "0.7"], "pv-hdrvol render: error: tolerance must be <= 0.5; got 0.7"),
     (["render", "{vol}", "--tolerance", "0"], "pv-hdrvol render: error: tolerance must be > 0; got 0.0"),
+    (["render", "{vol}", "--clip-plane", "0", "0", "0", "0", "0", "0"],
+     "pv-hdrvol render: error: a clip plane's normal must not be the zero vector; got (0.0, 0.0, 0.0)"),
+    (["render", "{vol}", "--crop-box", "0", "1", "0", "1", "2", "1"],
+     "pv-hdrvol render: error: crop_box needs min < max on every axis (infinite ends allowed); got (0.0, 1.0, 0.0, "
+     "1.0, 2.0, 1.0)"),
 ])
 def test_user_errors_exit_2_without_traceback(args, message, volume_file, tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("not a volume")

@@ -1,5 +1,6 @@
-"""Curvilinear (structured) grids through the tet path: the Kuhn split of each hexahedron
-into 6 tetrahedra (``data/structured.py``), exactness for linear fields, conformity,
+"""Curvilinear (structured) grids through the tet path: the alternating split of each
+hexahedron into 5 tetrahedra (``data/structured.py``, VTK's vtkDataSetTriangleFilter
+split), exactness for linear fields, conformity,
 blanking, bad and degenerate grids, caching. Small grids and 32^2 images, all in
 float64 so that one compiled kernel serves every render."""
 import math
@@ -47,8 +48,8 @@ def linear_field(points):
 def test_linear_field_on_a_curved_grid_matches_the_closed_form():
     """Constant extinction, colour linear in the scalar, scalar linear in x: along a ray
     the colour is c_f a + (c_b - c_f) / L (1 - e^{-sL} (1 + sL)) / s, a = 1 - e^{-sL},
-    with L the ray's length in the box and c_f, c_b the field at its ends. Both the
-    Kuhn split and trilinear hexahedra reproduce a linear field exactly."""
+    with L the ray's length in the box and c_f, c_b the field at its ends. Every split
+    into tetrahedra and trilinear hexahedra reproduce a linear field exactly."""
     grid = warped_box()
     grid.point_data["f"] = linear_field(np.asarray(grid.points))
     sigma = 0.7
@@ -98,24 +99,78 @@ def _faces(tets):
     return np.unique(faces, axis=0, return_counts=True)
 
 
-@pytest.mark.parametrize("dims", [(2, 2, 2), (4, 3, 5)])
+def _on_boundary(faces, dims):
+    nx, ny, nz = dims
+    i, j, k = faces % nx, (faces // nx) % ny, faces // (nx * ny)
+    return ((i == 0).all(1) | (i == nx - 1).all(1) | (j == 0).all(1) | (j == ny - 1).all(1)
+            | (k == 0).all(1) | (k == nz - 1).all(1))
+
+
+@pytest.mark.parametrize("dims", [(2, 2, 2), (4, 4, 4), (4, 3, 5)])
 def test_the_split_is_conforming(dims):
-    """Every face lies on one or two tetrahedra; those on one are exactly the two
-    triangles of each boundary quad of the lattice."""
+    """Every interior face lies on exactly two tetrahedra and every boundary face on
+    one; the boundary faces are exactly the two triangles of each boundary quad of the
+    lattice (two cells of opposite parity cut their common face the same way)."""
     nx, ny, nz = dims
     tets = structured_tets(np.zeros((nx * ny * nz, 3)), dims)
-    assert tets.shape == (6 * (nx - 1) * (ny - 1) * (nz - 1), 4) and tets.dtype == np.int64
+    assert tets.shape == (5 * (nx - 1) * (ny - 1) * (nz - 1), 4) and tets.dtype == np.int64
     faces, counts = _faces(tets)
-    assert counts.max() == 2
+    boundary = _on_boundary(faces, dims)
+    np.testing.assert_array_equal(counts[boundary], 1)
+    np.testing.assert_array_equal(counts[~boundary], 2)
     quads = (nx - 1) * (ny - 1) + (ny - 1) * (nz - 1) + (nx - 1) * (nz - 1)
-    outer = faces[counts == 1]
-    assert len(outer) == 2 * 2 * quads
-    i, j, k = outer % nx, (outer // nx) % ny, outer // (nx * ny)
-    on_face = ((i == 0).all(1) | (i == nx - 1).all(1) | (j == 0).all(1) | (j == ny - 1).all(1)
-               | (k == 0).all(1) | (k == nz - 1).all(1))
-    assert on_face.all()
-    # no tetrahedron repeats a corner and every one lies in one cell
+    assert boundary.sum() == 2 * 2 * quads
+    # per cell: 4 corner tetrahedra (each one corner and its 3 edge neighbours) and
+    # the central one (4 pairwise diagonal corners), which alternates with i + j + k
     assert (np.sort(tets, axis=1)[:, 1:] != np.sort(tets, axis=1)[:, :-1]).all()
+    cells = tets.reshape(-1, 5, 4)
+    i, j, k = cells % nx, (cells // nx) % ny, cells // (nx * ny)
+    lo = [a.min(axis=(1, 2)) for a in (i, j, k)]
+    for a, m in zip((i, j, k), lo):
+        assert (a.max(axis=(1, 2)) - m == 1).all()  # every tetrahedron within its cell
+    bits = (i - lo[0][:, None, None]) + 2 * (j - lo[1][:, None, None]) + 4 * (k - lo[2][:, None, None])
+    central = np.sort(bits[:, 4], axis=1)
+    odd = (lo[0] + lo[1] + lo[2]) % 2 == 1
+    np.testing.assert_array_equal(central[~odd], np.broadcast_to([0, 3, 5, 6], central[~odd].shape))
+    np.testing.assert_array_equal(central[odd], np.broadcast_to([1, 2, 4, 7], central[odd].shape))
+
+
+def test_the_split_is_vtks():
+    """The same tetrahedra as vtkDataSetTriangleFilter on a structured grid (up to
+    their order and the order of their corners), blanked cells included."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter
+
+    grid = warped_box((5, 4, 6))
+    grid.BlankCell(7)
+    f = vtkDataSetTriangleFilter()
+    f.SetInputData(grid)
+    f.Update()
+    out = f.GetOutput()
+    assert out.GetNumberOfPoints() == grid.n_points  # the filter keeps the points in order
+    theirs = vtk_to_numpy(out.GetCells().GetConnectivityArray()).reshape(-1, 4)
+    ours = structured_tets(np.asarray(grid.points), grid.dimensions, visible_cells(grid))
+    assert len(ours) == 5 * (grid.n_cells - 1)
+    np.testing.assert_array_equal(np.unique(np.sort(ours, axis=1), axis=0),
+                                  np.unique(np.sort(theirs, axis=1), axis=0))
+
+
+def test_pieces_of_a_grid_split_as_the_grid():
+    """A piece whose extent starts at an odd index (i0 = 3) takes its parity from the
+    global i + j + k, so it cuts the face it shares with the rest as the whole grid
+    does (VTK's filter, counting from the piece's first cell, would flip it)."""
+    from pv_hdrvol.data.structured import grid_start
+
+    dims = (7, 6, 5)
+    whole = structured_tets(np.zeros((7 * 6 * 5, 3)), dims).reshape(4, 5, 6, 5, 4)  # (k, j, i, tet, corner)
+    sg = pv.ImageData(dimensions=dims).cast_to_structured_grid()
+    piece = sg.extract_subset((3, 6, 0, 5, 0, 4))
+    assert grid_start(piece) == (3, 0, 0) and tuple(piece.dimensions) == (4, 6, 5)
+    local = structured_tets(np.asarray(piece.points), piece.dimensions, start=grid_start(piece))
+    i, jk = local % 4, local // 4  # local point index -> global: i + 3 + 7 * (j + 6 k)
+    np.testing.assert_array_equal((i + 3 + 7 * jk).reshape(4, 5, 3, 5, 4), whole[:, :, 3:])
+    with pytest.raises(ValueError, match=r"start must be three integers \(i0, j0, k0\); got \(1, 2\)"):
+        structured_tets(np.zeros((8, 3)), (2, 2, 2), start=(1, 2))
 
 
 def test_tet_volumes_sum_to_the_hexahedra():
@@ -129,7 +184,7 @@ def test_tet_volumes_sum_to_the_hexahedra():
     r = np.linspace(1.0, 2.0, nx)
     dt, dz = 1.2 / (ny - 1), 1.0 / (nz - 1)
     hexes = 0.5 * math.sin(dt) * (r[1:] ** 2 - r[:-1] ** 2) * dz  # per i; same for every j, k
-    per_cell = vols.reshape(-1, 6).sum(axis=1).reshape(nz - 1, ny - 1, nx - 1)
+    per_cell = vols.reshape(-1, 5).sum(axis=1).reshape(nz - 1, ny - 1, nx - 1)
     np.testing.assert_allclose(per_cell, np.broadcast_to(hexes, per_cell.shape), rtol=1e-12)
     assert vols.min() > 0  # a right-handed lattice (r, theta, z) gives positive tetrahedra
 
@@ -140,7 +195,7 @@ def test_point_data_lands_on_the_right_corners():
     mesh = as_tetmesh(grid)
     corners = mesh.world_points()[mesh.tets]  # (n, 4, 3)
     np.testing.assert_allclose(mesh.values, linear_field(corners.reshape(-1, 3)).reshape(-1, 4), atol=1e-14)
-    assert mesh.association == "point" and mesh.name == "f" and mesh.n_cells == 6 * 3 * 2 * 2
+    assert mesh.association == "point" and mesh.name == "f" and mesh.n_cells == 5 * 3 * 2 * 2
 
 
 def test_cell_data_is_constant_on_each_hexahedron():
@@ -174,7 +229,7 @@ def test_blanked_cells_give_no_tetrahedra_and_rays_cross_the_gap():
     grid = _column(3)
     grid.BlankCell(1)
     mesh = as_tetmesh(grid)
-    assert mesh.n_cells == 12
+    assert mesh.n_cells == 10
     z = mesh.world_points()[mesh.tets].mean(axis=1)[:, 2]
     assert not np.any((z > 1) & (z < 2))
     sigma = 0.5
@@ -205,7 +260,7 @@ def test_a_nan_point_of_a_blanked_cell_is_allowed():
                                          r"the first is point 11 \(i, j, k\) = \(1, 1, 2\)"):
         tetmesh_from_structured(grid)
     grid.BlankCell(1)
-    assert tetmesh_from_structured(grid).n_cells == 6
+    assert tetmesh_from_structured(grid).n_cells == 5
 
 
 def test_bad_grids():
@@ -232,7 +287,7 @@ def test_bad_grids():
 def test_collapsed_and_inverted_cells_render():
     """A 270-degree polar grid whose first grid line (r = 0) collapses to the axis, as
     at the Blunt Fin's nose, with one interior point pushed through its neighbour
-    (inverted tetrahedra): the render is finite and stops no ray. The 3 of 6
+    (inverted tetrahedra): the render is finite and stops no ray. The 2 of 5
     tetrahedra of each axis cell that have two equal corners are dropped: kept, they
     leave a false boundary face inside the mesh ("the camera is inside the mesh")."""
     r, th, z = np.meshgrid(np.linspace(0.0, 1.0, 4), np.linspace(0.0, 1.5 * np.pi, 7), np.linspace(0.0, 1.0, 4),
@@ -245,10 +300,10 @@ def test_collapsed_and_inverted_cells_render():
     points = np.asarray(grid.points)
     tets = structured_tets(points, grid.dimensions)
     collapsed = collapsed_tets(points, tets)
-    assert collapsed.sum() == 3 * 6 * 3  # 3 per axis cell, 6 x 3 axis cells
+    assert collapsed.sum() == 2 * 6 * 3  # 2 per axis cell, 6 x 3 axis cells
     mesh = as_tetmesh(grid)
     vols = mesh.cell_volumes()
-    assert mesh.n_cells == len(tets) - 3 * 6 * 3 and np.count_nonzero(vols < 0) > 0
+    assert mesh.n_cells == len(tets) - 2 * 6 * 3 and np.count_nonzero(vols < 0) > 0
     assert (np.sort(mesh.tets, axis=1)[:, 1:] != np.sort(mesh.tets, axis=1)[:, :-1]).all()
     tf = hv.TransferFunction([0.0, 1.0], WHITE, [0.2, 0.6])
     for parallel in (True, False):
@@ -271,8 +326,8 @@ def test_a_flat_layer_of_distinct_points_is_crossed():
     grid.point_data["f"] = np.ones(grid.n_points)
     mesh = as_tetmesh(grid)
     vols = mesh.cell_volumes()
-    # the layer's 36 tetrahedra: 12 at its ends (i = 0, 3: points merged) dropped, 24 flat
-    assert mesh.n_cells == 6 * 3 * 2 * 3 - 12 and np.count_nonzero(np.abs(vols) < 1e-15) == 24
+    # the layer's 30 tetrahedra: 8 in its end cells (i = 0, 3: points merged) dropped, 22 flat
+    assert mesh.n_cells == 5 * 3 * 2 * 3 - 8 and np.count_nonzero(np.abs(vols) < 1e-15) == 22
     sigma = 0.5
     cam = oblique_camera((1.0, 0.75, 0.5), distance=6.0, parallel=True, scale=1.6)
     img = hv.render(grid, constant_tf(-math.expm1(-sigma)), cam, SIZE, precision="float64",
@@ -345,4 +400,4 @@ def test_the_prepared_mesh_is_cached_and_rebuilt_after_an_edit():
     third = as_tetmesh(grid)
     assert third is not second and third.bounds[0] == -0.5
     grid.BlankCell(1)
-    assert as_tetmesh(grid).n_cells == 6
+    assert as_tetmesh(grid).n_cells == 5

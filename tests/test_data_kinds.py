@@ -60,7 +60,7 @@ def test_files_of_each_kind_read_as_one_volume_or_mesh(tmp_path):
     image, curvi = _image(), _curvilinear()
     curvi.save(tmp_path / "c.vts")
     mesh = read_volume(tmp_path / "c.vts")
-    assert isinstance(mesh, hv.TetMesh) and mesh.n_cells == 6 * curvi.n_cells
+    assert isinstance(mesh, hv.TetMesh) and mesh.n_cells == 5 * curvi.n_cells
     _halves(image).save(tmp_path / "halves.vtm")
     gathered = read_volume(tmp_path / "halves.vtm")
     assert isinstance(gathered, hv.GridVolume) and gathered.dims == (9, 7, 6)

@@ -16,7 +16,7 @@ from vtkmodules.vtkCommonDataModel import (vtkCompositeDataSet, vtkMultiBlockDat
                                            vtkPartitionedDataSet, vtkPartitionedDataSetCollection)
 
 import pv_hdrvol as hv
-from pv_hdrvol.data.blocks import MIXED_MESSAGE, flatten, image_blocks, is_composite
+from pv_hdrvol.data.blocks import flatten, image_blocks, is_composite
 from pv_hdrvol.data.grid import content_digest
 from pv_hdrvol.parallel.pieces import split_boxes
 from pv_hdrvol.raycast.blocks import render_blocks, render_image_blocks
@@ -340,15 +340,40 @@ def test_curvilinear_blocks_render_as_the_single_grid():
     np.testing.assert_allclose(out.rgba, ref.rgba, rtol=0, atol=1e-12)
 
 
-def test_image_and_mesh_blocks_together_are_refused_with_what_to_do():
+def _mixed_scene():
+    """A linear field on [0, 6] x [0, 5] x [0, 4]: the slab 2 <= x <= 4 as an image block,
+    the rest as two tetrahedral blocks; and the whole as one tetrahedral mesh."""
+    img = pv.ImageData(dimensions=(13, 11, 9), spacing=(0.5, 0.5, 0.5))
+    img.point_data["f"] = 0.1 + 0.12 * img.points[:, 0] + 0.05 * img.points[:, 1] + 0.08 * img.points[:, 2]
+    ug = img.cast_to_unstructured_grid().triangulate()
+    x = ug.cell_centers().points[:, 0]
+    scene = pv.MultiBlock({"left": ug.extract_cells(np.flatnonzero(x < 2)), "grid": img.extract_subset((4, 8, 0, 10, 0, 8)),
+                           "right": ug.extract_cells(np.flatnonzero(x > 4))})
+    return scene, ug
+
+
+@pytest.mark.parametrize("camera", ["along x", "iso"])
+def test_image_and_mesh_blocks_render_as_one_scene(camera):
+    """Along x each ray crosses mesh, grid, mesh: the mesh is rendered once per gap
+    between the grids' boxes, cut there exactly; a linear field is exact under both
+    interpolations, so the scene equals the whole mesh to the grid's sampling error."""
+    scene, ug = _mixed_scene()
+    tf = hv.TransferFunction([0.0, 1.2], [[1.0, 0.3, 0.1], [0.1, 0.4, 1.0]], [0.0, 0.5])
+    cam = hv.Camera((-8, 2.5, 2.0), (6, 2.5, 2.0), (0, 0, 1)) if camera == "along x" else "iso"
+    out = hv.render(scene, tf, cam, SIZE, precision="float64", step=0.02, termination=0)
+    ref = hv.render(ug, tf, cam, SIZE, precision="float64", termination=0, opacity_unit_distance=0.5)
+    assert out.metadata["blocks"] == {"kind": "mixed", "rendered": ["left", "grid", "right"]}
+    assert out.metadata["mesh_passes"] == 2
+    assert ref.rgba[..., 3].max() > 0.9
+    assert np.abs(out.rgba - ref.rgba).max() < 3e-6  # measured 1.5e-7 along x, 1.2e-6 iso
+
+
+def test_a_mesh_inside_a_grid_blocks_box_is_refused_naming_it():
     img = _smooth_image()
-    data = pv.MultiBlock({"grid": img, "mesh": _tet_grid()})
-    message = MIXED_MESSAGE.format(images="'grid'", meshes="'mesh'")
-    assert message.startswith("the dataset mixes image blocks ('grid') with mesh blocks ('mesh'); rendering them")
-    assert "render the parts separately (hv.render(dataset[...]) for each part)" in message
-    with pytest.raises(ValueError) as info:
-        hv.render(data, size=SIZE, scalars="f")
-    assert str(info.value) == message
+    inner = _tet_grid()  # points 0..6 x 0..5 x 0..4, inside the image's box
+    inner.points[:] = inner.points * 0.5 + np.array(img.center) - 1.5
+    with pytest.raises(ValueError, match=r"tetrahedra of the mesh blocks lie inside the box of grid block 'grid'"):
+        hv.render(pv.MultiBlock({"grid": img, "mesh": inner}), size=SIZE, scalars="f")
 
 
 def test_options_of_image_volumes_only_are_refused():

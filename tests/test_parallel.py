@@ -463,3 +463,116 @@ def test_a_failing_rank_ends_the_job_instead_of_hanging_it():
                           timeout=300)
     assert done.returncode != 0
     assert "rank 1 fails on purpose" in done.stdout
+
+
+def _smooth_vtm(tmp_path, pv):
+    """A smooth float field cut into 8 extent pieces (2 x 2 x 2, sharing faces) saved as
+    a .vtm with one .vti per piece; and the whole lattice volume they gather into."""
+    from pv_hdrvol.data.blocks import prepare_blocks
+
+    z, y, x = np.mgrid[0:13, 0:11, 0:15]
+    values = np.exp(-((x - 7) ** 2 + (y - 5) ** 2 + (z - 6) ** 2) / 20.0) + 0.02 * np.sin(x + 2 * y)
+    grid = pv.ImageData(dimensions=(15, 11, 13), spacing=(1.0, 1.2, 0.9), origin=(1.0, -2.0, 0.5))
+    grid.point_data["density"] = values.reshape(-1)
+    pieces = [grid.extract_subset((x0, x1, y0, y1, z0, z1)) for z0, z1 in ((0, 6), (6, 12))
+              for y0, y1 in ((0, 5), (5, 10)) for x0, x1 in ((0, 8), (8, 14))]
+    path = tmp_path / "blob.vtm"
+    pv.MultiBlock(pieces).save(path)
+    return path, prepare_blocks(pv.read(path)).volume
+
+
+#: How far ``python -m pv_hdrvol.parallel render FILE.vtm --precision float64`` may
+#: differ from the serial ``pv_hdrvol.render(pyvista.read(FILE.vtm))``, relative to its
+#: brightest value: the blocks are composited one after another instead of sample by
+#: sample (measured 5.5e-16 in float64; an .exr holds float32: 3.6e-8).
+VTM_TOLERANCE = 1e-6
+
+
+def _vtm_reference(path, volume, pv, size=(24, 20)):
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    return hv.render(pv.read(path), None, camera, size, precision="float64", progress_bar=False)
+
+
+def test_command_line_renders_a_multiblock_file_as_the_serial_render(tmp_path, capsys):
+    """Issue 33 part 5: a .vtm of image blocks on one lattice renders as pieces of one
+    volume and equals the serial render (which gathers them), default transfer function
+    and all; the image says which blocks and files each rank read."""
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.parallel.__main__ import main
+
+    path, volume = _smooth_vtm(tmp_path, pv)
+    reference = _vtm_reference(path, volume, pv)
+    assert reference.metadata["blocks"]["kind"] == "grid"
+    scale = float(np.abs(reference.rgba).max())
+    assert scale > 0.05
+    assert main(["render", str(path), "--serial", "--size", "24", "20", "--precision", "float64", "-o",
+                 str(tmp_path / "vtm.npy")]) == 0
+    out = capsys.readouterr().out
+    assert "24x20, perspective 30 degrees from iso, 1 ranks, 8 blocks of" in out
+    assert "rank 0: " in out and "8 blocks read and rendered" in out
+    image = np.load(tmp_path / "vtm.npy")
+    assert image.dtype == np.float64
+    assert np.abs(image[..., :4] - reference.rgba).max() <= VTM_TOLERANCE * scale
+    assert main(["render", str(path), "--serial", "--size", "24", "20", "--precision", "float64", "-o",
+                 str(tmp_path / "vtm.exr")]) == 0
+    saved = hv.load(tmp_path / "vtm.exr")
+    (rank,) = saved.metadata["parallel"]["per_rank"]
+    assert [os.path.basename(f) for f in rank["files"]] == [f"blob_{i}.vti" for i in range(8)]
+    assert saved.settings().tf.to_dict() == reference.settings().tf.to_dict()
+
+
+@pytest.mark.parametrize("ranks, counts", [(2, [4, 4]), (3, [3, 2, 3])])
+def test_mpi_ranks_read_only_their_own_blocks_of_a_multiblock_file(tmp_path, ranks, counts):
+    """Issue 33 part 5: each rank reads its own contiguous run of the .vtm's leaf files
+    (8 equal blocks: 4 + 4, 3 + 2 + 3) and the composite is the serial render."""
+    pv = pytest.importorskip("pyvista")
+    mpiexec = _mpiexec()
+    path, volume = _smooth_vtm(tmp_path, pv)
+    out = tmp_path / "mpi.exr"
+    done = subprocess.run([mpiexec, "-n", str(ranks), sys.executable, "-m", "pv_hdrvol.parallel", "render", str(path),
+                           "--size", "24", "20", "--precision", "float64", "-o", str(out)],
+                          env=_mpi_env(NUMBA_NUM_THREADS="1"), cwd=REPO_ROOT, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout[-4000:]
+    assert f"{ranks} ranks, 8 blocks of" in done.stdout, done.stdout
+    image = hv.load(out)
+    per_rank = image.metadata["parallel"]["per_rank"]
+    assert [len(s["blocks"]) for s in per_rank] == counts
+    first = np.concatenate([[0], np.cumsum(counts)])
+    for r, s in enumerate(per_rank):
+        assert s["rank"] == r
+        assert [os.path.basename(f) for f in s["files"]] == [f"blob_{i}.vti" for i in range(first[r], first[r + 1])]
+    reference = _vtm_reference(path, volume, pv)
+    scale = float(np.abs(reference.rgba).max())
+    # an .exr holds float32: the float64 composite rounded once
+    assert np.abs(image.rgba.astype(np.float64) - reference.rgba).max() <= VTM_TOLERANCE * scale
+
+
+def test_command_line_refuses_multiblock_files_it_would_render_otherwise_than_serial(tmp_path, capsys):
+    """Blocks with a hole between them, a leaf that is not image data, and --pof: one
+    line each, naming what is not supported in parallel and what to do."""
+    pv = pytest.importorskip("pyvista")
+    from pv_hdrvol.parallel.__main__ import main
+
+    path, _ = _smooth_vtm(tmp_path, pv)
+    blocks = pv.read(path)
+    hole = tmp_path / "hole.vtm"
+    pv.MultiBlock([blocks[i] for i in range(7)]).save(hole)
+    rect = pv.RectilinearGrid(np.arange(5.0), np.arange(4.0), np.arange(3.0))
+    rect.point_data["density"] = np.arange(rect.n_points, dtype=float)
+    mixed = tmp_path / "mixed.vtm"
+    pv.MultiBlock([blocks[0], rect]).save(mixed)
+    prefix = "python -m pv_hdrvol.parallel render: error: "
+    output = str(tmp_path / "x.npy")
+
+    line = _error_line(capsys, lambda: main(["render", str(hole), "--serial", "-o", output]))
+    assert line == prefix + (f"the image blocks leave holes in their union box ((15, 11, 13) points): they hold 1500 "
+                             f"of its 1680 cells; python -m pv_hdrvol.parallel renders blocks that tile one box; "
+                             f"render it serially with: pv-hdrvol render {hole}")
+    line = _error_line(capsys, lambda: main(["render", str(mixed), "--serial", "-o", output]))
+    assert line == prefix + (f"block 'Block-01' (mixed_1.vtr) is a rectilinear grid: python -m pv_hdrvol.parallel "
+                             f"renders .vtm files of image blocks (.vti) only; render it serially with: pv-hdrvol "
+                             f"render {mixed}")
+    line = _error_line(capsys, lambda: main(["render", str(path), "--serial", "--pof", "x.pof.npz", "-o", output]))
+    assert line == prefix + (f"--pof culls the blocks of one image volume; {str(path)!r} is a multiblock file: leave "
+                             f"out --pof")

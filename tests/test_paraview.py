@@ -76,13 +76,14 @@ def test_plugin_checks_pass_in_pvbatch(shared_data):
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
-def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
+def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_factory, ranks):
     """``mpiexec -n 2|3 pvbatch --mpi --symmetric`` (tests/paraview/mpi_render.py): with
     the array's colour map each rank reads and renders its piece of the image, or the
     cells of its box of a tetrahedral mesh (read on rank 0, or spread by
     RedistributeDataSet), and rank 0 composites the whole image (hv.render's to 1e-5);
     without a colour map rank 0 renders the whole dataset alone (hv.render's bit for
-    bit); the others output empty images."""
+    bit); the others output empty images. A curvilinear grid is read by pieces and
+    rendered as tetrahedra where it lives (hv.render's to 1e-10)."""
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     # Debian's mpiexec (Open MPI, which ParaView is built with), not the MPICH one of the
@@ -90,8 +91,11 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
     mpiexec = "/usr/bin/mpiexec" if os.access("/usr/bin/mpiexec", os.X_OK) else _tool("mpiexec")
     env = _paraview_environment()
     # more ranks than cores (3 on a 2-core machine): Open MPI refuses them unless told
+    curvilinear = tmp_path_factory.mktemp("curvilinear") / "sector.vts"
+    _curvilinear_sector().save(curvilinear)
     env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
-               PV_HDRVOL_DATA=str(shared_data), PV_HDRVOL_MPI_OUT=str(tmp_path))
+               PV_HDRVOL_DATA=str(shared_data), PV_HDRVOL_MPI_OUT=str(tmp_path),
+               PV_HDRVOL_MPI_CURVI=str(curvilinear))
     command = [xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", mpiexec, "-n", str(ranks), pvbatch, "--mpi",
                "--symmetric",
                str(REPO_ROOT / "tests" / "paraview" / "mpi_render.py")]
@@ -108,13 +112,26 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, ranks):
     lines += [f"rank {r}: read its piece (" for r in range(1, ranks)]
     lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
               for how in ("the reader", "RedistributeDataSet")]
-    lines += [f"the whole image of {ranks} boxes, within", f"the whole curvilinear image of {ranks} boxes, within"]
-    lines += [f"rank {r}: curvilinear.vts: read " for r in range(ranks)]
+    lines += [f"the whole image of {ranks} boxes, within"]
+    lines += ["rank 0: curvilinear piece ("] + [f"rank {r}: curvilinear piece (" for r in range(1, ranks)]
     for line in lines:
         assert line in done.stdout, line
-    assert sorted(os.listdir(tmp_path)) == ["curvilinear.vts", "render.exr", "render.png"]
+    assert sorted(os.listdir(tmp_path)) == ["render.exr", "render.png"]
     for bad in ("Traceback", "outside the whole extent", "is not set (no colour map"):
         assert bad not in done.stdout, f"{bad!r} in the output:\n{done.stdout[-3000:]}"
+
+
+def _curvilinear_sector():
+    """A curvilinear grid (a curved, sheared annular sector, 21 x 17 x 13 points) with a
+    smooth field ``f``."""
+    import pyvista as pv
+
+    i, j, k = np.meshgrid(np.linspace(0, 1, 21), np.linspace(0, 1, 17), np.linspace(0, 1, 13), indexing="ij")
+    radius, angle = 1.0 + i, 1.4 * j
+    grid = pv.StructuredGrid(radius * np.cos(angle), radius * np.sin(angle), 0.8 * k + 0.1 * np.sin(3 * i))
+    p = grid.points
+    grid["f"] = np.exp(-((p[:, 0] - 0.8) ** 2 + (p[:, 1] - 0.9) ** 2 + (p[:, 2] - 0.4) ** 2) * 3.0)
+    return grid
 
 
 def test_an_mpiexec_of_another_mpi_is_named():
@@ -196,6 +213,7 @@ _EXPORT = ("import json; r = FindSource('HDRVolumeRender1'); v = GetActiveView()
            "settings=dict((k, r.GetPropertyValue(k)) for k in ('Precision', 'Step', 'GlobalAlpha', "
            "'OpacityUnitDistance', 'Blending', 'Shade', 'Lens', 'TransferFunction', 'DisplayToneMap', "
            "'POFFile')), scalars=list(r.Scalars), "
+           "clip=[r.Clip, list(r.ClipOrigin), list(r.ClipNormal)], "
            "connections=len(servermanager.Connections)), open('{dir}/state{n}.part', 'w'), default=lambda p: p.GetData()); "
            "import os; os.replace('{dir}/state{n}.part', '{dir}/state{n}.json')")  # whole when it appears
 
@@ -251,7 +269,7 @@ def _export(gui, folder, n):
     return _exported(folder, n)
 
 
-def _reference(shared_data, state):
+def _reference(shared_data, state, **clip):
     """The render the GUI should show, made here with the library: hv.render of the
     engine for the view's camera and size and the array's colour map and opacity
     function (their points, rebuilt in this process's VTK), tone mapped as the
@@ -284,7 +302,7 @@ def _reference(shared_data, state):
     camera = hv.Camera(position, focal_point, view_up, view_angle=angle, parallel_projection=bool(parallel),
                        parallel_scale=scale)
     return hv.render(reader.GetOutput(), transfer_function_from_vtk(ctf, pwf), camera, tuple(state["view_size"]),
-                     scalars="ImageFile", precision="float32", progress_bar=False)
+                     scalars="ImageFile", precision="float32", progress_bar=False, **clip)
 
 
 def _on_screen(gui, reference, rgba, name, control=None):
@@ -379,6 +397,55 @@ def test_gui_filters_menu_apply_rotate_and_exit(shared_data, tmp_path):
         _quit_cleanly(gui)
     finally:
         _keep_screenshots(gui, tmp_path, ("before_rotation.png", "after_rotation.png"))
+
+
+def test_gui_clip_checkbox_shows_the_plane_widget_and_cuts(shared_data, tmp_path):
+    """Clipping as a person does it in the GUI: after Filters > pv_hdrvol > HDR Volume
+    Render and Apply, type "Clip" in the Properties panel's search box, click the Clip
+    check box found in the screenshot (an unchecked box), see Apply turn green and
+    ParaView's implicit-plane widget appear in the view (the view's pixels change before
+    Apply), press Apply. The Python Shell's export then shows Clip on with the plane's
+    defaults (through the input's centre, normal +x) and the filter's output equals
+    hv.render with that plane (the +x half kept, VTK's side) and differs from the whole
+    render; ParaView logs no error or warning (the plugin's XML, the widget) and exits 0."""
+    engine = shared_data / "structured" / "engine_256x256x128_uint8.vti"
+    gui = _start_gui([str(engine)], tmp_path)
+    try:
+        gui.press_apply(timeout=120)  # the reader
+        time.sleep(2)
+        gui.menu(215, ["Up", "Right", "Up", "Return"])  # Filters > pv_hdrvol > HDR Volume Render
+        gui.press_apply()
+        time.sleep(3)
+        from paraview_gui import view_rectangle
+
+        gui.search_properties("Clip")
+        shot = gui.screenshot("clip_search.png")
+        box = gui.checkbox(shot)
+        assert box is not None, "no Clip check box in the Properties panel (clip_search.png)"
+        gui.click(*box)
+        gui.wait_for("Apply to turn green after Clip was checked", gui.apply_button, 20)
+        widget = gui.screenshot("clip_widget.png")
+        top, left, rows, cols = view_rectangle(shot)
+        changed = np.any(widget[top:top + rows, left:left + cols] != shot[top:top + rows, left:left + cols], axis=2)
+        assert changed.sum() > 500, f"the plane widget did not appear in the view ({changed.sum()} pixels changed)"
+        gui.press_apply()
+        time.sleep(3)
+        _open_python_shell(gui)
+        rgba, shown, state = _export(gui, tmp_path, 1)
+        assert state["connections"] == 1
+        assert state["clip"] == [1, [127.5, 127.5, 63.5], [1.0, 0.0, 0.0]], state["clip"]
+        plane = (tuple(state["clip"][1]), tuple(state["clip"][2]))
+        reference = _reference(shared_data, state, clip_planes=plane)
+        whole = _reference(shared_data, state)
+        print(f"clip: filter output against hv.render(clip_planes=) here: largest difference "
+              f"{np.abs(rgba.astype(np.float64) - reference.rgba).max():.3g}")
+        np.testing.assert_allclose(rgba, reference.rgba, rtol=0, atol=1e-6)  # as _on_screen's check
+        assert np.abs(whole.rgba - reference.rgba).max() > 0.05, "the plane cut nothing"
+        _quit_cleanly(gui)
+        log = gui.log()
+        assert "Warning" not in log and "warning" not in log, f"a warning in ParaView's output:\n{log[-3000:]}"
+    finally:
+        _keep_screenshots(gui, tmp_path, ())
 
 
 def test_gui_loads_a_state_saved_in_pvbatch(shared_data, tmp_path):

@@ -15,7 +15,7 @@ import pyvista as pv  # noqa: E402
 
 import pv_hdrvol as hv  # noqa: E402
 from pv_hdrvol.raycast.grid import GridPlan  # noqa: E402
-from pv_hdrvol.viewer.scene import HDRVolumeActor, add_hdr_volume  # noqa: E402
+from pv_hdrvol.viewer.scene import HDRVolumeActor, _widget_lists, add_hdr_volume  # noqa: E402
 
 SIZE = (96, 72)
 
@@ -341,4 +341,47 @@ def test_an_empty_volume_says_why_in_the_thread_that_shows_it(progressive):
     messages = [str(w.message) for w in said if issubclass(w.category, hv.EmptyRenderWarning)]
     assert len(messages) == 1 and "opacity" in messages[0], messages
     assert [str(w) for w in actor.warnings] == messages
+    pl.close()
+
+
+def test_a_clip_plane_widget_cuts_the_volume_as_it_is_dragged():
+    """The plane widget's interaction (as a mouse drag ends each step) sets the cut, and
+    the volume drawn is the clipped render bit for bit; the box widget crops; clearing
+    them gives the whole volume back."""
+    from vtkmodules.vtkCommonCore import vtkCommand
+
+    pl = _plotter()
+    actor = pl.hdrvol.add_volume(_volume(), _tf(), precision="float64", tonemap="linear", show_scalar_bar=False,
+                                 progressive=False)
+    _view(pl)
+    widget = actor.add_clip_plane_widget("z")
+    assert actor.renderer.options.clip_planes == (hv.ClipPlane((0.5, 0.5, 0.5), (0, 0, 1)),)  # the centre, +z kept
+    widget.SetOrigin(0.5, 0.5, 0.3)
+    widget.SetNormal(0.0, 0.6, -0.8)
+    widget.InvokeEvent(vtkCommand.InteractionEvent)
+    plane = actor.renderer.options.clip_planes[0]
+    np.testing.assert_allclose(plane.origin, (0.5, 0.5, 0.3), atol=1e-12)
+    np.testing.assert_allclose(plane.normal, (0.0, 0.6, -0.8), atol=1e-12)
+    widget.Off()  # its handles and outline are opaque scene geometry: they stop the rays they cover
+    pl.screenshot(return_img=True)
+    camera = hv.Camera.from_pyvista(pl.camera)
+    expected = hv.render(_volume(), _tf(), camera, SIZE, precision="float64", clip_planes=(plane.origin, plane.normal))
+    np.testing.assert_array_equal(actor.hdr.rgba, expected.rgba)
+    whole = hv.render(_volume(), _tf(), camera, SIZE, precision="float64")
+    assert np.abs(whole.rgba - expected.rgba).max() > 0.05
+    box = actor.add_crop_box_widget()
+    assert actor.renderer.options.crop_box == pytest.approx(_volume().bounds)
+    box.Off()
+    actor.set_clip(actor.renderer.options.clip_planes, (0.1, 0.9, 0.0, 1.0, 0.0, 1.0))
+    pl.screenshot(return_img=True)
+    cropped = hv.render(_volume(), _tf(), camera, SIZE, precision="float64", clip_planes=(plane.origin, plane.normal),
+                        crop_box=(0.1, 0.9, 0.0, 1.0, 0.0, 1.0))
+    np.testing.assert_array_equal(actor.hdr.rgba, cropped.rgba)
+    widgets = _widget_lists(pl)
+    assert box in widgets[1] and widget in widgets[0]
+    actor.clear_clip_widgets()
+    assert actor.renderer.options.clip_planes == () and actor.renderer.options.crop_box is None
+    assert box not in widgets[1] and widget not in widgets[0]
+    pl.screenshot(return_img=True)
+    np.testing.assert_array_equal(actor.hdr.rgba, whole.rgba)
     pl.close()

@@ -94,6 +94,50 @@ def test_matches_hv_render_exactly():
     np.testing.assert_array_equal(hv.HDRImage.from_pyvista(out).rgba, ref.rgba)
 
 
+def test_clipping_planes_as_a_vtk_mapper_takes_them_and_a_crop_box():
+    from vtkmodules.vtkCommonDataModel import vtkPlane
+
+    data = _image_data()
+    cam, vcam = _camera()
+    tf = demo_transfer_function(vmax=5e-3)
+    alg = _renderer(data)
+    alg.SetTransferFunction(tf)
+    alg.SetCamera(vcam)
+    alg.SetPrecision("float64")
+    plane = vtkPlane()
+    plane.SetOrigin(0.0, 0.0, 0.5)
+    plane.SetNormal(0.3, 0.0, -1.0)
+    alg.AddClippingPlane(plane)
+    alg.AddClippingPlane(((0.0, -2.0, 0.0), (0.0, 1.0, 0.0)))
+    alg.SetCropBox(-8.0, 9.0, -20.0, 20.0, -20.0, 20.0)
+    assert alg.Update() is True
+    rgba, depth = _rgba(alg.GetOutput())
+    clip = {"clip_planes": [((0.0, 0.0, 0.5), (0.3, 0.0, -1.0)), ((0.0, -2.0, 0.0), (0.0, 1.0, 0.0))],
+            "crop_box": (-8.0, 9.0, -20.0, 20.0, -20.0, 20.0)}
+    ref = hv.render(data, tf, cam, (W, H), precision="float64", **clip)
+    np.testing.assert_array_equal(rgba, ref.rgba)
+    np.testing.assert_array_equal(depth, ref.depth)
+    planes = alg.GetClippingPlanes()
+    assert planes.GetNumberOfItems() == 2 and planes.GetItem(1).GetOrigin() == (0.0, -2.0, 0.0)
+    assert alg.GetCropBox() == (-8.0, 9.0, -20.0, 20.0, -20.0, 20.0)
+    # moving the plane (a widget dragged): the plan's tables stay, the picture follows
+    kept = alg._plan[1]
+    alg.SetClippingPlanes([((0.0, 0.0, -0.5), (0.3, 0.0, -1.0))])
+    assert alg.Update() is True
+    assert alg._plan[1].table is kept.table
+    ref = hv.render(data, tf, cam, (W, H), precision="float64", clip_planes=((0.0, 0.0, -0.5), (0.3, 0.0, -1.0)),
+                    crop_box=clip["crop_box"])
+    np.testing.assert_array_equal(_rgba(alg.GetOutput())[0], ref.rgba)
+    alg.RemoveAllClippingPlanes()
+    alg.SetCropBox(None)
+    assert alg.Update() is True
+    whole = hv.render(data, tf, cam, (W, H), precision="float64")
+    np.testing.assert_array_equal(_rgba(alg.GetOutput())[0], whole.rgba)
+    assert np.abs(whole.rgba - ref.rgba).max() > 1e-3
+    with pytest.raises(ValueError, match="crop_box needs min < max on every axis"):
+        alg.SetCropBox(0, 1, 0, 1, 1, 0)
+
+
 def test_tetrahedral_mesh_input():
     """A vtkUnstructuredGrid of tets (a triangulated image) renders as hv.render renders it."""
     from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter

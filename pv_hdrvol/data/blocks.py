@@ -416,7 +416,7 @@ def _fill(blocks, offsets):
 
 def merge_meshes(leaves, scalars, use_cell):
     """One :class:`~pv_hdrvol.TetMesh` of the mesh leaves (unstructured grids, their
-    non-tetrahedral cells split with a warning; curvilinear grids split 6 tets a
+    non-tetrahedral cells split with a warning; curvilinear grids split 5 tets a
     hexahedron).
 
     Points, tetrahedra and scalars are concatenated; :func:`~pv_hdrvol.tetmesh_from_arrays`
@@ -460,15 +460,15 @@ def _mesh_arrays(ds, scalars, use_cell):
     from .tets import VTK_TETRA, _cell_types, _tetrahedralize, mesh_scalars
 
     if ds.GetClassName() == "vtkStructuredGrid":
-        from .structured import _check_dims, grid_dims, structured_tets, visible_cells
+        from .structured import TETS_PER_CELL, _check_dims, grid_dims, grid_start, structured_tets, visible_cells
 
         dims = _check_dims(grid_dims(ds))
         points = vtk_to_numpy(ds.GetPoints().GetData())
         visible = visible_cells(ds)
-        tets = structured_tets(points, dims, visible)
+        tets = structured_tets(points, dims, visible, grid_start(ds))
         arr = mesh_scalars(ds, scalars, use_cell)
         if use_cell:
-            arr = np.repeat(arr if visible is None else arr[visible], 6)
+            arr = np.repeat(arr if visible is None else arr[visible], TETS_PER_CELL)
         return points, tets, arr
     types = _cell_types(ds)
     ug = ds if np.all(types == VTK_TETRA) else _tetrahedralize(ds, types)
@@ -484,7 +484,8 @@ class BlockScene(NamedTuple):
 
     ``kind``: ``"grid"`` (``volume`` holds the gathered GridVolume), ``"grid blocks"``
     (``blocks`` holds one :class:`ImageBlock` per leaf: not on one lattice, or too
-    sparse; ``reason`` says which) or ``"mesh"`` (``mesh`` holds the merged TetMesh).
+    sparse; ``reason`` says which), ``"mesh"`` (``mesh`` holds the merged TetMesh) or
+    ``"mixed"`` (grid leaves in ``blocks``, mesh leaves merged in ``mesh``).
     ``paths``: the leaves rendered; ``missing``: those without the scalars;
     ``empty``: those without points or cells; ``surfaces``: those without volume.
     """
@@ -512,13 +513,6 @@ class BlockScene(NamedTuple):
         return out
 
 
-#: MIXED_MESSAGE.format(images=..., meshes=...): the refusal of image and mesh blocks in one scene
-MIXED_MESSAGE = ("the dataset mixes image blocks ({images}) with mesh blocks ({meshes}); rendering them as one "
-                 "scene needs each ray interleaved across the grid and the tetrahedral ray casters, which pv_hdrvol "
-                 "does not do yet: render the parts separately (hv.render(dataset[...]) for each part) or resample "
-                 "the meshes onto the image lattice")
-
-
 def prepare_blocks(data, scalars=None, preference="point"):
     """The :class:`BlockScene` of a composite dataset: its leaves flattened, the scalars
     chosen, image leaves gathered or listed, mesh leaves merged; cached per dataset
@@ -529,8 +523,7 @@ def prepare_blocks(data, scalars=None, preference="point"):
     Raises
     ------
     ValueError
-        Image and mesh leaves in one dataset (:data:`MIXED_MESSAGE`), no leaf to
-        render, rectilinear leaves; errors of one leaf name it.
+        No leaf to render; errors of one leaf name it.
     ScalarsError, TypeError
         As :func:`choose_block_scalars` and :func:`classify`.
     """
@@ -556,9 +549,6 @@ def prepare_blocks(data, scalars=None, preference="point"):
     kinds = classify(kept)
     surfaces = [leaf.path for leaf in leaves if leaf.class_name in SURFACE_CLASSES]
     grids = kinds["image"] + kinds["rectilinear"]
-    if grids and kinds["mesh"]:
-        raise ValueError(MIXED_MESSAGE.format(images=_paths([leaf.path for leaf in grids], 3),
-                                              meshes=_paths([leaf.path for leaf in kinds["mesh"]], 3)))
     association = "cell" if use_cell else "point"
     key = (name, association, tuple((leaf.path, _address(leaf.dataset), int(leaf.dataset.GetMTime())) for leaf in kept),
            content_digest(*_content(kept, name, use_cell)))
@@ -567,7 +557,13 @@ def prepare_blocks(data, scalars=None, preference="point"):
     cached = _SCENE_CACHE.lookup(data, key)
     if cached is not None:
         return cached._replace(**common)
-    if kinds["mesh"]:
+    if kinds["mesh"] and grids:
+        # grids and meshes: rendered as one scene, the mesh cut between the grids' boxes
+        # along each ray (raycast.blocks.render_mixed_blocks); the grids' own boxes, as
+        # their gathered box may hold the mesh
+        scene = BlockScene("mixed", volume=None, blocks=image_blocks(grids, name, use_cell),
+                           mesh=merge_meshes(kinds["mesh"], name, use_cell), reason="", **common)
+    elif kinds["mesh"]:
         scene = BlockScene("mesh", volume=None, blocks=[], mesh=merge_meshes(kept, name, use_cell), reason="",
                            **common)
     else:

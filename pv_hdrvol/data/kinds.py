@@ -5,7 +5,7 @@
   (non-uniform axes), a :class:`~pv_hdrvol.GridVolume` or a 3-D numpy array;
 - ``"mesh"``: the tetrahedral ray caster (``raycast/tets.py``):
   ``pyvista.UnstructuredGrid`` / ``vtkUnstructuredGrid``, curvilinear
-  ``pyvista.StructuredGrid`` / ``vtkStructuredGrid`` (each hexahedron split into six
+  ``pyvista.StructuredGrid`` / ``vtkStructuredGrid`` (each hexahedron split into five
   tetrahedra), a :class:`~pv_hdrvol.TetMesh`;
 - ``"blocks"``: several datasets rendered as one scene (``raycast/blocks.py``):
   ``pyvista.MultiBlock`` / ``vtkMultiBlockDataSet``, ``vtkPartitionedDataSet`` and
@@ -72,8 +72,8 @@ def as_renderable(data, scalars=None, preference="point"):
         ``data`` is not a volume (:func:`data_kind`).
     ValueError
         Image blocks that cannot be gathered onto one volume (different lattices, or
-        far more space between them than points in them): only
-        :func:`pv_hdrvol.render` renders those, block by block; and what
+        far more space between them than points in them), and grid and mesh blocks
+        together: only :func:`pv_hdrvol.render` renders those, part by part; and what
         :func:`~pv_hdrvol.data.blocks.prepare_blocks` refuses.
     """
     kind = data_kind(data)
@@ -92,6 +92,10 @@ def as_renderable(data, scalars=None, preference="point"):
         return scene.mesh
     if scene.kind == "grid":
         return scene.volume
+    if scene.kind == "mixed":
+        raise ValueError("this dataset mixes grid and mesh blocks, which pv_hdrvol.render(dataset) renders as one "
+                         "scene part by part; the viewer, the command line, render plans and the VTK algorithm take "
+                         "one volume or one mesh (render dataset[...] parts, or resample onto one ImageData)")
     raise ValueError(f"the image blocks of this dataset are rendered one by one ({scene.reason}): "
                      f"pv_hdrvol.render(dataset) renders them; the viewer, the command line, render plans and "
                      f"the VTK algorithm take blocks that gather onto one lattice (resample them onto one "

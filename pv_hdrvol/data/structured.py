@@ -3,20 +3,25 @@
 A ``vtkStructuredGrid`` (``pyvista.StructuredGrid``; a PLOT3D grid) holds hexahedra on a
 logical i-j-k lattice: point ``(i, j, k)`` is number ``i + nx * (j + ny * k)`` (VTK
 order, i fastest) and cell ``(i, j, k)`` has the corners ``(i..i+1, j..j+1, k..k+1)``.
-Each hexahedron is split into the six tetrahedra around its diagonal from corner
-``(i, j, k)`` to ``(i+1, j+1, k+1)`` (the Kuhn or Freudenthal split): tetrahedron ``p``
-follows the path ``(i, j, k) -> + e_a -> + e_b -> + e_c`` for the permutation
-``(a, b, c) = p`` of the three axes. Every face of the lattice is then cut along the
-diagonal that joins its lowest-index corner to its highest, in both cells that share
-it, so the split is conforming (no cracks, no T-junctions) without looking at the
-coordinates, and the scalar is continuous across the cells.
+Each hexahedron is split into five tetrahedra, as VTK's ``vtkDataSetTriangleFilter``
+splits a structured grid: a central tetrahedron on four pairwise non-adjacent corners
+and the four corner tetrahedra cut off around it (each the remaining corner with its
+three neighbours). The central tetrahedron takes the corners ``{0, 3, 5, 6}`` (corner
+bits 1: +i, 2: +j, 4: +k) in the cells with ``i + j + k`` even and ``{1, 2, 4, 7}`` in
+the odd ones, so each face of the cell is cut along the diagonal between the two
+central corners on it, and the neighbour across it, of the other parity, cuts it along
+the same diagonal: the split is conforming (no cracks, no T-junctions) without looking
+at the coordinates, and the scalar is continuous across the cells.
 
 The field inside a cell is then piecewise linear (linear in each tetrahedron), where
 VTK's hexahedron is trilinear: the two agree at the corners and for every field that
 is linear in the coordinates of a grid whose cells are parallelepipeds; on curved cells
-they differ by O(h^2) (``benchmarks/bench_curvilinear.py``, docs/data_types.md: on the
-Blunt Fin and LOX post at native resolution, 9.0e-4 and 9.9e-5 RMS of the image's peak;
-VTK's alternating 5-tetrahedron split is 2.3x and 4.8x closer there).
+they differ by O(h^2). The five-tetrahedron split is the closer of the two conforming
+lattice splits measured (``benchmarks/bench_curvilinear.py``, docs/data_types.md): on
+the Blunt Fin and LOX post at native resolution it is 3.9e-4 and 1.7e-5 RMS of the
+image's peak from the trilinear field, 2.3x and 5.8x closer than the six-tetrahedron
+Kuhn split around the diagonal ``(i, j, k) -> (i+1, j+1, k+1)`` used before (9.0e-4 and
+9.9e-5), with 5/6 of the tetrahedra at the same render time.
 """
 from __future__ import annotations
 
@@ -25,18 +30,18 @@ import numpy as np
 from .._validate import as_choice
 from .grid import ScalarsError, _arrays, choose_scalars
 
-#: the six tetrahedra of the unit cube, as corner bits (1: +i, 2: +j, 4: +k) along the
-#: paths 0 -> e_a -> e_a + e_b -> 7 over the permutations (a, b, c) of the axes;
-#: _oriented swaps the middle corners of the odd permutations' paths, so that every
-#: tetrahedron of a right-handed cell has a positive volume
-_KUHN_BITS = np.array([
-    [0, 1, 3, 7],  # i, j, k
-    [0, 1, 5, 7],  # i, k, j
-    [0, 2, 3, 7],  # j, i, k
-    [0, 2, 6, 7],  # j, k, i
-    [0, 4, 5, 7],  # k, i, j
-    [0, 4, 6, 7],  # k, j, i
+#: the five tetrahedra of the unit cube for the two cell parities (``(i + j + k) % 2``),
+#: as corner bits (1: +i, 2: +j, 4: +k): four corner tetrahedra (a corner and its three
+#: neighbours along the cell's edges), then the central one on the other four corners;
+#: the split of an even cell mirrored in i is that of an odd one. _oriented swaps the
+#: middle corners where needed, so that every tetrahedron of a right-handed cell has a
+#: positive volume
+_FIVE_BITS = np.array([
+    [[1, 0, 3, 5], [2, 0, 3, 6], [4, 0, 5, 6], [7, 3, 5, 6], [0, 3, 5, 6]],  # even: central {0, 3, 5, 6}
+    [[0, 1, 2, 4], [3, 1, 2, 7], [5, 1, 4, 7], [6, 2, 4, 7], [1, 2, 4, 7]],  # odd: central {1, 2, 4, 7}
 ], dtype=np.int64)
+#: tetrahedra per hexahedron
+TETS_PER_CELL = 5
 
 
 def _oriented(bits):
@@ -49,7 +54,7 @@ def _oriented(bits):
     return out
 
 
-_KUHN_BITS = _oriented(_KUHN_BITS)
+_FIVE_BITS = np.stack([_oriented(b) for b in _FIVE_BITS])
 #: vtkDataSetAttributes ghost bits that hide a cell of a structured grid, as
 #: vtkStructuredGrid::IsCellVisible reads them: HIDDENCELL | REFINEDCELL in the cell
 #: ghosts, HIDDENPOINT in the ghosts of any of its points
@@ -57,8 +62,16 @@ _HIDDEN_CELL_BITS = 32 | 8
 _HIDDEN_POINT_BITS = 2
 
 
-def structured_tets(points, dims, visible=None):
-    """The Kuhn split of a structured grid's hexahedra into tetrahedra (6 per cell).
+def structured_tets(points, dims, visible=None, start=(0, 0, 0)):
+    """The alternating five-tetrahedron split of a structured grid's hexahedra (as VTK's
+    ``vtkDataSetTriangleFilter`` splits them).
+
+    Each cell gives four corner tetrahedra and a central one; the central tetrahedron's
+    corners alternate with the parity of ``i + j + k`` (module docstring), so that two
+    cells sharing a face cut it along the same diagonal. Chosen over the six-tetrahedron
+    Kuhn split for its accuracy: 2.3x (Blunt Fin) and 5.8x (LOX post) closer to the
+    trilinear field of the hexahedra at native resolution, with 5/6 of the tetrahedra
+    (``benchmarks/bench_curvilinear.py``, docs/data_types.md).
 
     Parameters
     ----------
@@ -69,16 +82,23 @@ def structured_tets(points, dims, visible=None):
         Points along i, j, k.
     visible : bool array ((nx-1) * (ny-1) * (nz-1),), optional
         Cells to split (VTK cell order, i fastest); default all. Hidden cells give no
-        tetrahedra.
+        tetrahedra (and do not change the parity of the others).
+    start : (i0, j0, k0) ints, optional
+        The lattice index of point 0 (the start of the grid's extent,
+        :func:`grid_start`). The parity is that of the global ``i0 + i + j0 + j + k0 +
+        k``, so the pieces of one grid (a partitioned grid, ``extract_subset``) cut the
+        faces they share the same way. VTK's filter counts from each piece's first
+        cell instead: the two agree where ``i0 + j0 + k0`` is even.
 
     Returns
     -------
-    tets : int64 array (6 * n_visible, 4)
-        Point indices; rows ``6 c .. 6 c + 5`` are the tetrahedra of the ``c``-th
-        visible cell, in cell order (``np.repeat(cell_values[visible], 6)`` gives their
-        cell data). The split is conforming: two cells sharing a face cut it along the
-        same diagonal. In a right-handed cell (``(P_i x P_j) . P_k > 0`` for the edge
-        vectors from corner ``(i, j, k)``), each tetrahedron has a positive volume.
+    tets : int64 array (5 * n_visible, 4)
+        Point indices; rows ``5 c .. 5 c + 4`` are the tetrahedra of the ``c``-th
+        visible cell, in cell order (``np.repeat(cell_values[visible], 5)`` gives their
+        cell data; :data:`TETS_PER_CELL` is 5). The split is conforming: two cells
+        sharing a face cut it along the same diagonal. In a right-handed cell
+        (``(P_i x P_j) . P_k > 0`` for the edge vectors from corner ``(i, j, k)``), each
+        tetrahedron has a positive volume.
 
     Raises
     ------
@@ -89,25 +109,37 @@ def structured_tets(points, dims, visible=None):
     Examples
     --------
     >>> structured_tets(np.zeros((8, 3)), (2, 2, 2)).shape
-    (6, 4)
+    (5, 4)
     """
     dims = _check_dims(dims)
     nx, ny, nz = dims
     points = np.asarray(points)
     if points.shape != (nx * ny * nz, 3):
         raise ValueError(f"points must have shape ({nx * ny * nz}, 3) for dims {dims}; got {points.shape}")
-    ci, cj, ck = np.meshgrid(np.arange(nx - 1, dtype=np.int64), np.arange(ny - 1, dtype=np.int64),
-                             np.arange(nz - 1, dtype=np.int64), indexing="ij")
-    # cell order: i fastest -> ravel the (k, j, i) transpose
-    base = (ci + nx * (cj + ny * ck)).transpose(2, 1, 0).ravel()
+    i = np.arange(nx - 1, dtype=np.int64)
+    j = np.arange(ny - 1, dtype=np.int64)[:, None]
+    k = np.arange(nz - 1, dtype=np.int64)[:, None, None]
+    # cell order, i fastest: (k, j, i) arrays raveled
+    base = (i + nx * (j + ny * k)).ravel()
+    try:
+        shift = sum(int(v) for v in start) if len(start) == 3 else None
+    except (TypeError, ValueError):
+        shift = None
+    if shift is None:
+        raise ValueError(f"start must be three integers (i0, j0, k0); got {start!r}")
+    odd = ((i + j + k + shift) & 1).astype(bool).ravel()
     if visible is not None:
         visible = np.asarray(visible, dtype=bool).ravel()
         if visible.shape != base.shape:
             raise ValueError(f"visible must have one entry per cell ({base.size}); got {visible.size}")
-        base = base[visible]
-    bits = _KUHN_BITS
-    offset = (bits & 1) + nx * (((bits >> 1) & 1) + ny * ((bits >> 2) & 1))  # (6, 4)
-    return (base[:, None, None] + offset[None]).reshape(-1, 4)
+        base, odd = base[visible], odd[visible]
+    bits = _FIVE_BITS
+    offset = (bits & 1) + nx * (((bits >> 1) & 1) + ny * ((bits >> 2) & 1))  # (2, 5, 4)
+    out = np.empty((base.size, TETS_PER_CELL, 4), dtype=np.int64)
+    base = base[:, None, None]
+    np.add(base, offset[0], out=out, where=~odd[:, None, None])
+    np.add(base, offset[1], out=out, where=odd[:, None, None])
+    return out.reshape(-1, 4)
 
 
 def collapsed_tets(points, tets):
@@ -119,7 +151,7 @@ def collapsed_tets(points, tets):
     adjacency links the wrong two, leaving a false boundary face inside the mesh
     (a 270-degree shell sector with a collapsed axis then fails with "the camera is
     inside the mesh", split by VTK's vtkDataSetTriangleFilter as by
-    :func:`structured_tets`). :func:`tetmesh_from_structured` drops them; the Kuhn split
+    :func:`structured_tets`). :func:`tetmesh_from_structured` drops them; the split
     stays conforming without them (each collapsed quad face keeps its one real
     triangle in both cells).
     """
@@ -158,6 +190,13 @@ def grid_dims(dataset):
     return tuple(int(e[2 * a + 1]) - int(e[2 * a]) + 1 for a in range(3))
 
 
+def grid_start(dataset):
+    """``(i0, j0, k0)``: the lattice index of a vtkStructuredGrid's first point (its
+    extent's start; not 0 for a piece of a larger grid)."""
+    e = dataset.GetExtent()
+    return tuple(int(e[2 * a]) for a in range(3))
+
+
 def visible_cells(dataset):
     """Bool array, one per cell (VTK order): the cells ``IsCellVisible`` reports visible
     (no HIDDENCELL or REFINEDCELL ghost bit, no corner point with HIDDENPOINT), or
@@ -191,14 +230,14 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
     Parameters
     ----------
     dataset : pyvista.StructuredGrid or vtkStructuredGrid
-        Hexahedra on an i-j-k lattice, each split into 6 tetrahedra
+        Hexahedra on an i-j-k lattice, each split into 5 tetrahedra
         (:func:`structured_tets`). Blanked cells (``vtkStructuredGrid::BlankCell``,
         ``BlankPoint``: the ghost array's hidden bits) give no tetrahedra.
     scalars : str, optional
         Array to render; default the active scalars, else the only array.
     preference : {"point", "cell"}
         Association to use when the name exists as point and as cell data. Cell data
-        is constant on each cell's six tetrahedra.
+        is constant on each cell's five tetrahedra.
 
     Returns
     -------
@@ -248,9 +287,9 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
     if visible is not None and not visible.any():
         raise ValueError(f"every cell of the structured grid is hidden (blanked); nothing to render "
                          f"(dimensions {dims})")
-    tets = structured_tets(points, dims, visible)
+    tets = structured_tets(points, dims, visible, grid_start(dataset))
     if use_cell:
-        values = np.repeat(values if visible is None else values[visible], 6)
+        values = np.repeat(values if visible is None else values[visible], TETS_PER_CELL)
     # only the points of visible cells must be finite: blanked regions may hold garbage
     used = np.zeros(len(points), dtype=bool)
     used[tets.ravel()] = True

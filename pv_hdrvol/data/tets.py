@@ -106,7 +106,7 @@ def as_tetmesh(data, scalars=None, preference="point"):
     """A :class:`TetMesh` from a TetMesh, an unstructured grid or a structured
     (curvilinear) grid, cached per grid.
 
-    A structured grid's hexahedra are split into six tetrahedra each
+    A structured grid's hexahedra are split into five tetrahedra each
     (:func:`~pv_hdrvol.data.structured.tetmesh_from_structured`).
     The cache key holds the grid's modification time, the array and its association,
     and a SHA-1 of the point coordinates, the scalars and (structured grids) the
@@ -176,7 +176,7 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
         Linear tetrahedra are used as they are. Other 3-D cells (hexahedra, wedges,
         pyramids, quadratic cells...) are split into tetrahedra with
         ``vtkDataSetTriangleFilter``, with a warning; 0-D to 2-D cells are dropped.
-        A structured (curvilinear) grid's hexahedra are split into six tetrahedra
+        A structured (curvilinear) grid's hexahedra are split into five tetrahedra
         each, without a warning
         (:func:`~pv_hdrvol.data.structured.tetmesh_from_structured`).
     scalars : str, optional

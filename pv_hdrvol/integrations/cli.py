@@ -71,6 +71,13 @@ def _add_render_options(p):
     g.add_argument("--specular-power", type=float, default=None, help="specular exponent (default 10)")
     g.add_argument("--light", type=float, nargs=3, action="append", default=None, metavar=("X", "Y", "Z"),
                    help="a white light from this world direction (repeatable; default: a headlight)")
+    g = p.add_argument_group("clipping (grids, meshes and blocks; cut exactly, VTK's convention)")
+    g.add_argument("--clip-plane", type=float, nargs=6, action="append", default=None,
+                   metavar=("OX", "OY", "OZ", "NX", "NY", "NZ"),
+                   help="cut the volume with the plane through (OX, OY, OZ) of normal (NX, NY, NZ), keeping the side "
+                        "the normal points to (repeatable)")
+    g.add_argument("--crop-box", type=float, nargs=6, default=None,
+                   metavar=("XMIN", "XMAX", "YMIN", "YMAX", "ZMIN", "ZMAX"), help="keep only this world box")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
 
@@ -579,6 +586,10 @@ def _render(args, volume, tf, default_view, zoom=1.0, cull=None):
     options = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if args.light is not None:
         options["lights"] = [tuple(d) for d in args.light]
+    if args.clip_plane is not None:
+        options["clip_planes"] = [(tuple(p[:3]), tuple(p[3:])) for p in args.clip_plane]
+    if args.crop_box is not None:
+        options["crop_box"] = tuple(args.crop_box)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         size = _size(args.size)

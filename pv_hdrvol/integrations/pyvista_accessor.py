@@ -20,7 +20,7 @@ class HDRVolAccessor:
 
     Available as ``dataset.hdrvol`` on every PyVista dataset and ``MultiBlock``;
     ``ImageData``, ``RectilinearGrid``, ``StructuredGrid`` (curvilinear: each hexahedron
-    split into six tetrahedra), ``UnstructuredGrid`` (tetrahedra; other 3-D cells are
+    split into five tetrahedra), ``UnstructuredGrid`` (tetrahedra; other 3-D cells are
     split) and ``MultiBlock`` / partitioned datasets of those can be rendered
     (:mod:`pv_hdrvol.data.kinds`).
 

@@ -21,7 +21,7 @@ from .._validate import as_choice, as_size
 from ..data.kinds import BLOCKS, IMAGE_CLASSES, MESH, SUPPORTED, as_renderable, data_kind
 from ..parallel.comm import PointToPointComm
 from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
-from ..params import RenderOptions
+from ..params import RenderOptions, as_clip_planes
 from ..rays.camera import Camera, Rays, as_camera
 from . import VolumeCache, _content_key
 
@@ -121,7 +121,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     those into a 2-D float RGBA ``vtkImageData``.
 
     Input port 0: ``vtkImageData`` (the whole extent is requested), ``vtkRectilinearGrid``,
-    ``vtkStructuredGrid`` (each hexahedron split into six tetrahedra) or
+    ``vtkStructuredGrid`` (each hexahedron split into five tetrahedra) or
     ``vtkUnstructuredGrid`` (tetrahedra; other 3-D cells are split, see
     :func:`~pv_hdrvol.render_tets`), or a ``vtkMultiBlockDataSet`` /
     ``vtkPartitionedDataSet(Collection)`` whose blocks gather onto one volume or merge into
@@ -223,9 +223,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._comm = None
         self._last_piece = None
         self._rectilinear = None  # (key, (GridVolume, VolumePiece)) of a distributed rectilinear grid's piece
-        self._tets_of = None  # (key, vtkUnstructuredGrid): a distributed curvilinear grid's piece as tetrahedra
         self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
         self._moved = None  # a mesh piece: (key, summary, (box, the cells moved to it, points) or None)
+        self._tet_piece = None  # a curvilinear piece: (key, its tetrahedra as a vtkUnstructuredGrid)
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
         # by the input object, which ParaView hands over as a new shallow copy each time
         self._volumes = VolumeCache(dataset_mtime=False)
@@ -280,6 +280,46 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         "shade_gradient", "'sampled' (central differences at each sample) or 'interpolated'.")
     SetShadeThreshold, GetShadeThreshold = _option_methods(
         "shade_threshold", "fraction of the TF axis per voxel at which shading is at full strength (>= 0).")
+
+    # -- clipping: vtkVolumeMapper's clipping-plane methods, and a crop box -------------
+    def AddClippingPlane(self, plane):
+        """Cut the volume with ``plane`` (a ``vtkPlane``, or ``(origin, normal)``), keeping
+        the side its normal points to, as ``vtkVolumeMapper.AddClippingPlane``: a copy of
+        its origin and normal now (call it again after changing the plane; the Qt
+        viewer's and ParaView's widgets do)."""
+        self._set_options(clip_planes=self._options.clip_planes + as_clip_planes(plane))
+
+    def RemoveAllClippingPlanes(self):
+        """Remove every clipping plane."""
+        self._set_options(clip_planes=())
+
+    def SetClippingPlanes(self, planes):
+        """Replace the clipping planes: a ``vtkPlaneCollection``, ``vtkPlanes``, a
+        sequence of planes, or ``None`` (``RenderOptions.clip_planes``)."""
+        self._set_options(clip_planes=planes)
+
+    def GetClippingPlanes(self):
+        """The clipping planes, as a new ``vtkPlaneCollection`` of new ``vtkPlane``\\ s."""
+        from vtkmodules.vtkCommonDataModel import vtkPlane, vtkPlaneCollection
+
+        out = vtkPlaneCollection()
+        for p in self._options.clip_planes:
+            plane = vtkPlane()
+            plane.SetOrigin(*p.origin)
+            plane.SetNormal(*p.normal)
+            out.AddItem(plane)
+        return out
+
+    def SetCropBox(self, *bounds):
+        """Keep only this world box: ``(xmin, xmax, ymin, ymax, zmin, zmax)`` as 6 numbers
+        or one sequence (VTK's bounds order, as ``SetCroppingRegionPlanes``); ``None``:
+        no crop (``RenderOptions.crop_box``)."""
+        value = bounds[0] if len(bounds) == 1 else bounds
+        self._set_options(crop_box=value)
+
+    def GetCropBox(self):
+        """``RenderOptions.crop_box``: the 6 bounds, or ``None``."""
+        return self._options.crop_box
 
     def SetTolerance(self, tolerance):
         """Set ``RenderOptions.tolerance``: the RMS error of the linear, premultiplied RGB
@@ -594,11 +634,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         info = inInfo[0].GetInformationObject(0)
         plan = self._distribution(inInfo, outInfo)
         if plan is not None and plan.whole is None:
-            if info.Has(_SDDP.WHOLE_EXTENT()):
-                # a curvilinear grid: its extent translator's piece, without ghosts (the
-                # image's extent left in the request would lie outside the whole extent)
+            if info.Has(_SDDP.WHOLE_EXTENT()):  # a curvilinear grid: its piece of the extent, as an image's
                 whole = tuple(info.Get(_SDDP.WHOLE_EXTENT()))
-                info.Set(_SDDP.UPDATE_EXTENT(), _piece_extent(whole, plan.comm.rank, plan.comm.size, 0), 6)
+                info.Set(_SDDP.UPDATE_EXTENT(), _piece_extent(whole, _output_piece(outInfo), plan.comm.size, 0), 6)
                 info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
                 info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
                 info.Set(_SDDP.UPDATE_NUMBER_OF_GHOST_LEVELS(), 0)
@@ -644,11 +682,11 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
         in_info = inInfo[0].GetInformationObject(0)
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
-        # images and rectilinear grids: each process asks for its extent (curvilinear grids
-        # have extents too, but are rendered as meshes: piece 0 renders them whole)
+        # images and rectilinear grids: each process asks for its extent
         structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (
             data is None or data.GetClassName() in IMAGE_CLASSES + ("vtkRectilinearGrid",))
-        # curvilinear grids are split into tetrahedra where they live and rendered as meshes
+        # a curvilinear grid's pieces are rendered as the tetrahedra a whole grid's render
+        # makes of them, through the mesh path (_execute_mesh_piece)
         mesh = not structured and data is not None and data.GetClassName() in ("vtkUnstructuredGrid",
                                                                                 "vtkStructuredGrid")
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
@@ -882,13 +920,15 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         scalars, preference = self._scalars_to_render()
         summary = error = None
         try:
+            if inp is not None and inp.GetClassName() == "vtkStructuredGrid":
+                key = (_content_key(inp), tuple(inp.GetExtent()))
+                if self._tet_piece is None or self._tet_piece[0] != key:
+                    self._tet_piece = (key, _tet_grid_of_structured(inp))
+                inp = self._tet_piece[1]
             kind = inp.GetClassName() if inp is not None else None
-            if kind == "vtkStructuredGrid":  # this process's piece of a curvilinear grid, as the serial tets
-                inp = self._structured_tets(inp, scalars, preference)
-                kind = inp.GetClassName()
             if kind != "vtkUnstructuredGrid":
-                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkUnstructuredGrid or vtkStructuredGrid; "
-                                 f"process {comm.rank} got {'nothing' if inp is None else kind}")
+                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkUnstructuredGrid; process {comm.rank} "
+                                 f"got {'nothing' if inp is None else kind}")
             if scalars is None and inp.GetNumberOfCells():
                 active = inp.GetPointData().GetScalars()
                 scalars = active.GetName() if active is not None else None
@@ -966,63 +1006,6 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._last_piece = part
         return 1
 
-    def _structured_tets(self, grid, scalars, preference):
-        """This process's piece of a curvilinear grid as a ``vtkUnstructuredGrid`` of the
-        tetrahedra the serial render splits its cells into (``data.structured``: the
-        same split, blanked cells and collapsed tetrahedra dropped), with the rendered
-        array only; kept while the piece is unchanged. A piece without cells gives an
-        empty grid (the processes then take cells from the others)."""
-        import numpy as np
-        from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
-        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkUnstructuredGrid
-
-        from ..data import structured as S
-        from ..data.grid import ScalarsError, _arrays, choose_scalars
-        from ..data.tets import VTK_TETRA
-
-        key = (_content_key(grid), scalars, preference)
-        if self._tets_of is not None and self._tets_of[0] == key:
-            return self._tets_of[1]
-        out = vtkUnstructuredGrid()
-        dims = S.grid_dims(grid)
-        if grid.GetNumberOfCells() and grid.GetPoints() is not None and min(dims) > 1:
-            name, use_cell = choose_scalars(grid, scalars, preference, "grid")
-            values = np.asarray(_arrays(grid.GetCellData() if use_cell else grid.GetPointData())[name]())
-            if values.ndim != 1:
-                raise ScalarsError(f"scalars {name!r} must have one component; got shape {values.shape}")
-            points = np.asarray(numpy_support_points(grid))
-            visible = S.visible_cells(grid)
-            ghosts = grid.GetCellGhostArray()
-            if ghosts is not None:  # ghost cells another process owns (a ghost level): theirs to render
-                from vtkmodules.util.numpy_support import vtk_to_numpy
-                from vtkmodules.vtkCommonDataModel import vtkDataSetAttributes
-
-                mine = (vtk_to_numpy(ghosts).astype(np.uint8) & vtkDataSetAttributes.DUPLICATECELL) == 0
-                if not mine.all():
-                    visible = mine if visible is None else visible & mine
-            start = getattr(S, "grid_start", None)  # a split whose tets alternate with the global index
-            tets = S.structured_tets(points, dims, visible) if start is None else \
-                S.structured_tets(points, dims, visible, start(grid))
-            cells = int(np.count_nonzero(visible)) if visible is not None else int(np.prod(np.subtract(dims, 1)))
-            keep = ~S.collapsed_tets(points, tets)
-            per_cell = len(tets) // max(cells, 1)  # tets per cell, in cell order
-            tets = np.ascontiguousarray(tets[keep], dtype=np.int64)
-            n = len(tets)
-            connectivity = vtkCellArray()
-            connectivity.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 4 * n + 1, 4, dtype=np.int64), deep=True),
-                                 numpy_to_vtkIdTypeArray(tets.reshape(-1), deep=True))
-            out.SetPoints(grid.GetPoints())
-            out.SetCells(VTK_TETRA, connectivity)
-            if use_cell:
-                kept = values if visible is None else values[visible]
-                array = numpy_to_vtk(np.repeat(kept, per_cell)[keep], deep=True)
-                array.SetName(name)
-                out.GetCellData().SetScalars(array)
-            else:
-                out.GetPointData().SetScalars(grid.GetPointData().GetAbstractArray(name))
-        self._tets_of = (key, out)
-        return out
-
     def GetLastPiece(self):
         """The data this process rendered last when the input was spread over processes
         (its extent of an image, with ghosts; its cells of a mesh after they were moved
@@ -1056,6 +1039,13 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             old = self._plan[0]  # the data and the transfer function by identity, the rest by value
             if old[0] is data and old[1] is tf and old[2:] == (self._options, labels):
                 return self._plan[1]
+            unclipped = self._options.replace(clip_planes=(), crop_box=None)
+            if old[0] is data and old[1] is tf and old[3] == labels \
+                    and old[2].replace(clip_planes=(), crop_box=None) == unclipped:
+                # only the clip changed (a plane dragged): the plan's tables and arrays stay
+                plan = self._plan[1].with_clip(self._options.clip_planes, self._options.crop_box)
+                self._plan = ((data, tf, self._options, labels), plan)
+                return plan
         self._plan = None  # drop the old plan (and its arrays) before making the new one
         if isinstance(data, TetMesh):
             from ..raycast.tets import TetPlan
@@ -1222,11 +1212,43 @@ class _Distribution(NamedTuple):
     ghosts: int
 
 
-def numpy_support_points(dataset):
-    """A dataset's point coordinates as a numpy view (n, 3)."""
-    from vtkmodules.util.numpy_support import vtk_to_numpy
+def _tet_grid_of_structured(grid):
+    """A curvilinear grid (a piece of one) as the ``vtkUnstructuredGrid`` of the
+    tetrahedra a render of the whole grid splits it into (:func:`~pv_hdrvol.data.
+    structured.structured_tets`: the lattice alone decides the split, so pieces that
+    share a face cut it alike; blanked cells and collapsed tetrahedra left out), with
+    its points and point data as they are and its cell data repeated per tetrahedron."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
+    from vtkmodules.vtkCommonDataModel import VTK_TETRA, vtkCellArray, vtkUnstructuredGrid
 
-    return vtk_to_numpy(dataset.GetPoints().GetData())
+    from ..data.structured import collapsed_tets, grid_dims, structured_tets, visible_cells
+
+    out = vtkUnstructuredGrid()
+    if grid.GetNumberOfPoints() == 0 or grid.GetNumberOfCells() == 0:
+        return out
+    points = vtk_to_numpy(grid.GetPoints().GetData())
+    visible = visible_cells(grid)
+    cells = np.arange(grid.GetNumberOfCells()) if visible is None else np.flatnonzero(visible)
+    tets = structured_tets(points, grid_dims(grid), visible, start=grid.GetExtent()[0::2])
+    of_cell = np.repeat(cells, tets.shape[0] // max(cells.size, 1))
+    keep = ~collapsed_tets(points, tets)
+    tets, of_cell = tets[keep], of_cell[keep]
+    out.SetPoints(grid.GetPoints())
+    out.GetPointData().ShallowCopy(grid.GetPointData())
+    connectivity = vtkCellArray()
+    connectivity.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 4 * len(tets) + 1, 4, dtype=np.int64), deep=True),
+                         numpy_to_vtkIdTypeArray(np.ascontiguousarray(tets.ravel(), dtype=np.int64), deep=True))
+    out.SetCells(VTK_TETRA, connectivity)
+    data = grid.GetCellData()
+    for i in range(data.GetNumberOfArrays()):
+        array = data.GetArray(i)
+        if array is None or array.GetName() == "vtkGhostType":
+            continue
+        values = numpy_to_vtk(np.ascontiguousarray(vtk_to_numpy(array)[of_cell]), deep=True)
+        values.SetName(array.GetName())
+        out.GetCellData().AddArray(values)
+    return out
 
 
 def _whole_axes(inp, distribution):

@@ -2,6 +2,7 @@
 
     python -m pv_hdrvol.parallel pof head.vti --tf skin.json --tf bone.json -o head.pof.npz
     mpiexec -n 4 python -m pv_hdrvol.parallel render head.vti --pof head.pof.npz --k 0.25,0.9 -o frame.exr
+    mpiexec -n 4 python -m pv_hdrvol.parallel render blocks.vtm --tf tf.json -o frame.exr
 
 Transfer functions are JSON files of ``TransferFunction.to_dict()``. ``render`` without
 ``--pof`` renders every non-empty block with ``--tf`` (or the default transfer
@@ -9,6 +10,16 @@ function, as ``pv-hdrvol render``'s) and no culling, with ``pv-hdrvol render``'s
 (perspective); with ``--pof`` the camera is orthographic, as ``pv-hdrvol render
 --pof``'s. Rank 0 writes the image, with its render settings (``pv_hdrvol.load(OUT)
 .settings()``), and prints the per-rank threads and times.
+
+A multiblock file (``.vtm``) of image blocks (``.vti`` leaves) on one lattice that tile
+their union box is rendered with each rank reading only its own leaf files (contiguous
+runs in file order, balanced by points) and rendering each block as a piece of the union
+volume; rank 0 composites them (:mod:`pv_hdrvol.parallel.multiblock`). The image is
+``pv_hdrvol.render(pyvista.read(FILE.vtm))``'s to rounding (1e-6 relative asked, 5e-16
+measured in float64). Without ``--tf`` rank 0 gathers every block's values once to
+choose the default transfer function, as the serial render does. Other ``.vtm``
+contents (leaves that are not ``.vti``, other lattices, holes, overlaps, cell data,
+``--pof``) are refused: render them serially with ``pv-hdrvol render FILE.vtm``.
 
 User errors (files that are missing or unreadable, volumes that are not image data,
 POF files that do not fit, outputs that cannot be written) end with one
@@ -20,6 +31,8 @@ import argparse
 import json
 import pathlib
 import sys
+
+import numpy as np
 
 #: Views of ``--view`` (``Camera.fit``), as ``pv-hdrvol render``'s.
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
@@ -34,7 +47,13 @@ RENDER_DESCRIPTION = (
     "the data (without --tf or --pof), as pv-hdrvol render's; the image equals its render to 2e-6 of the brightest "
     "value (blocks composited one after another, early ray termination per block). Each rank runs "
     "max(1, cores // ranks on its node) numba threads unless NUMBA_NUM_THREADS is set. Rank 0 writes OUT with the "
-    "render settings (pv_hdrvol.load(OUT).settings(); .npy keeps none) and prints each rank's threads and times.")
+    "render settings (pv_hdrvol.load(OUT).settings(); .npy keeps none) and prints each rank's threads and times. "
+    "A multiblock file (.vtm) of .vti blocks on one lattice that tile their union box: each rank reads only its own "
+    "block files (contiguous runs, balanced by points; --curve does not apply) and renders each block as a piece of "
+    "the whole; the image equals pv-hdrvol render FILE.vtm's (serial pv_hdrvol.render) to 1e-6 of the brightest "
+    "value. Without --tf rank 0 gathers all blocks' values once to choose the default transfer function. Other .vtm "
+    "files (non-.vti leaves, several lattices, holes, overlaps, cell data) and --pof with a .vtm are refused: render "
+    "them with pv-hdrvol render FILE.vtm.")
 
 
 class UserError(Exception):
@@ -56,7 +75,8 @@ def build_parser():
     p.add_argument("-o", "--output", required=True, help="the .npz file to write")
     p.set_defaults(subparser=p)
     r = sub.add_parser("render", help="render on the ranks of mpiexec (or alone)", description=RENDER_DESCRIPTION)
-    r.add_argument("volume", help="image volume (.vti, or anything pyvista.read gives as ImageData)")
+    r.add_argument("volume", help="image volume (.vti, or anything pyvista.read gives as ImageData), or a .vtm of .vti "
+                                  "blocks on one lattice (each rank reads its own)")
     r.add_argument("--pof", help="a .pof.npz file: cull with it (orthographic camera); the transfer function is its "
                                  "bases' family")
     r.add_argument("--k", help="the family's weights, comma-separated (default all 1)")
@@ -93,6 +113,8 @@ def main(argv=None):
         comm = _comm(args)
     except UserError as exc:
         args.subparser.error(str(exc))
+    if pathlib.Path(args.volume).suffix.lower() == ".vtm":
+        return _render_multiblock(args, comm)
     job = error = None
     try:
         job = _prepare(args)
@@ -125,6 +147,155 @@ def main(argv=None):
             print(f"  rank {s['rank']}: {s['threads']} thread{'s' if s['threads'] != 1 else ''} "
                   f"({s['threads_reason']}), {s['rendered']} blocks, cull {s['cull_seconds']:.3f} s, render "
                   f"{s['render_seconds']:.3f} s, composite {s['composite_seconds']:.3f} s")
+    return 0
+
+
+def _agree(args, comm, error):
+    """Every rank learns whether any met a user error (``error``: its text or None);
+    then all end with the first one's line, so that none goes on alone."""
+    failed = [(rank, text) for rank, text in enumerate(comm.allgather(error)) if text is not None]
+    if failed:
+        _fail(args, comm, failed[0][1] if failed[0][0] == 0 else f"rank {failed[0][0]}: {failed[0][1]}")
+
+
+def _multiblock_options(args):
+    """``(size, output, tf)`` of a ``.vtm`` render, each checked."""
+    from .._validate import as_size
+
+    name = args.volume
+    if args.pof:
+        raise UserError(f"--pof culls the blocks of one image volume; {name!r} is a multiblock file: leave out --pof")
+    if args.k is not None:
+        raise UserError("--k weighs the bases of --pof; give --pof FILE.npz")
+    try:
+        size = as_size(tuple(args.size) if len(args.size) == 2 else args.size[0] if len(args.size) == 1 else None)
+    except (TypeError, ValueError):
+        raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
+    output = _output(args.output, OUTPUTS)
+    tf = _read_tf("--tf", args.tf) if args.tf else None
+    _existing_file("", name)
+    return size, output, tf
+
+
+def _render_multiblock(args, comm):
+    """``render FILE.vtm``: each rank reads its own leaves, renders each as a piece of the
+    blocks' union volume, and rank 0 composites them (:mod:`pv_hdrvol.parallel.multiblock`)."""
+    import time
+
+    import pv_hdrvol as hv
+
+    from ..data.blocks import Leaf, choose_block_scalars, gather_images, image_blocks
+    from ..raycast.grid import resolve_transfer_function
+    from ..raycast.memory import RenderMemoryError
+    from .comm import use_rank_threads
+    from .multiblock import (SERIAL_HINT, BlockInfo, MultiblockError, assign_leaves, lattice_pieces, leaf_points,
+                             read_leaf, render_leaf_pieces, vtm_leaves)
+
+    started = time.perf_counter()
+    vtm = args.volume
+    hint = SERIAL_HINT.format(file=vtm)
+    # 1. options; rank 0 reads the index and deals the leaves
+    plan = error = size = output = tf = None
+    try:
+        size, output, tf = _multiblock_options(args)
+        if comm.rank == 0:
+            leaves = vtm_leaves(vtm)
+            if not leaves:
+                raise UserError(f"{vtm!r} lists no block files: nothing to render")
+            plan = (leaves, assign_leaves([leaf_points(leaf.file) for leaf in leaves], comm.size).tolist())
+    except (UserError, MultiblockError) as exc:
+        error = str(exc)
+    _agree(args, comm, error)
+    leaves, owners = comm.bcast(plan, root=0)
+    mine = [leaf for leaf, rank in zip(leaves, owners) if rank == comm.rank]
+
+    # 2. each rank reads its own leaves, and only those
+    name = error = None
+    blocks, infos = [], []
+    try:
+        read = [(leaf, read_leaf(leaf, vtm)) for leaf in mine]
+        kept = [(leaf, data) for leaf, data in read if data.GetNumberOfPoints() and data.GetNumberOfCells()]
+        if kept:
+            name, use_cell, chosen, missing = choose_block_scalars([Leaf(leaf.path, data) for leaf, data in kept],
+                                                                   args.scalars)
+            if missing:
+                raise MultiblockError(f"blocks {missing} lack scalars {name!r}: python -m pv_hdrvol.parallel renders "
+                                      f"blocks that all have them; {hint}")
+            if use_cell:
+                raise MultiblockError(f"scalars {name!r} are cell data: python -m pv_hdrvol.parallel renders the "
+                                      f"point data of .vtm blocks (blocks of cell data do not share points); {hint}")
+            blocks = image_blocks(chosen, name, False)
+            files = {leaf.path: leaf.file for leaf, _ in kept}
+            infos = [BlockInfo(b.path, str(files[b.path]), tuple(b.origin.tolist()), tuple(b.spacing.tolist()),
+                               tuple(int(n) for n in b.values.shape[::-1])) for b in blocks]
+    except (UserError, MultiblockError, ValueError, TypeError) as exc:
+        error = str(exc)
+    _agree(args, comm, error)
+
+    # 3. every rank: the blocks as pieces of one volume, or the reason not
+    everyone = comm.allgather((name, infos))
+    names = sorted({n for n, i in everyone if i})
+    error = None
+    try:
+        if not names:
+            raise UserError(f"{vtm!r} holds no non-empty block: nothing to render")
+        if len(names) > 1:
+            raise UserError(f"the blocks' scalars differ ({', '.join(map(repr, names))}): give --scalars NAME")
+        every = [info for _, i in everyone for info in i]
+        pieces = lattice_pieces(every, vtm)
+    except (UserError, MultiblockError) as exc:
+        error = str(exc)
+    _agree(args, comm, error)  # the same on every rank: all fail alike
+    name = names[0]
+    start = sum(len(i) for _, i in everyone[:comm.rank])
+    my_pieces = pieces[start:start + len(infos)]
+    volumes = [b.volume(name) for b in blocks]
+
+    # 4. the transfer function: the default one reads every value (rank 0 gathers them)
+    if tf is None:
+        gathered = comm.gather(blocks, root=0)
+        chosen = None
+        if comm.rank == 0:
+            try:
+                volume, _ = gather_images([b for batch in gathered for b in batch], name)
+                chosen = resolve_transfer_function(volume, None)
+            except (ValueError, TypeError) as exc:
+                chosen = str(exc)
+        chosen = comm.bcast(chosen, root=0)
+        _agree(args, comm, chosen if isinstance(chosen, str) else None)
+        tf = chosen
+    spacing = np.asarray(every[0].spacing, dtype=np.float64)
+    camera = hv.Camera.fit(pieces[0].bounds(spacing), args.view)
+
+    # 5. render this rank's blocks, composite on rank 0
+    threads, reason, previous = use_rank_threads(comm)
+    try:
+        image, stats = render_leaf_pieces(volumes, my_pieces, tf, camera, size, comm=comm, precision=args.precision)
+    except (ValueError, TypeError, RenderMemoryError, RuntimeError) as exc:
+        _fail(args, comm, str(exc))
+    finally:
+        import numba
+
+        numba.set_num_threads(previous)
+    stats.update(rank=comm.rank, threads=threads, threads_reason=reason, blocks=[i.path for i in infos],
+                 files=[i.file for i in infos], points=int(sum(int(np.prod(i.dims)) for i in infos)))
+    per_rank = comm.gather(stats, root=0)
+    if image is None:
+        return 0
+    image.metadata["source_file"] = str(vtm)
+    image.metadata["blocks"] = {"kind": "grid", "rendered": [i.path for i in every]}
+    image.metadata["parallel"] = {"ranks": comm.size, "blocks": len(every), "per_rank": per_rank,
+                                  "seconds": time.perf_counter() - started}
+    try:
+        image.save(output)
+    except OSError as exc:
+        _fail(args, comm, f"cannot write {str(output)!r}: {exc}")
+    print(f"{output}: {size[0]}x{size[1]}, perspective {camera.view_angle:g} degrees from {args.view}, {comm.size} "
+          f"ranks, {len(every)} blocks of {vtm}, {image.metadata['parallel']['seconds']:.2f} s")
+    for s in per_rank:
+        print(f"  rank {s['rank']}: {s['threads']} thread{'s' if s['threads'] != 1 else ''} ({s['threads_reason']}), "
+              f"{len(s['blocks'])} block{'s' if len(s['blocks']) != 1 else ''} read and rendered, render "
+              f"{s['render_seconds']:.3f} s, composite {s['composite_seconds']:.3f} s")
     return 0
 
 

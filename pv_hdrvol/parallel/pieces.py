@@ -29,8 +29,8 @@ import numpy as np
 
 from .._validate import as_int, as_size
 from ..data.grid import volume_from_array, volume_from_rectilinear
-from ..image.hdr import HDRImage
 from ..rays.camera import Rays, ray_box_spans
+from ..raycast.blocks import composite_in_order
 from ..raycast.grid import GridPlan, VolumePiece, as_volume
 from .comm import WORLD, _communicator
 
@@ -174,27 +174,10 @@ def composite_pieces(images, boxes, rays, dtype=None):
     h, w = images[0].rgba.shape[:2]
     if any(im.rgba.shape[:2] != (h, w) for im in images) or rays.width * rays.height != w * h:
         raise ValueError("the partial images and the rays must all have one size")
-    n = w * h
-    entries = box_entries(rays, boxes)
-    order = np.argsort(entries, axis=0, kind="stable")
-    rgba = np.stack([np.asarray(im.rgba, dtype=np.float64).reshape(n, 4) for im in images])
-    depths = np.stack([np.asarray(im.depth, dtype=np.float64).reshape(n) for im in images])
-    pix = np.arange(n)
-    total = np.zeros((n, 4))
-    depth = np.full(n, np.inf)
-    threshold = images[0].metadata.get("depth_threshold", 0.5)
-    for j in range(len(images)):
-        k = order[j]
-        part = rgba[k, pix]
-        total += (1.0 - total[:, 3:4]) * part
-        crossed = (depth == np.inf) & (total[:, 3] >= threshold) & np.isfinite(entries[k, pix])
-        depth[crossed] = np.where(np.isfinite(depths[k, pix]), depths[k, pix], entries[k, pix])[crossed]
-    dtype = images[0].rgba.dtype if dtype is None else dtype
-    meta = dict(images[0].metadata)
-    meta.pop("piece", None)
-    meta["pieces"] = len(images)
-    meta["samples"] = int(sum(im.metadata.get("samples", 0) for im in images))
-    return HDRImage(total.astype(dtype).reshape(h, w, 4), depth.reshape(h, w), metadata=meta)
+    image = composite_in_order(images, box_entries(rays, boxes), dtype)
+    image.metadata.pop("piece", None)
+    image.metadata["pieces"] = len(images)
+    return image
 
 
 def render_pieces(volume, piece, tf, camera, size=(512, 512), *, comm=WORLD, root=0, **options):

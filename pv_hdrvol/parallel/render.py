@@ -35,6 +35,7 @@ from ..culling.pof import PlenopticOpacity, _nonempty
 from ..data.transfer import TF_KEYWORDS, TransferFunctionFamily
 from ..image.hdr import HDRImage
 from ..rays.camera import Camera, as_size
+from ..rays.clip import has_clip
 from ..raycast.grid import BlockGrid, GridPlan, _grid_shape, as_volume, default_transfer_function
 from ..settings import settings_metadata
 from .comm import WORLD, _communicator, use_rank_threads
@@ -210,6 +211,9 @@ def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, r
         if not isinstance(pof, PlenopticOpacity):
             raise TypeError(f"pof must be a PlenopticOpacity; got {type(pof).__name__}")
         pof.check_volume(volume)
+        if has_clip(opts):
+            raise ValueError("pof= culls blocks hidden behind the whole volume, which clip_planes= and crop_box= may "
+                             "cut away (the hidden blocks would show): render a clipped volume without pof=")
     bs = as_int("block_size", block_size if block_size is not None else (pof.block_size if pof else 16), low=2)
     if pof is not None and bs != pof.block_size:
         raise ValueError(f"block_size {bs} differs from the POF's ({pof.block_size})")

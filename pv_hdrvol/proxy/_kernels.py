@@ -85,7 +85,7 @@ def march_proxies(values, table, sigma, p, scale, iso, origins, directions, lo, 
         dx = directions[pix, 0]
         dy = directions[pix, 1]
         dz = directions[pix, 2]
-        t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, math.inf)
+        t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, math.inf)
         if not t1 > t0:
             continue
         n_seg = int(math.ceil((t1 - t0) / step))

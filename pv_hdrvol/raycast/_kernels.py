@@ -136,13 +136,14 @@ def _slab(o, d, lo, hi, t0, t1):
 
 
 @inline_kernel
-def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far):
-    """Entry and exit distances of the ray ``o + t d`` (``0 <= t <= t_far``) through the box.
+def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_near, t_far):
+    """Entry and exit distances of the ray ``o + t d`` (``t_near <= t <= t_far``) through the box.
 
-    Returns ``(t0, t1)`` with ``t1 <= t0`` when it misses. ``t_far`` is ``inf`` but
-    where opaque geometry stops the ray (``GridPlan.execute(far=...)``).
+    Returns ``(t0, t1)`` with ``t1 <= t0`` when it misses. ``[t_near, t_far]`` is
+    ``[0, inf]`` but where clipping planes or a crop box cut the ray
+    (``rays/clip.py``) or opaque geometry stops it (``GridPlan.execute(far=...)``).
     """
-    t0, t1 = _slab(ox, dx, lo[0], hi[0], 0.0, t_far)
+    t0, t1 = _slab(ox, dx, lo[0], hi[0], t_near, t_far)
     t0, t1 = _slab(oy, dy, lo[1], hi[1], t0, t1)
     return _slab(oz, dz, lo[2], hi[2], t0, t1)
 
@@ -1188,7 +1189,7 @@ def _marker_precision_impl(marker, p):
 
 @kernel
 def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo,
-           hi, piece, p, step, scratch, t_far):
+           hi, piece, p, step, scratch, t_near, t_far):
     """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
@@ -1235,7 +1236,7 @@ def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids
     and runs no lighting. Only the plain sampler's loop is lit. ``warp`` (``warp_at``) is 0
     for a uniform grid, else a rectilinear grid's warp (plain sampler only), also by type.
     """
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_near, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     k0, k1, last = piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, step, t_far)
@@ -1253,15 +1254,16 @@ def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids
 
 
 @fused_parallel_kernel
-def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, far, width, height,
+def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width, height,
                  tile, tile_rows, lanes, lo, hi, piece, p, light, warp, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
 
     Rays come from ``cam`` (``Camera.kernel_array``, then the volume's origin and the
     reciprocal of its spacing: ``camera_ray`` in voxel coordinates) or, when ``cam`` is
     empty, from ``origins`` and ``directions`` (one row per pixel, voxel coordinates).
-    ``far`` (one per pixel, world distance along the ray; or empty: no limit) stops
-    each ray there: opaque geometry in front of or inside the volume. ``light``: 0, or
+    ``span`` (one ``[near, far]`` row per pixel, world distances along the ray; or
+    empty: ``[0, inf]``) limits each ray: clipping planes and a crop box
+    (``rays/clip.py``), and opaque geometry in front of or inside the volume. ``light``: 0, or
     the lighting of a shaded render; ``warp``: 0, or a rectilinear grid's (``_march``).
 
     Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
@@ -1274,7 +1276,7 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     from_camera = cam.shape[0] > 0
-    has_far = far.shape[0] > 0
+    has_span = span.shape[0] > 0
     for lane in numba.prange(lanes):
         scratch = np.empty(2 * SCRATCH)
         for t in range(lane, n_tiles, lanes):
@@ -1292,10 +1294,11 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
                         dx = directions[pix, 0]
                         dy = directions[pix, 1]
                         dz = directions[pix, 2]
-                    t_far = far[pix] if has_far else math.inf
+                    t_near = span[pix, 0] if has_span else 0.0
+                    t_far = span[pix, 1] if has_span else math.inf
                     r, g, b, a, dep, ns = _march(marker, 0, light, warp, bricks, offs, table, sigma, leap, grids,
                                                  dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
-                                                 t_far)
+                                                 t_near, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

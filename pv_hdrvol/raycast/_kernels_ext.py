@@ -144,7 +144,8 @@ def _gradient_factor(gbricks, g, x, y, z, e):
 
 # -- projections ------------------------------------------------------------------------------
 @fused_kernel
-def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_far):
+def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_near,
+             t_far):
     """One ray of a projection. Returns ``(value, r, g, b, alpha, depth, samples)``.
 
     Maximum and minimum take the extreme of the samples at the lattice points
@@ -158,7 +159,7 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
     (non-NaN) samples, coloured as maximum.
     """
     nan_out = (math.nan, 0.0, 0.0, 0.0, 0.0, math.inf, 0)
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_near, t_far)
     if not t1 > t0:
         return nan_out
     step = p.step
@@ -246,13 +247,13 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
 
 @parallel_kernel
 def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tables, sigmas, axes, origins, directions,
-                      far, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth,
+                      span, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth,
                       out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows`` with ``_project`` (as ``_kernels.render_tiles``)."""
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
     has_lod = lods.shape[0] == width * height
-    has_far = far.shape[0] > 0
+    has_span = span.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
@@ -268,7 +269,7 @@ def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tabl
                         bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod, tables, sigmas, axes,
                         origins[pix, 0], origins[pix, 1], origins[pix, 2],
                         directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, p, e,
-                        far[pix] if has_far else math.inf)
+                        span[pix, 0] if has_span else 0.0, span[pix, 1] if has_span else math.inf)
                     out_value[pix] = v
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
@@ -446,10 +447,10 @@ def _composite_ext(marker, prec, light, bricks, offs, leap, g, pyr, pgeo, lod, g
 
 @kernel
 def _march_ext(marker, light, bricks, offs, leap, g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes, ox,
-               oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_far):
+               oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_near, t_far):
     """Clip the ray, keep the segments of ``piece`` (``_kernels._march``) and run
     ``_composite_ext`` in the precision of ``marker`` (only that one is compiled)."""
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_far)
+    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_near, t_far)
     if not t1 > t0:
         return 0.0, 0.0, 0.0, 0.0, math.inf, 0
     k0, k1, last = piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, p.step, t_far)
@@ -464,7 +465,7 @@ def _march_ext(marker, light, bricks, offs, leap, g, pyr, pgeo, lod, gbricks, sl
 
 @parallel_kernel
 def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, lods, gbricks, slots, modes, tables,
-               sigmas, axes, origins, directions, far, width, height, tile, tile_rows, lanes, lo, hi, piece, p, e,
+               sigmas, axes, origins, directions, span, width, height, tile, tile_rows, lanes, lo, hi, piece, p, e,
                out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows`` with ``_composite_ext`` (labels,
     gradient-magnitude opacity, shading), in the one precision of ``marker`` and lit by
@@ -474,7 +475,7 @@ def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pg
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
     has_lod = lods.shape[0] == width * height
-    has_far = far.shape[0] > 0
+    has_span = span.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
@@ -490,7 +491,7 @@ def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pg
                         marker, light, bricks, offs, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod,
                         gbricks, slots, modes, tables, sigmas, axes, origins[pix, 0], origins[pix, 1],
                         origins[pix, 2], directions[pix, 0], directions[pix, 1], directions[pix, 2], lo, hi, piece,
-                        p, e, far[pix] if has_far else math.inf)
+                        p, e, span[pix, 0] if has_span else 0.0, span[pix, 1] if has_span else math.inf)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
                     out_rgba[pix, 2] = b
@@ -501,7 +502,7 @@ def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pg
 
 @parallel_kernel
 def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_levels, lods, table, sigma,
-                level_tables, level_steps, origins, directions, far, width, height, tile, tile_rows, lanes, lo, hi,
+                level_tables, level_steps, origins, directions, span, width, height, tile, tile_rows, lanes, lo, hi,
                 piece, p, out_rgba, out_depth, out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows`` for rays with levels of detail
     (``lods``, one per ray) and nothing else extended, in the one precision of
@@ -510,7 +511,7 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
     same loop on the mip-map ``pyr`` (``mip_sampler``), with the step ``level_steps[L]``
     (the render's times ``2**L``) and its opacity table ``level_tables[L]``, and skips
     with ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the lower of its two levels."""
-    has_far = far.shape[0] > 0
+    has_span = span.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
@@ -522,12 +523,13 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
                 for col in range(col0, min(col0 + tile, width)):
                     pix = row * width + col
                     lod = lods[pix]
-                    t_far = far[pix] if has_far else math.inf
+                    t_near = span[pix, 0] if has_span else 0.0
+                    t_far = span[pix, 1] if has_span else math.inf
                     if lod == 0.0:
                         r, gg, b, a, dep, ns = _march(marker, 0, 0, 0, bricks, offs, table, sigma, leap, grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, piece, p, p.step, scratch, t_far)
+                                                      lo, hi, piece, p, p.step, scratch, t_near, t_far)
                     else:
                         # the plain loop, sampling two mip levels
                         level = min(int(lod), n_levels - 1)
@@ -535,7 +537,7 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
                                                       level_tables[level], sigma, leap_lod[level], grids, dims,
                                                       origins[pix, 0], origins[pix, 1], origins[pix, 2],
                                                       directions[pix, 0], directions[pix, 1], directions[pix, 2],
-                                                      lo, hi, piece, p, level_steps[level], scratch, t_far)
+                                                      lo, hi, piece, p, level_steps[level], scratch, t_near, t_far)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = gg
                     out_rgba[pix, 2] = b

@@ -395,11 +395,14 @@ def _consistency(x, y, z):
 
 @kernel
 def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-              hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, own0, own1, t_far):
+              hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, own0, own1, t_near, t_far):
     """Composite the ray through the mesh; ``(r, g, b, alpha, depth, cells, pieces, stopped)``.
 
-    The ray stops at ``t_far`` (the mesh's normalised frame; ``inf``: no limit), inside
-    a cell with the scalar interpolated there (it is linear along the ray in a cell).
+    The ray composites ``[t_near, t_far]`` (the mesh's normalised frame; ``0, inf``:
+    all of it): clipping planes and a crop box (``rays/clip.py``) and opaque geometry.
+    It stops at ``t_far`` inside a cell, and starts at ``t_near`` inside one, with the
+    scalar interpolated there (it is linear along the ray in a cell); cells before
+    ``t_near`` are walked through, not composited.
     Only the cell segments whose midpoints lie in ``[own0, own1)`` are composited
     (``-inf, inf``: all): a piece of a distributed mesh renders the segments whose
     midpoints lie in the box it owns, each whole, with the arithmetic of the whole
@@ -499,11 +502,19 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
             if t_in >= own1:  # every segment from here on is another piece's
                 done = True
                 break
-            t_mid = 0.5 * (t_in + min(t_out, t_far))
-            if active[cell] and min(t_out, t_far) > t_in and t_mid >= own0 and t_mid < own1:
+            t_start = max(t_in, t_near)
+            t_mid = 0.5 * (t_start + min(t_out, t_far))
+            if active[cell] and min(t_out, t_far) > t_start and t_mid >= own0 and t_mid < own1:
                 s_out = (ua * cells_f[cell, value_col + ia] + ub * cells_f[cell, value_col + ib]
                          + uc * cells_f[cell, value_col + ic])
-                if clipped:
+                if t_start > t_in:  # the clip's near end cuts this cell: start there
+                    s_cut = s_in + (s_out - s_in) * ((t_start - t_in) / (t_out - t_in))
+                    if clipped:
+                        s_out = s_in + (s_out - s_in) * ((t_far - t_in) / (t_out - t_in))
+                        t_out = t_far
+                    s_in = s_cut
+                    t_in = t_start
+                elif clipped:
                     s_out = s_in + (s_out - s_in) * ((t_far - t_in) / (t_out - t_in))
                     t_out = t_far
                 same = s_in == s_prev
@@ -544,24 +555,24 @@ def _march_in(marker, prec, points, cells_i, cells_f, active, btri, bcell, bface
 
 @kernel
 def _march(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights, hit_t,
-           hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, own0, own1, t_far):
+           hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p, own0, own1, t_near, t_far):
     """One ray in the precision of ``marker`` (a float64, float32 or int64 zero: see
     ``_kernels._marker_precision``): only that compositing loop is compiled."""
     return _march_in(marker, _marker_precision(marker, p), points, cells_i, cells_f, active, btri, bcell, bface,
                      table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
-                     own0, own1, t_far)
+                     own0, own1, t_near, t_far)
 
 
 @parallel_kernel
 def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-                 hit_offsets, hit_t, hit_face, hit_enter, cam, own, far, width, height, tile, tile_rows, lanes,
+                 hit_offsets, hit_t, hit_face, hit_enter, cam, own, span, width, height, tile, tile_rows, lanes,
                  p, out_rgba, out_depth, out_cells, out_pieces, out_guard):
     """Fill the pixels of the tiles in the rows of tiles ``tile_rows`` (as the grid's
-    ``_kernels.render_tiles``: one lane of interleaved tiles per thread). ``far``: as
-    there (world distances; empty: no limit); ``own`` (pixels x 2, world distances;
+    ``_kernels.render_tiles``: one lane of interleaved tiles per thread). ``span``: as
+    there (``[near, far]`` per pixel, world distances; empty: ``[0, inf]``); ``own`` (pixels x 2, world distances;
     empty: everything) the span of each ray whose segments this render composites
     (``_march_in``); a pixel whose span is empty is skipped."""
-    has_far = far.shape[0] > 0
+    has_span = span.shape[0] > 0
     has_own = own.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
@@ -574,7 +585,8 @@ def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, t
                     pix = row * width + col
                     lo = hit_offsets[pix]
                     hi = hit_offsets[pix + 1]
-                    if hi == lo or (has_own and not own[pix, 1] > own[pix, 0]):
+                    if hi == lo or (has_own and not own[pix, 1] > own[pix, 0]) \
+                            or (has_span and not span[pix, 1] > span[pix, 0]):
                         continue
                     ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
                     r, g, b, a, dep, nc, npc, guard = _march(
@@ -582,7 +594,8 @@ def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, t
                         hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
                         own[pix, 0] / p.length_scale if has_own else -math.inf,
                         own[pix, 1] / p.length_scale if has_own else math.inf,
-                        far[pix] / p.length_scale if has_far else math.inf)
+                        span[pix, 0] / p.length_scale if has_span else 0.0,
+                        span[pix, 1] / p.length_scale if has_span else math.inf)
                     out_rgba[pix, 0] = r
                     out_rgba[pix, 1] = g
                     out_rgba[pix, 2] = b

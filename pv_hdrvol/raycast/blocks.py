@@ -12,7 +12,10 @@ scenes, each rendered here:
   enters the blocks' boxes (exact for boxes that meet at most at faces; see
   :func:`render_image_blocks`);
 - mesh blocks (unstructured, curvilinear) merged into one tetrahedral mesh: one
-  :func:`~pv_hdrvol.raycast.tets.render_tets`.
+  :func:`~pv_hdrvol.raycast.tets.render_tets`;
+- grid and mesh blocks together: each grid block alone, and the mesh once per gap
+  between the grids' boxes along each ray, cut to it; all composited per pixel in
+  depth order (:func:`render_mixed_blocks`).
 """
 from __future__ import annotations
 
@@ -23,11 +26,12 @@ import numpy as np
 from ..data.blocks import prepare_blocks
 from ..data.transfer import auto_transfer_function
 from ..params import RenderOptions
-from ..rays.camera import Rays, as_camera
+from ..image.hdr import HDRImage
+from ..rays.camera import Rays, as_camera, ray_box_spans
 from .._validate import as_size
 from .grid import (GridPlan, _check_progress_bar, _progress_bar, collected_warnings, render_volume,
                    resolve_transfer_function, warn_empty)
-from .tets import render_tets
+from .tets import TetPlan, render_tets
 
 
 def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, scalars=None, preference="point",
@@ -38,8 +42,8 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
     ----------
     data : pyvista.MultiBlock, vtkMultiBlockDataSet, vtkPartitionedDataSetCollection or vtkPartitionedDataSet
         Nested in any order. Its leaves are grids (``vtkImageData``; rectilinear
-        grids where this version renders them) or meshes (``vtkUnstructuredGrid``,
-        ``vtkStructuredGrid``), not both; empty and ``None`` blocks are left out
+        rectilinear grids) and meshes (``vtkUnstructuredGrid``, ``vtkStructuredGrid``),
+        in any mix; empty and ``None`` blocks are left out
         silently (``metadata["blocks"]["empty"]`` lists them), surface blocks
         (``vtkPolyData``) with a warning.
     tf, cmap, clim, opacity, scale
@@ -56,15 +60,14 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
     -------
     HDRImage
         ``metadata["blocks"]``: how the scene was rendered (``kind``: ``"grid"``,
-        ``"grid blocks"`` or ``"mesh"``), the blocks rendered and those left out, by
+        ``"grid blocks"``, ``"mesh"`` or ``"mixed"``), the blocks rendered and those left out, by
         their paths (``"Block-00/piece 1"``: a block's name where it has one).
 
     Raises
     ------
     ValueError
-        Grid and mesh blocks in one dataset (rendering them as one scene is not built
-        yet: render ``dataset[...]`` parts separately); no block to render; grid
-        blocks rendered one by one whose boxes overlap, or with options that render
+        No block to render; grid blocks rendered one by one whose boxes overlap, or a
+        mesh inside a grid block's box; options that a scene rendered part by part
         cannot keep (see Notes); an error of one block, named by its path.
     TypeError
         AMR datasets (their levels overlap) and leaves that are not grids, meshes or
@@ -112,6 +115,9 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
     elif scene.kind == "grid":
         image = render_volume(scene.volume, tf, camera, size, options, progress=progress, progress_bar=progress_bar,
                               **keywords, **option_kwargs)
+    elif scene.kind == "mixed":
+        image = render_mixed_blocks(scene.blocks, scene.mesh, tf, camera, size, options, name=scene.scalars,
+                                    progress=progress, progress_bar=progress_bar, **keywords, **option_kwargs)
     else:
         image = render_image_blocks(scene.blocks, tf, camera, size, options, name=scene.scalars, progress=progress,
                                     progress_bar=progress_bar, **keywords, **option_kwargs)
@@ -127,8 +133,6 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     ``blocks``: :class:`~pv_hdrvol.data.blocks.ImageBlock` (path, values (z, y, x),
     origin, spacing), whose boxes may share faces but not overlap.
     """
-    from ..parallel.pieces import composite_pieces
-
     volumes = [b.volume(name) for b in blocks]
     boxes = [(np.array(v.bounds[0::2]), np.array(v.bounds[1::2])) for v in volumes]
     _check_disjoint(blocks, boxes)
@@ -167,8 +171,7 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     finally:
         if bar is not None:
             bar.close()
-    image = composite_pieces(images, boxes, rays)
-    image.metadata.pop("pieces", None)
+    image = composite_in_order(images, np.stack([ray_box_spans(rays, lo, hi)[0] for lo, hi in boxes]))
     image.metadata.pop("settings", None)  # the first block's alone: they would not re-render the scene
     image.metadata["opacity_unit_distance"] = unit
     image.metadata["step_world"] = opts.step * unit_spacing
@@ -176,6 +179,133 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     if len(reasons) == len(volumes):  # every block is bound to be empty: say why once
         warn_empty(str(reasons[0]))
     return image
+
+
+def composite_in_order(images, entries, dtype=None):
+    """Partial images composited per pixel, front to back in the order of ``entries``
+    (``(n_images, rows * cols)``: where each image's part of the ray begins; ``inf``:
+    it has none): ``C += (1 - A) c``, ``A += (1 - A) a`` in float64, then ``dtype``
+    (default: the images'). Depth: where the accumulated opacity first reaches the
+    first image's depth threshold (that image's own depth, or its entry). Returns an
+    HDRImage with the first image's metadata and the samples of all."""
+    h, w = images[0].rgba.shape[:2]
+    if any(im.rgba.shape[:2] != (h, w) for im in images) or entries.shape != (len(images), w * h):
+        raise ValueError("the partial images and their entries must all have one size")
+    n = w * h
+    order = np.argsort(entries, axis=0, kind="stable")
+    rgba = np.stack([np.asarray(im.rgba, dtype=np.float64).reshape(n, 4) for im in images])
+    depths = np.stack([np.asarray(im.depth, dtype=np.float64).reshape(n) for im in images])
+    pix = np.arange(n)
+    total = np.zeros((n, 4))
+    depth = np.full(n, np.inf)
+    threshold = images[0].metadata.get("depth_threshold", 0.5)
+    for j in range(len(images)):
+        k = order[j]
+        total += (1.0 - total[:, 3:4]) * rgba[k, pix]
+        crossed = (depth == np.inf) & (total[:, 3] >= threshold) & np.isfinite(entries[k, pix])
+        depth[crossed] = np.where(np.isfinite(depths[k, pix]), depths[k, pix], entries[k, pix])[crossed]
+    dtype = images[0].rgba.dtype if dtype is None else dtype
+    meta = dict(images[0].metadata)
+    meta["samples"] = int(sum(im.metadata.get("samples", 0) for im in images))
+    return HDRImage(total.astype(dtype).reshape(h, w, 4), depth.reshape(h, w), metadata=meta)
+
+
+def render_mixed_blocks(blocks, mesh, tf=None, camera=None, size=(512, 512), options=None, *, name="", progress=None,
+                        progress_bar=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
+    """Render grid blocks and a mesh as one scene (see :func:`render_blocks`' Notes).
+
+    ``blocks``: :class:`~pv_hdrvol.data.blocks.ImageBlock` (boxes that may share faces
+    but not overlap); ``mesh``: the :class:`~pv_hdrvol.TetMesh` of the mesh blocks,
+    which may touch the boxes but not enter them. Each grid block is rendered alone;
+    along each pixel's ray the boxes it crosses, sorted by entry, leave gaps between
+    them (before the first, between two, after the last), and the mesh is rendered
+    once per gap with the ray cut to it (``TetPlan.execute(near=, far=)``, exact inside
+    a cell). The partial images composited in the order of their entries are the
+    scene: a ray may pass mesh, grid, mesh, grid, mesh. Gaps no pixel has are not
+    rendered.
+    """
+    volumes = [b.volume(name) for b in blocks]
+    boxes = [(np.array(v.bounds[0::2]), np.array(v.bounds[1::2])) for v in volumes]
+    _check_disjoint(blocks, boxes)
+    _check_outside(mesh, blocks, boxes)
+    opts = RenderOptions.from_kwargs(options, **option_kwargs)
+    refused = [what for what, on in (("tolerance=", opts.tolerance is not None),
+                                     (f"blending={opts.blending!r}", opts.blending != "composite"),
+                                     ("gradient_opacity=", opts.gradient_opacity is not None),
+                                     ("shade=True", opts.shade)) if on]
+    if refused:
+        raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; this scene of "
+                         f"grid and mesh blocks is rendered part by part: render without {' and '.join(refused)}, "
+                         f"or each part alone (hv.render(dataset[...]))")
+    unit_spacing = min(_cell_width(v) for v in volumes)
+    lo = np.minimum(np.min([b[0] for b in boxes], axis=0), np.asarray(mesh.bounds[0::2]))
+    hi = np.maximum(np.max([b[1] for b in boxes], axis=0), np.asarray(mesh.bounds[1::2]))
+    bounds = tuple(float(x) for pair in zip(lo, hi) for x in pair)
+    tf = _union_transfer_function(volumes, bounds, unit_spacing, tf, dict(cmap=cmap, clim=clim, opacity=opacity,
+                                                                         scale=scale), mesh)
+    unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else unit_spacing
+    camera = as_camera(camera, bounds)
+    if isinstance(camera, Rays):
+        raise TypeError("a scene of grid and mesh blocks needs a Camera (the mesh makes its own rays); got Rays")
+    width, height = as_size(size)
+    rays = camera.rays((width, height))
+    spans = [ray_box_spans(rays, b[0], b[1]) for b in boxes]
+    enter = np.stack([s[0] for s in spans])
+    leave = np.stack([np.where(np.isfinite(s[0]), s[1], np.inf) for s in spans])
+    order = np.argsort(enter, axis=0, kind="stable")
+    enter_sorted = np.take_along_axis(enter, order, axis=0)
+    leave_sorted = np.take_along_axis(leave, order, axis=0)
+    # gap j: from the exit of the j-th box crossed (0 for j = 0) to the entry of the next (inf after the last)
+    starts = np.concatenate([np.zeros((1, enter.shape[1])), leave_sorted])
+    ends = np.concatenate([enter_sorted, np.full((1, enter.shape[1]), np.inf)])
+    open_gaps = (ends > starts) & np.isfinite(starts)
+    gaps = [j for j in range(len(boxes) + 1) if open_gaps[j].any()]
+    _check_progress_bar(progress_bar)
+    weights = np.array([v.values.size for v in volumes] + [mesh.n_cells] * len(gaps), dtype=np.float64)
+    start = np.concatenate([[0.0], np.cumsum(weights)]) / weights.sum()
+    bar = _progress_bar(progress_bar, 1000) if progress_bar else None
+    images, entries = [], []
+    try:
+        with collected_warnings() as reasons:
+            for i, volume in enumerate(volumes):
+                step = opts.step * unit_spacing / _cell_width(volume)
+                block_opts = dataclasses.replace(opts, step=step, opacity_unit_distance=unit)
+                report = _block_progress(progress, bar, start[i], start[i + 1])
+                images.append(GridPlan(volume, tf, block_opts).execute(camera, (width, height), progress=report,
+                                                                       progress_bar=False))
+                entries.append(enter[i])
+            plan = TetPlan(mesh, tf, dataclasses.replace(opts, opacity_unit_distance=unit))
+            for k, j in enumerate(gaps):
+                near = np.where(open_gaps[j], starts[j], 0.0).reshape(height, width)
+                far = np.where(open_gaps[j], ends[j], 0.0).reshape(height, width)
+                report = _block_progress(progress, bar, start[len(volumes) + k], start[len(volumes) + k + 1])
+                images.append(plan.execute(camera, (width, height), near=near, far=far, progress=report,
+                                           progress_bar=False))
+                entries.append(np.where(open_gaps[j], starts[j], np.inf))
+    finally:
+        if bar is not None:
+            bar.close()
+    image = composite_in_order(images, np.stack(entries))
+    image.metadata.pop("settings", None)  # one part's alone: they would not re-render the scene
+    image.metadata["opacity_unit_distance"] = unit
+    image.metadata["step_world"] = opts.step * unit_spacing
+    image.metadata["mesh_passes"] = len(gaps)
+    if len(reasons) == len(images):
+        warn_empty(str(reasons[0]))
+    return image
+
+
+def _check_outside(mesh, blocks, boxes):
+    """Raise ``ValueError`` naming a grid block whose box holds part of the mesh (a ray
+    would cross both at once: no order to composite them in)."""
+    centres = mesh.world_points()[mesh.tets].mean(axis=1)
+    for block, (lo, hi) in zip(blocks, boxes):
+        slack = 1e-9 * (hi - lo)
+        inside = np.all((centres > lo + slack) & (centres < hi - slack), axis=1)
+        if inside.any():
+            raise ValueError(f"{int(inside.sum())} tetrahedra of the mesh blocks lie inside the box of grid block "
+                             f"{block.path!r} ({tuple(lo.tolist())}..{tuple(hi.tolist())}); grid and mesh blocks are "
+                             f"composited along each ray in depth order and may share faces only: remove the overlap")
 
 
 def _cell_width(volume):
@@ -215,21 +345,27 @@ def _check_disjoint(blocks, boxes):
                     f"resample the blocks onto one lattice")
 
 
-def _union_transfer_function(volumes, bounds, unit_spacing, tf, keywords):
+def _union_transfer_function(volumes, bounds, unit_spacing, tf, keywords, mesh=None):
     """``tf``, or the default transfer function of all blocks' values together (each
     weighted by the volume of its cell, so a finely sampled block does not outweigh a
-    coarse one), for a ray as long as the union box's diagonal."""
+    coarse one; a mesh's values by the volume each stands for), for a ray as long as the
+    union box's diagonal."""
     if tf is not None or not volumes:
         return resolve_transfer_function(volumes[0], tf, **keywords)
-    values = np.concatenate([v.values.reshape(-1) for v in volumes])
-    weights = np.concatenate([np.full(v.values.size, float(np.prod(v.spacing))) for v in volumes])
+    values = [v.values.reshape(-1) for v in volumes]
+    weights = [np.full(v.values.size, float(np.prod(v.spacing))) for v in volumes]
+    if mesh is not None:
+        values.append(np.asarray(mesh.values, dtype=np.float64).reshape(-1))
+        weights.append(np.full(values[-1].size, float(np.abs(mesh.cell_volumes()).sum()) / max(values[-1].size, 1)))
+    values = np.concatenate(values)
+    weights = np.concatenate(weights)
     b = np.asarray(bounds)
     diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
-    integer = all(v.integer for v in volumes)
+    integer = all(v.integer for v in volumes) and mesh is None
     if integer and keywords.get("scale") is None:
         keywords = dict(keywords, scale="linear")
     return auto_transfer_function(values, diagonal / unit_spacing, weights=weights / weights.mean(),
                                   integer=integer, **keywords)
 
 
-__all__ = ["render_blocks", "render_image_blocks"]
+__all__ = ["composite_in_order", "render_blocks", "render_image_blocks", "render_mixed_blocks"]

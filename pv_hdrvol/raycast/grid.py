@@ -1,6 +1,7 @@
 """Render image volumes: validate, build tables and the block grid, call the kernel."""
 from __future__ import annotations
 
+import copy
 import contextlib
 import copy
 import dataclasses
@@ -19,6 +20,7 @@ from ..image.hdr import HDRImage
 from .._validate import as_real, as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays, as_camera, check_window
+from ..rays.clip import has_clip, ray_spans
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
@@ -746,6 +748,16 @@ class GridPlan:
                                    min(volume.dims) < 2)
         return self._prepared
 
+    def with_clip(self, clip_planes=None, crop_box=None):
+        """This plan with other ``clip_planes`` and ``crop_box`` (as
+        :class:`~pv_hdrvol.RenderOptions`'; ``None``: none). A clip changes only each
+        ray's interval, so the copy shares the tables and prepared arrays: dragging a
+        plane re-renders without preparing again."""
+        plan = copy.copy(self)
+        plan.options = self.options.replace(clip_planes=clip_planes, crop_box=crop_box)
+        plan._voxel_plans = {}  # a rectilinear piece's plans (_with_voxel) are made with the options
+        return plan
+
     def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, cull=None, window=None,
                 progress=None, progress_bar=None, chunk_seconds=None, far=None, piece=None):
         """Render the plan: ``camera``, ``size``, ``lens``, ``block_mask``, ``progress`` and
@@ -818,6 +830,8 @@ class GridPlan:
             rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
             width, height = rays.width, rays.height
         lod = _check_lod(rays) if rays is not None else None
+        # clipping planes, a crop box and far: one [near, far] per pixel (rays/clip.py)
+        span = ray_spans(rays if rays is not None else camera, (width, height), opts, far)
         check_rectilinear(self.source, **{"Rays with a level of detail (Rays.lod)": lod is not None or None})
         if piece is not None and lod is not None:
             raise ValueError("a piece of a distributed volume renders without a level-of-detail (sampling-rate) lens")
@@ -854,6 +868,9 @@ class GridPlan:
             mask = mask.astype(np.uint8)
         culling = None
         if cull is not None:
+            if has_clip(opts):
+                raise ValueError("cull= hides blocks behind the whole volume, which clip_planes= and crop_box= may cut "
+                                 "away (the hidden blocks would show): render a clipped volume without cull=")
             if not callable(getattr(cull, "mask_for", None)):
                 raise TypeError(f"cull must be a PlenopticOpacity or Culling; got {type(cull).__name__}")
             if not isinstance(camera, Camera) or lens is not None or styles is not None:
@@ -913,24 +930,24 @@ class GridPlan:
                 pass
             elif not extended:
                 K.render_tiles(marker, bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
-                               dims, cam, origins, directions, far, width, height, _TILE, rows, lanes, lo, hi,
+                               dims, cam, origins, directions, span, width, height, _TILE, rows, lanes, lo, hi,
                                piece_box, params, light, warp, rgba, depth, samples)
             elif value is not None:
                 a = kernel_args
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
-                                     a.sigmas, a.axes, origins, directions, far, width, height, _TILE, rows, lanes, lo,
+                                     a.sigmas, a.axes, origins, directions, span, width, height, _TILE, rows, lanes, lo,
                                      hi, params, a.e, value, rgba, depth, samples)
             elif a_lens_only:
                 a = kernel_args
                 KX.render_lens(marker, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo,
                                a.e.n_levels, a.lods, a.tables, sigma, a.level_tables, a.level_steps, origins,
-                               directions, far, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, rgba,
+                               directions, span, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, rgba,
                                depth, samples)
             else:
                 a = kernel_args
                 KX.render_ext(marker, light, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr,
                               a.pgeo, a.lods, a.gbricks, a.slots, a.modes, a.tables, a.sigmas, a.axes, origins,
-                              directions, far, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
+                              directions, span, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
                               depth, samples)
             return pixel_rows(tile_rows, height)
 
@@ -1116,18 +1133,19 @@ def _check_piece(piece, volume, opts, ghosts):
     return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin, None, None
 
 
-def _check_far(far, width, height):
-    """``far`` as a flat float64 array (empty for ``None``), checked."""
+def _check_far(far, width, height, name="far"):
+    """``far`` (or another per-pixel distance, ``name``) as a flat float64 array (empty
+    for ``None``), checked."""
     if far is None:
         return np.empty(0)
     a = np.asarray(far)
     if a.dtype.kind not in "fiu":
-        raise TypeError(f"far must be a numeric array; got dtype {a.dtype}")
+        raise TypeError(f"{name} must be a numeric array; got dtype {a.dtype}")
     if a.shape != (height, width):
-        raise ValueError(f"far must have the image's shape (rows, cols) = {(height, width)}; got {a.shape}")
+        raise ValueError(f"{name} must have the image's shape (rows, cols) = {(height, width)}; got {a.shape}")
     a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
     if np.isnan(a).any() or (a < 0).any():
-        raise ValueError("far must hold distances >= 0 (inf: no limit); got NaN or negative values")
+        raise ValueError(f"{name} must hold distances >= 0 (inf: no limit); got NaN or negative values")
     return a
 
 

@@ -5,6 +5,7 @@ march. See :func:`render_tets`.
 """
 from __future__ import annotations
 
+import copy
 import math
 import time
 from typing import NamedTuple
@@ -18,6 +19,7 @@ from ..image.hdr import HDRImage
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, as_camera, ray_box_spans
+from ..rays.clip import ray_spans
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
@@ -153,8 +155,17 @@ class TetPlan:
         self._empty_reason = empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf,
                                                  visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
 
+    def with_clip(self, clip_planes=None, crop_box=None):
+        """This plan with other ``clip_planes`` and ``crop_box`` (as
+        :class:`~pv_hdrvol.RenderOptions`'; ``None``: none). A clip changes only each
+        ray's interval, so the copy shares the tables and prepared arrays: dragging a
+        plane re-renders without preparing again."""
+        plan = copy.copy(self)
+        plan.options = self.options.replace(clip_planes=clip_planes, crop_box=crop_box)
+        return plan
+
     def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, chunk_seconds=None,
-                far=None, piece=None):
+                far=None, piece=None, near=None):
         """Render the plan for ``camera`` and ``size`` (as :func:`render_tets`); an
         :class:`~pv_hdrvol.HDRImage`. ``chunk_seconds`` and ``far``: as
         :meth:`~pv_hdrvol.raycast.grid.GridPlan.execute`.
@@ -168,12 +179,14 @@ class TetPlan:
         (:func:`pv_hdrvol.parallel.pieces.composite_pieces`) are the whole render to
         rounding; the default camera frames the whole mesh."""
         return self.execute_with_view(camera, size, progress=progress, progress_bar=progress_bar,
-                                      chunk_seconds=chunk_seconds, far=far, piece=piece)[0]
+                                      chunk_seconds=chunk_seconds, far=far, piece=piece, near=near)[0]
 
     def execute_with_view(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, view=None,
-                          chunk_seconds=None, far=None, piece=None):
+                          chunk_seconds=None, far=None, piece=None, near=None):
         """:meth:`execute`, and the boundary's ``_view`` for this camera (reused when
-        ``view`` was made for it): ``(image, view)``."""
+        ``view`` was made for it): ``(image, view)``. ``near`` (as ``far``: rows x cols,
+        world distances): where each ray starts compositing -- the mesh between the
+        boxes of a scene's grid blocks (``raycast/blocks.py``)."""
         mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
         if opts.tolerance is not None:
             if piece is not None:
@@ -193,6 +206,11 @@ class TetPlan:
         _check_progress_bar(progress_bar)
         width, height = as_size(size)
         far = _check_far(far, width, height)
+        if near is not None:
+            if opts.tolerance is not None:
+                raise ValueError("near= and tolerance= do not go together: give tau_max= and termination=")
+            near = _check_far(near, width, height, "near")
+        span = ray_spans(camera, (width, height), opts, far, near)  # clip planes, crop box, far (rays/clip.py)
         own = np.empty((0, 2))
         if piece is not None:  # the span of each ray in the owned box
             lo, hi = piece.world_box()
@@ -233,7 +251,7 @@ class TetPlan:
             TK.render_tiles(_MARKERS[opts.precision], mesh.points, cells_i, cells_f, active,
                             mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
                             hits.offsets,
-                            hits.t, hits.face, hits.entering, cam, own, far, width, height, _TILE, rows, lanes,
+                            hits.t, hits.face, hits.entering, cam, own, span, width, height, _TILE, rows, lanes,
                             params, rgba, depth, cells, pieces, guard)
             return pixel_rows(tile_rows, height)
 

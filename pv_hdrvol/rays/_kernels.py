@@ -1,4 +1,5 @@
-"""numba kernels of the lenses (``rays/lenses.py``): arrays in, arrays filled.
+"""numba kernels of the lenses (``rays/lenses.py``) and of clipping (``rays/clip.py``):
+arrays in, arrays filled.
 
 Nothing here validates or allocates; ``lenses.py`` does that.
 """
@@ -6,9 +7,10 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
-from .._jit import inline_kernel, kernel
+from .._jit import inline_kernel, kernel, parallel_kernel
 
 #: Length of ``Camera.kernel_array()``: what ``camera_ray`` reads.
 CAMERA_FIELDS = 15
@@ -412,3 +414,60 @@ def _fisheye_grid(w, h, k, frame, out):
 def _fisheye_points(pts, w, h, k, frame, out):
     for n in range(pts.shape[0]):
         _fisheye_ray(pts[n, 0], pts[n, 1], w, h, k, frame, out, n)
+
+
+# -- clipping (rays/clip.py) -----------------------------------------------------------------
+@inline_kernel
+def _clip_one(ox, oy, oz, dx, dy, dz, planes, box, stop):
+    """``(near, far)`` of ``t >= 0`` where ``o + t d`` is on the kept side of every plane
+    (rows ``origin, normal`` of ``planes``: ``(x - origin) . normal >= 0``) and in
+    ``box`` (6 bounds, or empty), ``far`` at most ``stop``."""
+    near = 0.0
+    for k in range(planes.shape[0]):
+        s = (ox - planes[k, 0]) * planes[k, 3] + (oy - planes[k, 1]) * planes[k, 4] + (oz - planes[k, 2]) * planes[k, 5]
+        r = dx * planes[k, 3] + dy * planes[k, 4] + dz * planes[k, 5]
+        if r > 0.0:
+            near = max(near, -s / r)
+        elif r < 0.0:
+            stop = min(stop, -s / r)
+        elif not s >= 0.0:
+            stop = -math.inf
+    if box.shape[0] == 6:
+        for axis in range(3):
+            o = ox if axis == 0 else (oy if axis == 1 else oz)
+            d = dx if axis == 0 else (dy if axis == 1 else dz)
+            lo = box[2 * axis]
+            hi = box[2 * axis + 1]
+            if d != 0.0:
+                ta = (lo - o) / d
+                tb = (hi - o) / d
+                near = max(near, min(ta, tb))
+                stop = min(stop, max(ta, tb))
+            elif not (o >= lo and o <= hi):
+                stop = -math.inf
+    return near, stop
+
+
+@parallel_kernel
+def clip_spans_of_camera(cam, width, height, planes, box, far, out):
+    """``out[pix] = (near, far)`` of each pixel's ray (``camera_ray``); ``far``: a limit
+    per pixel, or empty."""
+    has_far = far.shape[0] > 0
+    for row in numba.prange(height):
+        for col in range(width):
+            pix = row * width + col
+            ox, oy, oz, dx, dy, dz = camera_ray(cam, col, row, width, height)
+            near, stop = _clip_one(ox, oy, oz, dx, dy, dz, planes, box, far[pix] if has_far else math.inf)
+            out[pix, 0] = near
+            out[pix, 1] = stop
+
+
+@parallel_kernel
+def clip_spans_of_rays(origins, directions, planes, box, far, out):
+    """``clip_spans_of_camera`` for rays given as arrays (one row per ray)."""
+    has_far = far.shape[0] > 0
+    for i in numba.prange(origins.shape[0]):
+        near, stop = _clip_one(origins[i, 0], origins[i, 1], origins[i, 2], directions[i, 0], directions[i, 1],
+                               directions[i, 2], planes, box, far[i] if has_far else math.inf)
+        out[i, 0] = near
+        out[i, 1] = stop

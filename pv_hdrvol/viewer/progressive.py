@@ -159,7 +159,11 @@ class ProgressiveRenderer:
         """Change the transfer function and/or options (``global_alpha=``, ``step=``,
         ...; validated now) for the next requests. Renders in flight keep theirs."""
         options = self.options.replace(**option_changes) if option_changes else self.options
-        plan = self._make_plan(self._plan.tf if tf is None else tf, options)
+        if tf is None and option_changes and set(option_changes) <= {"clip_planes", "crop_box"}:
+            # a clip changes only each ray's interval: the plan's tables and arrays stay
+            plan = self._plan.with_clip(options.clip_planes, options.crop_box)
+        else:
+            plan = self._make_plan(self._plan.tf if tf is None else tf, options)
         with self._lock:
             self.options, self._plan = options, plan
 

@@ -456,6 +456,7 @@ class HDRViewer(QtWidgets.QMainWindow):
         self.model.observe(self._model_changed)
         self.lens_mode = False
         self._lens_drag = False
+        self._clip_plane = self._crop_box = None
         self._style = None
         self._make_actions()
         iren = self.plotter.iren.interactor
@@ -477,6 +478,8 @@ class HDRViewer(QtWidgets.QMainWindow):
             ("Edit", "Undo", "Ctrl+Z", self.model.undo),
             ("Edit", "Redo", "Ctrl+Shift+Z", self.model.redo),
             ("View", "Magnifier lens", "Ctrl+L", self.toggle_lens),
+            ("View", "Clip plane", "Ctrl+K", self.toggle_clip_plane),
+            ("View", "Crop box", "Ctrl+B", self.toggle_crop_box),
             ("View", "Reset camera", "Ctrl+R", self._reset_camera),
             ("Help", "Shortcuts", "F1", self.show_shortcuts),
         ]
@@ -488,13 +491,16 @@ class HDRViewer(QtWidgets.QMainWindow):
             action.triggered.connect(lambda checked=False, slot=slot: slot())
             menus[menu].addAction(action)
             self.actions_by_name[text] = action
-        self.actions_by_name["Magnifier lens"].setCheckable(True)
+        for name in ("Magnifier lens", "Clip plane", "Crop box"):
+            self.actions_by_name[name].setCheckable(True)
         self._shortcut_text = "\n".join(f"{keys:14s} {text}" for _, text, keys, _ in spec) + (
             "\n\nEditor: drag points; click to add; right-click removes; double-click a colour point to pick its"
             " colour;\ndrag a colour's orange diamond up or down for its intensity (HDR above 1);\nShift+click"
             " magnifies a range (wheel: magnification); L log opacity axis; C log colour axis; M magnification;"
             " Delete"
-            "\nView: drag to orbit, wheel to zoom; with the lens on, drag to move the lens")
+            "\nView: drag to orbit, wheel to zoom; with the lens on, drag to move the lens; the clip plane keeps"
+            " the side its arrow points to: drag the plane to move it, the arrow to turn it; drag the crop box's"
+            " faces")
 
     def show_shortcuts(self):
         QtWidgets.QMessageBox.information(self, "Shortcuts", self._shortcut_text)
@@ -552,6 +558,28 @@ class HDRViewer(QtWidgets.QMainWindow):
             if self._style is not None:
                 iren.SetInteractorStyle(self._style)
             self.actor.set_lens(None)
+
+    def toggle_clip_plane(self, on=None):
+        """Show or remove an interactive clipping plane through the volume's centre
+        (``HDRVolumeActor.add_clip_plane_widget``): dragging it cuts the volume."""
+        on = self._clip_plane is None if on is None else bool(on)
+        if on and self._clip_plane is None:
+            self._clip_plane = self.actor.add_clip_plane_widget("x")
+        elif not on and self._clip_plane is not None:
+            self.actor.remove_clip_widget(self._clip_plane)
+            self._clip_plane = None
+        self.actions_by_name["Clip plane"].setChecked(on)
+
+    def toggle_crop_box(self, on=None):
+        """Show or remove an interactive crop box around the volume
+        (``HDRVolumeActor.add_crop_box_widget``): dragging its faces crops it."""
+        on = self._crop_box is None if on is None else bool(on)
+        if on and self._crop_box is None:
+            self._crop_box = self.actor.add_crop_box_widget()
+        elif not on and self._crop_box is not None:
+            self.actor.remove_clip_widget(self._crop_box)
+            self._crop_box = None
+        self.actions_by_name["Crop box"].setChecked(on)
 
     def _move_lens(self, col, row):
         cols, rows = self.actor.scene.GetSize()

@@ -110,6 +110,16 @@ def over_scene(rgb, alpha, scene):
     return np.clip(rgb + (1.0 - np.minimum(coverage, 1.0))[..., None] * scene, 0.0, 1.0)
 
 
+def _widget_lists(plotter):
+    """The plotter's lists of plane and box widgets (``plotter.widgets`` from PyVista
+    0.47 on, the plotter itself before)."""
+    owner = getattr(plotter, "widgets", None)
+    if owner is None or not hasattr(owner, "plane_widgets"):
+        owner = plotter
+    return [getattr(owner, name) for name in ("plane_widgets", "box_widgets") if isinstance(getattr(owner, name, None),
+                                                                                           list)]
+
+
 class HDRVolumeActor:
     """One HDR volume in a PyVista plotter (made by :func:`add_hdr_volume`).
 
@@ -156,6 +166,7 @@ class HDRVolumeActor:
         self._requested = self._shown = 0  # generations: of the last request, of the full frame shown
         self._busy = False
         self.lens = None
+        self._clip_widgets = []
         #: the Camera of the last render requested
         self.renderer_camera = None
         # the overlay: an opaque image of the composite, on the layer above the scene's,
@@ -212,6 +223,71 @@ class HDRVolumeActor:
         self.lens = lens
         self._key = None
         self._render_window()
+
+    def set_clip(self, clip_planes=None, crop_box=None):
+        """Cut the volume with ``clip_planes`` and/or a ``crop_box`` (as
+        :class:`~pv_hdrvol.RenderOptions`'; ``None``: none), keeping the rest of the
+        scene; it renders again at the next scene render (which this requests)."""
+        self.renderer.set_scene(clip_planes=clip_planes, crop_box=crop_box)
+        self._key = None
+        self._render_window()
+
+    def add_clip_plane_widget(self, normal="x", origin=None, *, invert=False, **widget_kwargs):
+        """An interactive plane (PyVista's ``add_plane_widget``, a
+        ``vtkImplicitPlaneWidget``) that clips the volume as it is dragged or turned:
+        the side its normal points to is kept (VTK's convention; ``invert=True`` keeps
+        the other). ``normal``: ``"x"``, ``"y"``, ``"z"``, ``"-x"``... or a vector;
+        ``origin``: default the volume's centre; ``widget_kwargs`` go to
+        ``add_plane_widget``. The crop box stays. Returns the widget
+        (:meth:`clear_clip_widgets` removes it and the cut)."""
+        bounds = self.renderer.data.bounds
+        if origin is None:
+            origin = tuple(0.5 * (bounds[2 * i] + bounds[2 * i + 1]) for i in range(3))
+        sign = -1.0 if invert else 1.0
+        widget_kwargs.setdefault("interaction_event", "always")  # cut while dragging (coarse frames)
+
+        def moved(normal, origin):
+            self.set_clip(((tuple(origin), tuple(sign * float(x) for x in normal)),),
+                          self.renderer.options.crop_box)
+
+        widget = self.plotter.add_plane_widget(moved, normal=normal, origin=origin, bounds=bounds,
+                                               **widget_kwargs)
+        self._clip_widgets.append(widget)
+        return widget
+
+    def add_crop_box_widget(self, **widget_kwargs):
+        """An interactive box (PyVista's ``add_box_widget``) that crops the volume to it
+        as its faces are dragged; ``widget_kwargs`` go to ``add_box_widget``. Returns
+        the widget (:meth:`clear_clip_widgets` removes it and the crop)."""
+        def moved(box):
+            self.set_clip(self.renderer.options.clip_planes, box.bounds)
+
+        widget_kwargs.setdefault("interaction_event", "always")
+        widget_kwargs.setdefault("factor", 1.0)  # start at the volume's bounds: nothing cut yet
+        widget = self.plotter.add_box_widget(moved, bounds=self.renderer.data.bounds, rotation_enabled=False,
+                                             **widget_kwargs)
+        self._clip_widgets.append(widget)
+        return widget
+
+    def remove_clip_widget(self, widget):
+        """Remove one widget of :meth:`add_clip_plane_widget` or
+        :meth:`add_crop_box_widget`, and its cut (the plane, or the crop box)."""
+        if widget not in self._clip_widgets:
+            raise ValueError("remove_clip_widget takes a widget that add_clip_plane_widget or add_crop_box_widget "
+                             "of this volume returned")
+        widget.Off()
+        for store in _widget_lists(self.plotter):
+            if widget in store:
+                store.remove(widget)
+        self._clip_widgets.remove(widget)
+        box = widget.GetClassName() == "vtkBoxWidget"
+        options = self.renderer.options
+        self.set_clip(options.clip_planes if box else None, None if box else options.crop_box)
+
+    def clear_clip_widgets(self):
+        """Remove the clip and crop widgets of this volume, and their cut."""
+        for widget in list(self._clip_widgets):
+            self.remove_clip_widget(widget)
 
     def probe(self, col, row):
         """What the shown render holds at pixel ``(col, row)`` (row 0 at the top): a dict

@@ -80,6 +80,68 @@ def test_render_equals_python_api(plugin, shared_data, case):
     simple.Delete(render)
 
 
+def test_clip_plane_and_crop_box_equal_python_api(plugin, shared_data):
+    """Clip (Clip Origin, Clip Normal: the implicit-plane widget's properties) and Crop
+    (Crop Origin, Crop Length: the box widget's) render what hv.render renders with
+    clip_planes=/crop_box= (the kept side is where the normal points, VTK's), to the
+    tolerance of test_render_equals_python_api; their defaults come from the input's
+    bounds; moving the plane keeps the plan; a zero normal is refused; both off render
+    the whole volume again."""
+    reader, array = _reader(shared_data, ENGINE)
+    lut, pwf, tf = _set_color_map(array, 20.0, 255.0, log=False)
+    bounds = reader.GetDataInformation().GetBounds()
+    camera = hv.Camera.fit(bounds, "iso")
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[48, 40], Camera="iso", LookupTable=lut,
+                                       ScalarOpacityFunction=pwf)
+    render.Scalars = ["POINTS", array]
+    # off by default; the plane through the input's centre facing +x, the box the input's bounds
+    assert (render.Clip, render.Crop) == (0, 0)
+    np.testing.assert_allclose(render.ClipOrigin, [(bounds[0] + bounds[1]) / 2, (bounds[2] + bounds[3]) / 2,
+                                                   (bounds[4] + bounds[5]) / 2])
+    assert list(render.ClipNormal) == [1.0, 0.0, 0.0]
+    np.testing.assert_allclose(render.CropOrigin, bounds[::2])
+    np.testing.assert_allclose(render.CropLength, np.subtract(bounds[1::2], bounds[::2]))
+    whole = _image(render).rgba.copy()
+    data = servermanager.Fetch(reader)
+
+    def direct(**clip):
+        return hv.render(data, tf, camera, (48, 40), scalars=array, progress_bar=False, **clip)
+
+    render.Clip = 1
+    render.ClipOrigin = [120.0, 100.0, 60.0]
+    render.ClipNormal = [0.3, 0.0, -1.0]
+    render.Crop = 1
+    render.CropOrigin = [20.0, 10.0, 0.0]
+    render.CropLength = [200.0, 180.0, 127.0]
+    crop_box = (20.0, 220.0, 10.0, 190.0, 0.0, 127.0)
+    image = _image(render)
+    expected = direct(clip_planes=((120.0, 100.0, 60.0), (0.3, 0.0, -1.0)), crop_box=crop_box)
+    assert image.rgba[..., 3].max() > 0.05
+    assert np.abs(expected.rgba - whole).max() > 0.05  # the cut shows
+    np.testing.assert_allclose(image.rgba, expected.rgba, rtol=1e-6, atol=1e-7)
+    np.testing.assert_array_equal(image.depth, expected.depth)
+    algorithm = render.GetClientSideObject()
+    assert algorithm.GetCropBox() == crop_box
+
+    # the widget dragged: a new plane re-renders with the same plan (no re-preparation)
+    kept = algorithm._plan[1]
+    render.ClipNormal = [0.0, -1.0, 0.0]
+    image = _image(render)
+    assert algorithm._plan[1].table is kept.table
+    expected = direct(clip_planes=((120.0, 100.0, 60.0), (0.0, -1.0, 0.0)), crop_box=crop_box)
+    np.testing.assert_allclose(image.rgba, expected.rgba, rtol=1e-6, atol=1e-7)
+
+    # a zero normal is refused until fixed (not rendered with the previous plane)
+    render.ClipNormal = [0.0, 0.0, 0.0]
+    text = _error_text(render)
+    assert text is not None and text.startswith("ValueError: Clip was refused"), text
+    render.Clip = 0  # off: the plane is not used, nothing to refuse
+    render.Crop = 0
+    assert _error_text(render) is None
+    np.testing.assert_array_equal(_image(render).rgba, whole)
+    simple.Delete(render)
+
+
 def test_properties_and_color_map_edits_re_execute(plugin, shared_data):
     reader, array = _reader(shared_data, ENGINE)
     lut, pwf, _ = _set_color_map(array, 20.0, 255.0, log=False)
@@ -450,7 +512,7 @@ def test_meshes_in_front_hide_the_volume_and_behind_are_hidden(plugin, shared_da
 def test_a_plot3d_reader_renders_its_curvilinear_block(plugin, shared_data):
     """What a user of a CFD code does: open a PLOT3D grid and solution with ParaView's
     reader (a multiblock of one curvilinear vtkStructuredGrid) and apply HDR Volume
-    Render: each hexahedron is split into six tetrahedra, as hv.render splits it."""
+    Render: each hexahedron is split into five tetrahedra, as hv.render splits it."""
     folder = shared_data / "unstructured" / "plot3d_original"
     reader = simple.PLOT3DReader(FileName=str(folder / "bluntfinxyz.bin"), QFileName=[str(folder / "bluntfinq.bin")])
     reader.UpdatePipeline()

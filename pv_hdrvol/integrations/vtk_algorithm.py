@@ -677,9 +677,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
         in_info = inInfo[0].GetInformationObject(0)
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
-        # rectilinear grids have extents too, but are not rendered where they live yet:
-        # piece 0 renders them whole
-        structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (data is None or data.GetClassName() in IMAGE_CLASSES)
+        # image data and rectilinear grids: each process renders its piece of the extent
+        structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (
+            data is None or data.GetClassName() in IMAGE_CLASSES + ("vtkRectilinearGrid",))
         # a curvilinear grid's pieces are rendered as the tetrahedra a whole grid's render
         # makes of them, through the mesh path (_execute_mesh_piece)
         mesh = not structured and data is not None and data.GetClassName() in ("vtkUnstructuredGrid",
@@ -777,33 +777,50 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         from ..parallel.pieces import gather_pieces
         from ..raycast.grid import VolumePiece
 
+        import numpy as np
+
         image = piece = spacing = rays = error = None
         owned = distribution.owned
         tf = self._shared_transfer_function(distribution.comm)
         _share_cores(distribution.comm)
+        whole_axes = _whole_axes(inp, distribution)  # collective; None for image data
         try:
             if owned[1] <= owned[0] or owned[3] <= owned[2] or owned[5] <= owned[4]:
                 raise ValueError(f"the image of extent {distribution.whole} has too few cells for "
                                  f"{distribution.comm.size} processes: process {distribution.comm.rank} owns "
                                  f"{owned}; render it on fewer processes")
+            if isinstance(whole_axes, Exception):
+                raise whole_axes
             kind = inp.GetClassName() if inp is not None else None
-            if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
-                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkImageData; process "
-                                 f"{distribution.comm.rank} got {'nothing' if inp is None else kind}")
+            if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkRectilinearGrid"):
+                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkImageData or vtkRectilinearGrid; "
+                                 f"process {distribution.comm.rank} got {'nothing' if inp is None else kind}")
             scalars, preference = self._scalars_to_render()
             data = self._volumes.get(inp, scalars, preference)
-            if tuple(data.dims) != tuple(inp.GetDimensions()):
-                raise ValueError(f"a distributed image volume is rendered from a point array; "
+            if data.values.shape[::-1] != tuple(e[1] - e[0] + 1 for e in np.reshape(inp.GetExtent(), (3, 2))):
+                raise ValueError(f"a distributed volume is rendered from a point array; "
                                  f"{data.name or 'the active scalars'!r} is a cell array (apply Cell Data to Point "
                                  f"Data, or render it on one process)")
             spacing = data.spacing
-            piece = VolumePiece.from_extents(inp.GetOrigin(), inp.GetSpacing(), distribution.whole, inp.GetExtent(),
-                                             owned)
+            options = None
+            if whole_axes is not None:  # a rectilinear piece samples the whole grid's lattice
+                start = np.asarray(inp.GetExtent()[0::2]) - np.asarray(distribution.whole[0::2])
+                local = tuple(a[o:o + n] for a, o, n in zip(whole_axes, start, data.values.shape[::-1]))
+                if data.axes is None:  # even within the piece, uneven in the whole
+                    data = dataclasses.replace(data, axes=local, cache={})
+                piece = VolumePiece.from_rectilinear(whole_axes, start, np.asarray(owned[0::2]) -
+                                                     np.asarray(distribution.whole[0::2]),
+                                                     np.asarray(owned[1::2]) - np.asarray(distribution.whole[0::2]))
+                options = piece.options_for(self._options, data)
+            else:
+                piece = VolumePiece.from_extents(inp.GetOrigin(), inp.GetSpacing(), distribution.whole,
+                                                 inp.GetExtent(), owned)
             bounds = piece.bounds(spacing)
             camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera, bounds)
             self._last_camera = camera
             rays = camera.rays(self._size)
-            plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf)
+            plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf, data=data if options else None,
+                                  options=options)
 
             def progress(fraction):
                 self.UpdateProgress(fraction)
@@ -951,7 +968,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         to its box), else ``None``: what each process holds (``GetActualMemorySize()``)."""
         return self._last_piece
 
-    def _plan_for(self, inp, kind, scalars, preference, tf):
+    def _plan_for(self, inp, kind, scalars, preference, tf, data=None, options=None):
         """The :class:`GridPlan` or :class:`TetPlan` of this input, transfer function and
         options, made again only when one of them changed; the default transfer function
         of the data is kept while the data and its keywords are unchanged (it reads every
@@ -960,7 +977,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         from ..data.tets import TetMesh
         from ..raycast.grid import resolve_transfer_function
 
-        if inp.IsA("vtkCompositeDataSet"):  # gathered onto one volume or merged into one mesh, cached
+        opts = self._options if options is None else options
+        if data is not None:  # prepared by the caller (a rectilinear piece)
+            pass
+        elif inp.IsA("vtkCompositeDataSet"):  # gathered onto one volume or merged into one mesh, cached
             data = as_renderable(inp, scalars=scalars, preference=preference)
         else:
             data = self._volumes.get(inp, scalars, preference)
@@ -976,27 +996,27 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         labels = None if self._labels is None else (self._labels, id(self._label_styles))
         if self._plan is not None:
             old = self._plan[0]  # the data and the transfer function by identity, the rest by value
-            if old[0] is data and old[1] is tf and old[2:] == (self._options, labels):
+            if old[0] is data and old[1] is tf and old[2:] == (opts, labels):
                 return self._plan[1]
-            unclipped = self._options.replace(clip_planes=(), crop_box=None)
+            unclipped = opts.replace(clip_planes=(), crop_box=None)
             if old[0] is data and old[1] is tf and old[3] == labels \
                     and old[2].replace(clip_planes=(), crop_box=None) == unclipped:
                 # only the clip changed (a plane dragged): the plan's tables and arrays stay
-                plan = self._plan[1].with_clip(self._options.clip_planes, self._options.crop_box)
-                self._plan = ((data, tf, self._options, labels), plan)
+                plan = self._plan[1].with_clip(opts.clip_planes, opts.crop_box)
+                self._plan = ((data, tf, opts, labels), plan)
                 return plan
         self._plan = None  # drop the old plan (and its arrays) before making the new one
         if isinstance(data, TetMesh):
             from ..raycast.tets import TetPlan
 
-            plan = TetPlan(data, tf, self._options)
+            plan = TetPlan(data, tf, opts)
         else:
             from ..data.grid import labels_from_dataset
             from ..raycast.grid import GridPlan
 
             label_array = None if self._labels is None else labels_from_dataset(inp, self._labels, preference)
-            plan = GridPlan(data, tf, self._options, labels=label_array, label_styles=self._label_styles)
-        self._plan = ((data, tf, self._options, labels), plan)
+            plan = GridPlan(data, tf, opts, labels=label_array, label_styles=self._label_styles)
+        self._plan = ((data, tf, opts, labels), plan)
         return plan
 
 
@@ -1149,6 +1169,34 @@ class _Distribution(NamedTuple):
     owned: tuple
     extent: tuple
     ghosts: int
+
+
+def _whole_axes(inp, distribution):
+    """The whole rectilinear grid's coordinates (x, y, z arrays) from every process's
+    piece (collective: each sends its extent and coordinates), an exception to raise if
+    they do not fit, or ``None`` when the input is not a rectilinear grid (on any
+    process: all decide alike, from piece 0's class name)."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    mine = None
+    if inp is not None and inp.GetClassName() == "vtkRectilinearGrid" and inp.GetNumberOfPoints():
+        mine = (tuple(inp.GetExtent()), [vtk_to_numpy(c).astype(np.float64) for c in
+                                         (inp.GetXCoordinates(), inp.GetYCoordinates(), inp.GetZCoordinates())])
+    pieces = distribution.comm.allgather(mine)
+    if all(p is None for p in pieces):
+        return None
+    whole = np.reshape(distribution.whole, (3, 2))
+    axes = [np.full(int(hi - lo + 1), np.nan) for lo, hi in whole]
+    for p in pieces:
+        if p is None:
+            continue
+        for axis in range(3):
+            lo = int(p[0][2 * axis] - whole[axis][0])
+            axes[axis][lo:lo + p[1][axis].size] = p[1][axis]
+    if any(np.isnan(a).any() for a in axes):
+        return ValueError("the rectilinear grid's pieces do not cover its whole extent: render it on one process")
+    return tuple(axes)
 
 
 def _tet_grid_of_structured(grid):

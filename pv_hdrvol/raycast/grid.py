@@ -89,10 +89,12 @@ def point_volumes(axes):
 _MAX_BUCKETS_PER_VOXEL = 64
 
 
-def warp_arrays(volume):
+def warp_arrays(volume, frame=None):
     """The kernels' ``warp`` (``_kernels.warp_at``): ``0`` for a uniform volume, else the
     tuple ``(cu, inv_w, first, bucket_base, bucket_scale)`` of its axes, built once and
-    cached on the volume.
+    cached on the volume. ``frame`` (3 arrays): a piece of a whole rectilinear grid, its
+    points' nominal coordinates in the whole grid's frame less its first point's
+    (``VolumePiece.nominal``): they start at 0 and end where the piece ends there.
 
     Per axis of ``n`` points: ``cu`` the nominal voxel coordinates of the points
     (``(c - c[0]) / h``, ``h`` the nominal spacing; ends exactly ``0`` and ``n - 1``),
@@ -106,16 +108,20 @@ def warp_arrays(volume):
     """
     if volume.axes is None:
         return 0
-    cached = volume.cache.get("warp")
+    key = "warp" if frame is None else ("warp",) + tuple(c.tobytes() for c in frame)
+    cached = volume.cache.get(key)
     if cached is not None:
         return cached
     cus, invs, firsts, bases, scales = [], [], [], [], []
     base = 0
-    for label, c in zip("xyz", volume.axes):
+    for a, (label, c) in enumerate(zip("xyz", volume.axes)):
         n = c.size
-        h = (c[-1] - c[0]) / (n - 1)
-        cu = (c - c[0]) / h
-        cu[0], cu[-1] = 0.0, n - 1.0
+        if frame is None:
+            h = (c[-1] - c[0]) / (n - 1)
+            cu = (c - c[0]) / h
+            cu[0], cu[-1] = 0.0, n - 1.0
+        else:
+            cu = np.array(frame[a], dtype=np.float64)
         w = np.diff(cu)
         if not (w > 0).all():
             i = int(np.flatnonzero(w <= 0)[0])
@@ -123,8 +129,9 @@ def warp_arrays(volume):
                              f"{label}[{i}] = {float(c[i])!r}, {label}[{i + 1}] = {float(c[i + 1])!r}")
         inv = np.zeros(n)
         inv[:-1] = 1.0 / w
-        m = int(min(math.ceil((n - 1) / float(w.min())), _MAX_BUCKETS_PER_VOXEL * (n - 1)))
-        scale = m / (n - 1)
+        end = float(cu[-1])
+        m = int(min(math.ceil(end / float(w.min())), _MAX_BUCKETS_PER_VOXEL * (n - 1)))
+        scale = m / end
         keys = np.floor(cu[1:n - 1] * scale)
         first = np.minimum(np.searchsorted(keys, np.arange(m + 1, dtype=np.float64), side="left"), n - 2)
         cus.append(cu)
@@ -135,7 +142,7 @@ def warp_arrays(volume):
         base += m + 1
     warp = (np.concatenate(cus), np.concatenate(invs), np.concatenate(firsts), np.array(bases, dtype=np.int64),
             np.array(scales, dtype=np.float64))
-    volume.cache["warp"] = warp
+    volume.cache[key] = warp
     return warp
 
 
@@ -722,13 +729,13 @@ class GridPlan:
 
             return execute_grid(self, camera, size, lens=lens, block_mask=block_mask, cull=cull, window=window,
                                 progress=progress, progress_bar=progress_bar, chunk_seconds=chunk_seconds, far=far)
-        check_rectilinear(self.source, **{"piece=": piece, "cull=": cull, "lens=": lens,
+        check_rectilinear(self.source, **{"cull=": cull, "lens=": lens,
                                           "tolerance=": opts.tolerance})
         if piece is not None:
             if self.labels is not None or cull is not None or block_mask is not None:
                 raise ValueError("a piece of a distributed volume renders without labels, cull= and block_mask=")
             ghosts = 1 if (opts.shade or opts.gradient_opacity is not None) else 0
-            piece_box, whole_hi, whole_origin = _check_piece(piece, self.source, opts, ghosts)
+            piece_box, whole_hi, whole_origin, nominal = _check_piece(piece, self.source, opts, ghosts)
         camera = as_camera(camera, self.source.bounds if piece is None else piece.bounds(self.source.spacing))
         if lens is not None:
             if not callable(getattr(lens, "rays", None)):
@@ -765,7 +772,8 @@ class GridPlan:
 
         # rays in voxel coordinates with t still in world units (see _kernels._march); a
         # piece's rays are in the whole volume's points, as the whole render's
-        inv_spacing = 1.0 / volume.spacing
+        # (a rectilinear piece: the whole grid's nominal spacing)
+        inv_spacing = 1.0 / (volume.spacing if piece is None or nominal is None else nominal[0])
         ray_origin = volume.origin if piece is None else whole_origin
         if rays is None:
             cam = np.concatenate([camera.kernel_array((width, height)), ray_origin, inv_spacing])
@@ -839,8 +847,8 @@ class GridPlan:
         # the precision's marker and the lighting (0: none): each kernel compiles that
         # precision's loop, lit or not, only
         marker = _MARKERS[prec]
-        light = _light(volume, opts, prec) if not flat else 0
-        warp = warp_arrays(volume)
+        light = _light(volume, opts, prec, piece) if not flat else 0
+        warp = warp_arrays(volume, None if piece is None or nominal is None else nominal[1])
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
@@ -928,6 +936,11 @@ class VolumePiece(NamedTuple):
 
     :func:`pv_hdrvol.parallel.pieces.split_volume` makes pieces of an array;
     :meth:`from_extents` reads them from VTK extents.
+
+    ``whole_axes``: a piece of a rectilinear grid, the whole grid's coordinates (3 arrays,
+    x, y, z; ``whole_origin`` their first values): the piece samples the whole grid's
+    lattice in its nominal frame (:meth:`from_rectilinear`; its plan's step and opacity
+    unit from :meth:`options_for`). ``None``: a piece of an image volume.
     """
 
     whole_origin: tuple
@@ -935,6 +948,39 @@ class VolumePiece(NamedTuple):
     offset: tuple
     owned_lo: tuple
     owned_hi: tuple
+    whole_axes: tuple = None
+
+    @classmethod
+    def from_rectilinear(cls, whole_axes, offset, owned_lo, owned_hi):
+        """A piece of the rectilinear grid whose coordinates are ``whole_axes``: its first
+        point's index ``offset`` and owned box, in points of the whole."""
+        axes = tuple(np.asarray(a, dtype=np.float64).reshape(-1) for a in whole_axes)
+        return cls(tuple(float(a[0]) for a in axes), tuple(a.size for a in axes), tuple(int(v) for v in offset),
+                   tuple(int(v) for v in owned_lo), tuple(int(v) for v in owned_hi), axes)
+
+    def options_for(self, options, volume):
+        """``options`` for the plan of this piece's ``volume`` (a rectilinear piece): the
+        step and opacity unit of the whole grid (its narrowest cell), not the piece's, so
+        that the pieces sample the whole render's lattice. An image piece: unchanged."""
+        if self.whole_axes is None:
+            return options
+        whole = float(min(np.diff(a).min() for a in self.whole_axes))
+        mine = float(min(np.diff(a).min() for a in volume.axes))
+        unit = options.opacity_unit_distance if options.opacity_unit_distance is not None else whole
+        return options.replace(step=options.step * whole / mine, opacity_unit_distance=unit)
+
+    def nominal(self, dims):
+        """A rectilinear piece (of ``dims`` points) in the whole grid's nominal frame
+        (``_kernels._march``'s, as ``warp_arrays`` makes it for the whole grid): the
+        nominal spacing per axis, the owned box and first point, and the piece's points
+        less its first point's, per axis."""
+        h = np.array([(a[-1] - a[0]) / (a.size - 1) for a in self.whole_axes])
+        cu = [(a - a[0]) / hh for a, hh in zip(self.whole_axes, h)]
+        for c in cu:
+            c[0], c[-1] = 0.0, c.size - 1.0
+        at = lambda index: np.array([c[i] for c, i in zip(cu, index)])  # noqa: E731
+        frame = tuple(c[o:o + n] - c[o] for c, o, n in zip(cu, self.offset, dims))
+        return h, at(self.owned_lo), at(self.owned_hi), at(self.offset), frame
 
     @classmethod
     def from_extents(cls, origin, spacing, whole_extent, extent, owned_extent):
@@ -949,12 +995,17 @@ class VolumePiece(NamedTuple):
 
     def bounds(self, spacing):
         """The whole volume's ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
+        if self.whole_axes is not None:
+            return tuple(float(v) for a in self.whole_axes for v in (a[0], a[-1]))
         lo = np.asarray(self.whole_origin, dtype=np.float64)
         hi = lo + (np.asarray(self.whole_dims) - 1) * np.asarray(spacing, dtype=np.float64)
         return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
 
     def world_box(self, spacing):
         """``(lo, hi)``: the owned box in world coordinates."""
+        if self.whole_axes is not None:
+            return (np.array([a[i] for a, i in zip(self.whole_axes, self.owned_lo)]),
+                    np.array([a[i] for a, i in zip(self.whole_axes, self.owned_hi)]))
         o = np.asarray(self.whole_origin, dtype=np.float64)
         sp = np.asarray(spacing, dtype=np.float64)
         return o + np.asarray(self.owned_lo) * sp, o + np.asarray(self.owned_hi) * sp
@@ -984,14 +1035,25 @@ def _check_piece(piece, volume, opts, ghosts):
                          f"cover its owned box {tuple(lo.tolist())}..{tuple(hi.tolist())} with {ghosts} ghost "
                          f"layer(s) inside the volume ({'shading and gradient opacity read' if ghosts else 'samples read'} "
                          f"them)")
+    if opts.blending != "composite":
+        raise ValueError(f"a piece of a distributed volume composites in depth order: blending='composite' only; got "
+                         f"{opts.blending!r}")
+    if (piece.whole_axes is None) != (volume.axes is None):
+        raise ValueError("a piece of a rectilinear grid needs a VolumePiece with the whole grid's axes "
+                         "(VolumePiece.from_rectilinear), and a piece of an image volume one without")
+    if volume.axes is not None:
+        # the rays, the owned box and the piece's first point in the whole grid's nominal frame
+        for label, a, c, o in zip("xyz", piece.whole_axes, volume.axes, offset):
+            if a.size != whole[("xyz".index(label))] or not np.array_equal(a[o:o + c.size], c):
+                raise ValueError(f"the piece's {label} coordinates are not the whole grid's from index {o}")
+        h, nominal_lo, nominal_hi, nominal_offset, frame = piece.nominal(volume.dims)
+        return (np.concatenate([nominal_lo, nominal_hi, nominal_offset]), (whole - 1).astype(np.float64), origin,
+                (h, frame))
     expected = origin + offset * volume.spacing
     if not np.allclose(volume.origin, expected, rtol=0.0, atol=1e-6 * float(volume.spacing.min())):
         raise ValueError(f"the piece's origin {tuple(volume.origin.tolist())} is not the whole volume's origin plus "
                          f"offset x spacing {tuple(expected.tolist())}")
-    if opts.blending != "composite":
-        raise ValueError(f"a piece of a distributed volume composites in depth order: blending='composite' only; got "
-                         f"{opts.blending!r}")
-    return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin
+    return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin, None
 
 
 def _check_far(far, width, height, name="far"):
@@ -1141,10 +1203,12 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
                      e)
 
 
-def _light(volume, opts, prec):
+def _light(volume, opts, prec, piece=None):
     """The kernels' ``light`` (``_kernels.lit``): 0 for an unshaded render, else the
     tuple ``(shading, lights, gradient vectors)`` (the vectors bricked in the kernel
-    precision for ``shade_gradient="interpolated"``, else a placeholder)."""
+    precision for ``shade_gradient="interpolated"``, else a placeholder). ``piece``: a
+    rectilinear piece's :class:`VolumePiece`, whose shading fades over the whole grid's
+    spacing and narrowest cell."""
     if not opts.shade:
         return 0
     dtype = np.float64 if prec == "float64" else np.float32
@@ -1152,7 +1216,11 @@ def _light(volume, opts, prec):
         # a rectilinear grid lights from its points' gradients (central differences over
         # the true neighbours, exact for linear fields), interpolated at the sample's index
         # coordinates: the sampled gradient's stencil assumes even spacing
-        shading, lights = shading_arrays(opts, volume.spacing, unit=volume.min_cell_width, sampled=False)
+        spacing, unit = volume.spacing, volume.min_cell_width
+        if piece is not None and piece.whole_axes is not None:
+            spacing = np.array([(a[-1] - a[0]) / (a.size - 1) for a in piece.whole_axes])
+            unit = float(min(np.diff(a).min() for a in piece.whole_axes))
+        shading, lights = shading_arrays(opts, spacing, unit=unit, sampled=False)
         return shading, lights, _gradient_vector_bricks(volume, dtype)
     interpolated = opts.shade_gradient == "interpolated"
     gvec = _gradient_vector_bricks(volume, dtype) if interpolated else np.zeros(1, dtype)

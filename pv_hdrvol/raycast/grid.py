@@ -89,6 +89,16 @@ def point_volumes(axes):
 _MAX_BUCKETS_PER_VOXEL = 64
 
 
+def nominal_coordinates(c):
+    """An axis's points in nominal voxel units, ``(c - c[0]) / h`` for the mean spacing
+    ``h``, ending exactly at ``0`` and ``n - 1``: the frame rays of a rectilinear grid
+    march in (``_kernels._march``)."""
+    h = (c[-1] - c[0]) / (c.size - 1)
+    cu = (c - c[0]) / h
+    cu[0], cu[-1] = 0.0, c.size - 1.0
+    return cu
+
+
 def warp_arrays(volume, frame=None):
     """The kernels' ``warp`` (``_kernels.warp_at``): ``0`` for a uniform volume, else the
     tuple ``(cu, inv_w, first, bucket_base, bucket_scale)`` of its axes, built once and
@@ -117,9 +127,7 @@ def warp_arrays(volume, frame=None):
     for a, (label, c) in enumerate(zip("xyz", volume.axes)):
         n = c.size
         if frame is None:
-            h = (c[-1] - c[0]) / (n - 1)
-            cu = (c - c[0]) / h
-            cu[0], cu[-1] = 0.0, n - 1.0
+            cu = nominal_coordinates(c)
         else:
             cu = np.array(frame[a], dtype=np.float64)
         w = np.diff(cu)
@@ -975,9 +983,7 @@ class VolumePiece(NamedTuple):
         nominal spacing per axis, the owned box and first point, and the piece's points
         less its first point's, per axis."""
         h = np.array([(a[-1] - a[0]) / (a.size - 1) for a in self.whole_axes])
-        cu = [(a - a[0]) / hh for a, hh in zip(self.whole_axes, h)]
-        for c in cu:
-            c[0], c[-1] = 0.0, c.size - 1.0
+        cu = [nominal_coordinates(a) for a in self.whole_axes]
         at = lambda index: np.array([c[i] for c, i in zip(cu, index)])  # noqa: E731
         frame = tuple(c[o:o + n] - c[o] for c, o, n in zip(cu, self.offset, dims))
         return h, at(self.owned_lo), at(self.owned_hi), at(self.offset), frame
@@ -1218,7 +1224,7 @@ def _light(volume, opts, prec, piece=None):
         # coordinates: the sampled gradient's stencil assumes even spacing
         spacing, unit = volume.spacing, volume.min_cell_width
         if piece is not None and piece.whole_axes is not None:
-            spacing = np.array([(a[-1] - a[0]) / (a.size - 1) for a in piece.whole_axes])
+            spacing = piece.nominal(volume.dims)[0]
             unit = float(min(np.diff(a).min() for a in piece.whole_axes))
         shading, lights = shading_arrays(opts, spacing, unit=unit, sampled=False)
         return shading, lights, _gradient_vector_bricks(volume, dtype)

@@ -83,7 +83,8 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     RedistributeDataSet), and rank 0 composites the whole image (hv.render's to 1e-5);
     without a colour map rank 0 renders the whole dataset alone (hv.render's bit for
     bit); the others output empty images. A curvilinear grid is read by pieces and
-    rendered as tetrahedra where it lives (hv.render's to 1e-10)."""
+    rendered as tetrahedra where it lives (hv.render's to 1e-10), a graded rectilinear
+    grid on the whole grid's lattice (to 2e-6, the early termination)."""
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     # Debian's mpiexec (Open MPI, which ParaView is built with), not the MPICH one of the
@@ -91,11 +92,13 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     mpiexec = "/usr/bin/mpiexec" if os.access("/usr/bin/mpiexec", os.X_OK) else _tool("mpiexec")
     env = _paraview_environment()
     # more ranks than cores (3 on a 2-core machine): Open MPI refuses them unless told
-    curvilinear = tmp_path_factory.mktemp("curvilinear") / "sector.vts"
+    inputs = tmp_path_factory.mktemp("grids")
+    curvilinear, rectilinear = inputs / "sector.vts", inputs / "graded.vtr"
     _curvilinear_sector().save(curvilinear)
+    _graded_grid().save(rectilinear)
     env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
                PV_HDRVOL_DATA=str(shared_data), PV_HDRVOL_MPI_OUT=str(tmp_path),
-               PV_HDRVOL_MPI_CURVI=str(curvilinear))
+               PV_HDRVOL_MPI_CURVI=str(curvilinear), PV_HDRVOL_MPI_RECT=str(rectilinear))
     command = [xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", mpiexec, "-n", str(ranks), pvbatch, "--mpi",
                "--symmetric",
                str(REPO_ROOT / "tests" / "paraview" / "mpi_render.py")]
@@ -113,12 +116,26 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
               for how in ("the reader", "RedistributeDataSet")]
     lines += [f"the whole image of {ranks} boxes, within"]
-    lines += ["rank 0: curvilinear piece ("] + [f"rank {r}: curvilinear piece (" for r in range(1, ranks)]
+    lines += [f"rank {r}: {kind} piece (" for r in range(ranks) for kind in ("curvilinear", "rectilinear")]
     for line in lines:
         assert line in done.stdout, line
     assert sorted(os.listdir(tmp_path)) == ["render.exr", "render.png"]
     for bad in ("Traceback", "outside the whole extent", "is not set (no colour map"):
         assert bad not in done.stdout, f"{bad!r} in the output:\n{done.stdout[-3000:]}"
+
+
+def _graded_grid():
+    """A rectilinear grid graded 3x along x and 2x along y (25 x 21 x 15 points), ``f``."""
+    import pyvista as pv
+
+    def graded(n, ratio):
+        s = np.linspace(-1.0, 1.0, n - 1)
+        return np.concatenate([[0.0], np.cumsum(1.0 + (ratio - 1.0) * s * s)]) / n
+
+    grid = pv.RectilinearGrid(graded(25, 3.0), graded(21, 2.0), graded(15, 1.0))
+    p = grid.points
+    grid["f"] = np.exp(-((p[:, 0] - 0.5) ** 2 + (p[:, 1] - 0.4) ** 2 + (p[:, 2] - 0.6) ** 2) * 8.0)
+    return grid
 
 
 def _curvilinear_sector():

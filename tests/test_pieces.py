@@ -193,7 +193,7 @@ def test_what_a_piece_cannot_render_is_refused_by_name():
 # -- rectilinear grids: pieces sample the whole grid's lattice through their own axes -------
 def _graded():
     """A rectilinear grid graded along every axis: x geometric, y cubic, z even then
-    geometric (its narrowest cells in the middle, where two of three pieces meet)."""
+    geometric (its narrowest cell where two of three pieces meet, so one piece lacks it)."""
     x = np.cumsum(np.r_[0.0, 0.2 * 1.12 ** np.arange(22)]) - 1.0
     y = np.linspace(-1, 1, 17) ** 3 * 1.5 + np.linspace(-1, 1, 17)
     z = np.r_[np.linspace(0, 1, 8), 1 + np.geomspace(0.05, 1.5, 12)]
@@ -202,43 +202,42 @@ def _graded():
     return hv.volume_from_rectilinear(values, x, y, z, name="v")
 
 
+def _rectilinear_in_pieces(volume, tf, camera, n, ghosts=0, **options):
+    from pv_hdrvol.params import RenderOptions
+
+    parts = split_volume(volume, n, ghosts)
+    images = [GridPlan(p, tf, pc.options_for(RenderOptions(**options), p)).execute(camera, SIZE, piece=pc,
+                                                                                   progress_bar=False)
+              for p, pc in parts]
+    return composite_pieces(images, [pc.world_box(None) for _, pc in parts], camera.rays(SIZE)), images, parts
+
+
 @pytest.mark.parametrize("n, view, shade", [(2, "iso", False), (3, "iso", True), (3, "zy", False)])
 def test_rectilinear_pieces_composited_are_the_whole_render(n, view, shade):
-    """Each piece holds its own coordinates; it samples the whole grid's lattice (its
-    nominal frame and narrowest cell) where the serial render does: the composite is the
-    serial render to float64 rounding (measured 1.2e-15)."""
+    """split_volume keeps a rectilinear grid's pieces rectilinear (it made them uniform at
+    the nominal spacing before); composited they are the serial render (measured 1.2e-15)."""
     volume = _graded()
-    assert volume.axes is not None
     tf = resolve_transfer_function(volume)
     camera = hv.Camera.fit(volume.bounds, view)
     whole = GridPlan(volume, tf, precision="float64", shade=shade).execute(camera, SIZE, progress_bar=False)
     assert whole.rgba[..., 3].max() > 0.5
-    parts = split_volume(volume, n, ghosts=1 if shade else 0)
-    assert all(p.axes is not None and pc.whole_voxel == volume.min_cell_width for p, pc in parts)
-    # a piece without the narrowest cell (3 pieces without ghosts) still steps by the whole grid's voxel
-    assert any(p.min_cell_width != volume.min_cell_width for p, _ in parts) == (n == 3 and not shade)
-    images = [GridPlan(p, tf, precision="float64", shade=shade).execute(camera, SIZE, piece=pc, progress_bar=False)
-              for p, pc in parts]
-    boxes = [pc.owned_bounds(p) for p, pc in parts]
-    image = composite_pieces(images, boxes, camera.rays(SIZE))
+    image, _, parts = _rectilinear_in_pieces(volume, tf, camera, n, ghosts=1 if shade else 0, precision="float64",
+                                             shade=shade)
+    assert all(p.axes is not None and pc.whole_axes is not None for p, pc in parts)
     np.testing.assert_allclose(image.rgba, whole.rgba, rtol=0, atol=1e-12)
-    assert image.metadata["pieces"] == n
 
 
 def test_every_sample_of_a_rectilinear_grid_has_one_owner():
     """Without skipping and early termination, the pieces' sample counts add up to the
-    serial render's exactly (the owned faces are cut at the whole grid's nominal
-    coordinates with the same arithmetic on both sides)."""
+    serial render's exactly."""
     volume = _graded()
     tf = resolve_transfer_function(volume)
     options = dict(precision="float64", skip_empty=False, termination=0.0)
     camera = hv.Camera.fit(volume.bounds, "xy")
     whole = GridPlan(volume, tf, **options).execute(camera, SIZE, progress_bar=False)
     for n in (2, 5):
-        parts = split_volume(volume, n, ghosts=0)
-        images = [GridPlan(p, tf, **options).execute(camera, SIZE, piece=pc, progress_bar=False) for p, pc in parts]
+        image, images, _ = _rectilinear_in_pieces(volume, tf, camera, n, **options)
         assert sum(im.metadata["samples"] for im in images) == whole.metadata["samples"] == 52700, n
-        image = composite_pieces(images, [pc.owned_bounds(p) for p, pc in parts], camera.rays(SIZE))
         np.testing.assert_allclose(image.rgba, whole.rgba, rtol=0, atol=1e-13)
 
 
@@ -250,36 +249,26 @@ def test_clipped_rectilinear_pieces_composite_to_the_clipped_whole():
     whole = GridPlan(volume, tf, **options).execute(camera, SIZE, progress_bar=False)
     unclipped = GridPlan(volume, tf, precision="float64").execute(camera, SIZE, progress_bar=False)
     assert np.abs(whole.rgba - unclipped.rgba).max() > 0.3  # the plane cuts
-    parts = split_volume(volume, 3, ghosts=0)
-    images = [GridPlan(p, tf, **options).execute(camera, SIZE, piece=pc, progress_bar=False) for p, pc in parts]
-    image = composite_pieces(images, [pc.owned_bounds(p) for p, pc in parts], camera.rays(SIZE))
+    image, _, _ = _rectilinear_in_pieces(volume, tf, camera, 3, **options)
     np.testing.assert_allclose(image.rgba, whole.rgba, rtol=0, atol=1e-13)  # measured 1e-15
 
 
-def test_rectilinear_pieces_through_render_pieces_and_refusals():
+def test_render_pieces_steps_a_rectilinear_piece_by_the_whole_grids_narrowest_cell():
+    """Three pieces, one without the whole grid's narrowest cell: render_pieces gives its
+    plan the whole grid's step and unit (with its own it was 7e-2 off)."""
     volume = _graded()
     tf = resolve_transfer_function(volume)
     whole = hv.render(volume, tf, "iso", SIZE, precision="float64", progress_bar=False)
-    parts = split_volume(volume, 2, ghosts=0)
+    parts = split_volume(volume, 3, ghosts=0)
+    assert any(p.min_cell_width != volume.min_cell_width for p, _ in parts)
 
     def process(comm):
         data, piece = parts[comm.rank]
         return render_pieces(data, piece, tf, "iso", SIZE, comm=comm, precision="float64")
 
-    results, errors = run_spmd(2, process)
-    assert errors == [None, None]
+    results, errors = run_spmd(3, process)
+    assert errors == [None] * 3
     np.testing.assert_allclose(results[0].rgba, whole.rgba, rtol=0, atol=1e-12)
-    data, piece = parts[0]
-    with pytest.raises(ValueError, match=r"needs the whole grid's nominal spacing: give VolumePiece\(whole_spacing"):
-        GridPlan(data, tf).execute("iso", SIZE, piece=piece._replace(whole_spacing=None))
-    with pytest.raises(ValueError, match=r"needs the whole grid's narrowest cell: give VolumePiece\(whole_voxel"):
-        GridPlan(data, tf).execute("iso", SIZE, piece=piece._replace(whole_voxel=None))
-    with pytest.raises(ValueError, match=r"whole_voxel must be a finite number > 0; got -1.0"):
-        GridPlan(data, tf).execute("iso", SIZE, piece=piece._replace(whole_voxel=-1.0))
-    with pytest.raises(ValueError, match=r"whole_spacing must be three finite numbers > 0; got \(0.0, 1.0, 1.0\)"):
-        GridPlan(data, tf).execute("iso", SIZE, piece=piece._replace(whole_spacing=(0.0, 1.0, 1.0)))
-    with pytest.raises(ValueError, match="cull= is not supported for rectilinear grids yet"):
-        GridPlan(data, tf).execute("iso", SIZE, piece=piece, cull=object())
 
 
 # -- tetrahedral meshes: each process renders the span of each ray in its box --------------

@@ -191,3 +191,39 @@ def test_proxies_name_what_they_are_made_of():
     values, axes = linear_grid(n=6)
     with pytest.raises(TypeError, match=r"^proxies are made of image data \(ImageData\); got a rectilinear grid"):
         hv.make_proxies(volume_from_rectilinear(values, *axes), "iso", (8, 8))
+
+
+@pytest.mark.parametrize("shade", [False, True])
+def test_pieces_of_a_rectilinear_grid_composite_to_the_whole(shade):
+    """Three pieces (owned boxes tiling the grid, a ghost layer for shading) rendered
+    with ``piece=`` in the whole grid's nominal frame and composited in depth order give
+    the whole render to rounding."""
+    from pv_hdrvol.params import RenderOptions
+    from pv_hdrvol.parallel.pieces import composite_pieces, split_boxes
+    from pv_hdrvol.raycast.grid import GridPlan, VolumePiece
+
+    def graded(n, lo, hi, ratio):
+        s = np.linspace(-1.0, 1.0, n - 1)
+        c = np.concatenate([[0.0], np.cumsum(1.0 + (ratio - 1.0) * s * s)])
+        return lo + (hi - lo) * c / c[-1]
+
+    x, y, z = graded(23, -1, 1, 3.0), graded(19, -1, 1.2, 2.0), np.linspace(-0.7, 0.8, 17)
+    zz, yy, xx = np.meshgrid(z, y, x, indexing="ij")
+    values = np.exp(-3 * (xx ** 2 + (yy - 0.2) ** 2 + zz ** 2)) + 0.2 * xx
+    tf = hv.TransferFunction([-0.2, 1.2], [[1, 0.4, 0.1], [0.1, 0.5, 1]], [0.0, 0.6])
+    camera = hv.Camera((4, -3, 2.5), (0, 0.1, 0), (0, 0, 1))
+    options = RenderOptions(precision="float64", shade=shade, termination=0.0)
+    whole = GridPlan(hv.volume_from_rectilinear(values, x, y, z), tf, options).execute(camera, (40, 32))
+    ghosts = 1 if shade else 0
+    images, boxes = [], []
+    for lo, hi in split_boxes((23, 19, 17), 3):
+        a = np.maximum(np.array(lo) - ghosts, 0)
+        b = np.minimum(np.array(hi) + ghosts, np.array([22, 18, 16]))
+        part = hv.volume_from_rectilinear(values[a[2]:b[2] + 1, a[1]:b[1] + 1, a[0]:b[0] + 1], x[a[0]:b[0] + 1],
+                                          y[a[1]:b[1] + 1], z[a[2]:b[2] + 1])
+        piece = VolumePiece.from_rectilinear((x, y, z), a, lo, hi)
+        images.append(GridPlan(part, tf, piece.options_for(options, part)).execute(camera, (40, 32), piece=piece))
+        boxes.append(piece.world_box(None))
+    combined = composite_pieces(images, boxes, camera.rays((40, 32)))
+    assert whole.rgba[..., 3].max() > 0.9
+    np.testing.assert_allclose(combined.rgba, whole.rgba, rtol=0, atol=1e-12)

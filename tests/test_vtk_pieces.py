@@ -104,3 +104,71 @@ def test_set_communicator_refuses_what_is_not_one():
     with pytest.raises(TypeError, match="the communicator must have rank, size, gather, allgather, alltoall and "
                                         "bcast"):
         HDRVolumeRenderer().SetCommunicator(object())
+
+
+@pytest.fixture(scope="module")
+def vtr(tmp_path_factory):
+    """A rectilinear grid graded 3x along x and 2x along y, on the same odd extent."""
+    from vtkmodules.vtkCommonDataModel import vtkRectilinearGrid
+    from vtkmodules.vtkIOXML import vtkXMLRectilinearGridWriter
+
+    n = np.subtract(WHOLE[1::2], WHOLE[::2]) + 1
+    axes = []
+    for count, ratio in zip(n, (3.0, 2.0, 1.0)):
+        s = np.linspace(-1.0, 1.0, count - 1)
+        widths = 1.0 + (ratio - 1.0) * s * s
+        axes.append(np.concatenate([[0.0], np.cumsum(widths)]) * 0.6)
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    values = np.exp(-((x - 9) ** 2 + (y - 10) ** 2 + (z - 6) ** 2) / 30.0) + 0.1 * np.sin(x)
+    grid = vtkRectilinearGrid()
+    grid.SetExtent(*WHOLE)
+    for setter, a in zip((grid.SetXCoordinates, grid.SetYCoordinates, grid.SetZCoordinates), axes):
+        setter(numpy_to_vtk(a, deep=True))
+    array = numpy_to_vtk(values.reshape(-1), deep=True)
+    array.SetName("density")
+    grid.GetPointData().SetScalars(array)
+    path = str(tmp_path_factory.mktemp("rect") / "volume.vtr")
+    writer = vtkXMLRectilinearGridWriter()
+    writer.SetInputData(grid)
+    writer.SetFileName(path)
+    writer.Write()
+    return path, grid
+
+
+@pytest.mark.parametrize("n, shade", [(2, False), (3, True)])
+def test_a_rectilinear_grid_is_rendered_where_it_lives(vtr, n, shade):
+    """Each process reads its extent of a .vtr and renders it on the whole grid's lattice
+    (its rays, lookups, step and opacity unit in the whole grid's nominal frame): piece
+    0's composite is the serial render to the early termination's 1e-6."""
+    from vtkmodules.vtkIOXML import vtkXMLRectilinearGridReader
+
+    path, grid = vtr
+    tf = resolve_transfer_function(as_volume(grid))
+
+    def process(comm):
+        reader = vtkXMLRectilinearGridReader()
+        reader.SetFileName(path)
+        renderer = HDRVolumeRenderer()
+        renderer.SetInputConnection(reader.GetOutputPort())
+        renderer.SetCommunicator(comm)
+        renderer.SetImageSize(W, H)
+        renderer.SetCamera("iso")
+        renderer.SetTransferFunction(tf)
+        renderer.SetPrecision("float64")
+        renderer.SetShade(shade)
+        ok = renderer.UpdatePiece(comm.rank, comm.size, 0)
+        out = renderer.GetOutput()
+        return (hv.HDRImage.from_pyvista(out) if out.GetNumberOfPoints() else None,
+                reader.GetOutput().GetExtent(), ok, renderer.GetLastError())
+
+    results, errors = run_spmd(n, process)
+    assert errors == [None] * n, errors
+    expected = hv.render(grid, tf, "iso", (W, H), progress_bar=False, precision="float64", shade=shade)
+    assert expected.rgba[..., 3].max() > 0.5
+    got = results[0][0]
+    assert got.metadata["pieces"] == n
+    np.testing.assert_allclose(got.rgba, expected.rgba, rtol=0, atol=2e-6)
+    ghosts = 1 if shade else 0
+    for rank, (_, extent, ok, error) in enumerate(results):
+        assert ok and error is None
+        assert extent == _piece_extent(WHOLE, rank, n, ghosts), (rank, extent)

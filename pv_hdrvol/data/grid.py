@@ -151,7 +151,7 @@ def volume_from_array(values, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *
 UNIFORM_AXIS_TOLERANCE = 1e-12
 
 
-def volume_from_rectilinear(values, x, y, z, *, name="", collapse=True):
+def volume_from_rectilinear(values, x, y, z, *, name=""):
     """Make a :class:`GridVolume` from point values on a rectilinear grid.
 
     Parameters
@@ -167,9 +167,7 @@ def volume_from_rectilinear(values, x, y, z, *, name="", collapse=True):
         ``axes`` holds the coordinates; ``origin`` the first of each, ``spacing`` the
         nominal ``(last - first) / (n - 1)``. Axes that are all evenly spaced (to
         :data:`UNIFORM_AXIS_TOLERANCE`) give a plain uniform volume (``axes=None``),
-        rendered as the same ``ImageData`` would be, unless ``collapse=False`` (a piece of
-        a graded grid spread over processes keeps its axes: it samples in the whole
-        grid's frame, :class:`~pv_hdrvol.raycast.grid.VolumePiece`).
+        rendered as the same ``ImageData`` would be.
 
     Raises
     ------
@@ -192,7 +190,7 @@ def volume_from_rectilinear(values, x, y, z, *, name="", collapse=True):
     origin = np.array([a[0] for a in axes])
     spacing = np.array([(a[-1] - a[0]) / (a.size - 1) for a in axes])
     volume = volume_from_array(arr, spacing, origin, name=name)
-    if collapse and all(_is_uniform(a, raw) for a, raw in zip(axes, (x, y, z))):
+    if all(_is_uniform(a, raw) for a, raw in zip(axes, (x, y, z))):
         return volume
     for a in axes:
         a.flags.writeable = False

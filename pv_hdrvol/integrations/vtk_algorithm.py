@@ -126,9 +126,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     :func:`~pv_hdrvol.render_tets`), or a ``vtkMultiBlockDataSet`` /
     ``vtkPartitionedDataSet(Collection)`` whose blocks gather onto one volume or merge into
     one mesh (:func:`pv_hdrvol.data.kinds.as_renderable`); lenses, labels and culling are
-    for image data only. Distributed over processes, image data, rectilinear and
-    curvilinear grids and meshes are rendered where they live; composite datasets are
-    rendered whole by piece 0. Output: a
+    for image data only. Distributed over processes, image data and meshes are rendered
+    where they live; the other kinds are rendered whole by piece 0. Output: a
     ``width x height x 1`` ``vtkImageData`` with point arrays ``"rgba"`` (4 components,
     linear premultiplied RGBA, float32 or float64 as the precision) and ``"depth"``,
     VTK row order (row 0 at the bottom), as :meth:`HDRImage.to_vtk
@@ -152,13 +151,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     back) and :meth:`GetLastTolerance`.
 
     Pieces (MPI: ``pvbatch --mpi``, ``pvserver`` on several ranks): data with a transfer
-    function (set, or a lookup table) is rendered where it lives. For an image or a
-    rectilinear grid each process asks its input for its own piece of the extent (VTK's
-    extent translator, plus one ghost layer for shading and gradient opacity; a
-    rectilinear piece samples the whole grid's lattice through its own coordinates, the
-    whole axes exchanged once); a tetrahedral mesh's cells are moved to one box per
-    process (VTK's processes only), and so are a curvilinear grid's, each process first
-    splitting its extent into the serial render's tetrahedra. Each renders what it owns,
+    function (set, or a lookup table) is rendered where it lives. For an image each
+    process asks its input for its own piece of the extent (VTK's extent translator,
+    plus one ghost layer for shading and gradient opacity); a tetrahedral mesh's cells
+    are moved to one box per process (VTK's processes only). Each renders what it owns,
     and piece 0 composites the partial images in depth order into the whole image
     (:mod:`pv_hdrvol.parallel.pieces`; equal to the serial render to rounding); the
     other pieces output empty images. Otherwise (the default transfer function -- it
@@ -222,7 +218,6 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         self._label_styles = None
         self._comm = None
         self._last_piece = None
-        self._rectilinear = None  # (key, (GridVolume, VolumePiece)) of a distributed rectilinear grid's piece
         self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
         self._moved = None  # a mesh piece: (key, summary, (box, the cells moved to it, points) or None)
         self._tet_piece = None  # a curvilinear piece: (key, its tetrahedra as a vtkUnstructuredGrid)
@@ -682,7 +677,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
         in_info = inInfo[0].GetInformationObject(0)
         data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
-        # images and rectilinear grids: each process asks for its extent
+        # image data and rectilinear grids: each process renders its piece of the extent
         structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (
             data is None or data.GetClassName() in IMAGE_CLASSES + ("vtkRectilinearGrid",))
         # a curvilinear grid's pieces are rendered as the tetrahedra a whole grid's render
@@ -782,51 +777,50 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         from ..parallel.pieces import gather_pieces
         from ..raycast.grid import VolumePiece
 
+        import numpy as np
+
         image = piece = spacing = rays = error = None
         owned = distribution.owned
         tf = self._shared_transfer_function(distribution.comm)
         _share_cores(distribution.comm)
-        rectilinear = inp is not None and inp.GetClassName() == "vtkRectilinearGrid"
-        whole_axes = _whole_axes(inp, distribution) if rectilinear else None  # collective
+        whole_axes = _whole_axes(inp, distribution)  # collective; None for image data
         try:
             if owned[1] <= owned[0] or owned[3] <= owned[2] or owned[5] <= owned[4]:
-                raise ValueError(f"the {'grid' if rectilinear else 'image'} of extent {distribution.whole} has too "
-                                 f"few cells for {distribution.comm.size} processes: process "
-                                 f"{distribution.comm.rank} owns {owned}; render it on fewer processes")
+                raise ValueError(f"the image of extent {distribution.whole} has too few cells for "
+                                 f"{distribution.comm.size} processes: process {distribution.comm.rank} owns "
+                                 f"{owned}; render it on fewer processes")
+            if isinstance(whole_axes, Exception):
+                raise whole_axes
             kind = inp.GetClassName() if inp is not None else None
             if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkRectilinearGrid"):
                 raise ValueError(f"HDRVolumeRenderer renders a distributed vtkImageData or vtkRectilinearGrid; "
                                  f"process {distribution.comm.rank} got {'nothing' if inp is None else kind}")
             scalars, preference = self._scalars_to_render()
-            if rectilinear:
-                data, piece = self._rectilinear_piece(inp, distribution, whole_axes, scalars, preference)
-                spacing = data  # gather_pieces reads the owned box from its axes
-                bounds = piece.bounds(data.spacing)
+            data = self._volumes.get(inp, scalars, preference)
+            if data.values.shape[::-1] != tuple(e[1] - e[0] + 1 for e in np.reshape(inp.GetExtent(), (3, 2))):
+                raise ValueError(f"a distributed volume is rendered from a point array; "
+                                 f"{data.name or 'the active scalars'!r} is a cell array (apply Cell Data to Point "
+                                 f"Data, or render it on one process)")
+            spacing = data.spacing
+            options = None
+            if whole_axes is not None:  # a rectilinear piece samples the whole grid's lattice
+                start = np.asarray(inp.GetExtent()[0::2]) - np.asarray(distribution.whole[0::2])
+                local = tuple(a[o:o + n] for a, o, n in zip(whole_axes, start, data.values.shape[::-1]))
+                if data.axes is None:  # even within the piece, uneven in the whole
+                    data = dataclasses.replace(data, axes=local, cache={})
+                piece = VolumePiece.from_rectilinear(whole_axes, start, np.asarray(owned[0::2]) -
+                                                     np.asarray(distribution.whole[0::2]),
+                                                     np.asarray(owned[1::2]) - np.asarray(distribution.whole[0::2]))
+                options = piece.options_for(self._options, data)
             else:
-                data = self._volumes.get(inp, scalars, preference)
-                if tuple(data.dims) != tuple(inp.GetDimensions()):
-                    raise ValueError(f"a distributed image volume is rendered from a point array; "
-                                     f"{data.name or 'the active scalars'!r} is a cell array (apply Cell Data to "
-                                     f"Point Data, or render it on one process)")
-                spacing = data.spacing
                 piece = VolumePiece.from_extents(inp.GetOrigin(), inp.GetSpacing(), distribution.whole,
                                                  inp.GetExtent(), owned)
-                bounds = piece.bounds(spacing)
+            bounds = piece.bounds(spacing)
             camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera, bounds)
             self._last_camera = camera
             rays = camera.rays(self._size)
-            if rectilinear:
-                from ..raycast.grid import GridPlan
-
-                # by identity as _plan_for: _rectilinear_piece keeps the data while unchanged
-                key = (data, tf, self._options, "piece")
-                old = None if self._plan is None else self._plan[0]
-                if old is None or old[0] is not data or old[1] is not tf or old[2:] != key[2:]:
-                    self._plan = None
-                    self._plan = (key, GridPlan(data, tf, self._options))
-                plan = self._plan[1]
-            else:
-                plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf)
+            plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf, data=data if options else None,
+                                  options=options)
 
             def progress(fraction):
                 self.UpdateProgress(fraction)
@@ -846,44 +840,6 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         else:
             out.ShallowCopy(whole.to_vtk())
         return 1
-
-    def _rectilinear_piece(self, inp, distribution, whole_axes, scalars, preference):
-        """``(GridVolume, VolumePiece)`` of this process's piece of a distributed
-        ``vtkRectilinearGrid`` whose whole axes are ``whole_axes``: a uniform piece where
-        the whole grid is evenly spaced (as the serial render makes it an image), else the
-        piece's own coordinates in the whole grid's nominal frame and voxel. Kept while the
-        piece and its values are unchanged."""
-        import numpy as np
-
-        from ..data.grid import (_is_uniform, _rectilinear_array, content_digest, volume_from_array,
-                                 volume_from_rectilinear)
-        from ..raycast.grid import VolumePiece
-
-        arr, coords, name = _rectilinear_array(inp, scalars, preference)
-        if arr.shape != tuple(inp.GetDimensions())[::-1]:
-            raise ValueError(f"a distributed rectilinear grid is rendered from a point array; {name!r} is a cell "
-                             f"array (apply Cell Data to Point Data, or render it on one process)")
-        whole = np.asarray(distribution.whole, dtype=np.int64).reshape(3, 2)
-        offset = np.asarray(inp.GetExtent(), dtype=np.int64).reshape(3, 2)[:, 0] - whole[:, 0]
-        owned = np.asarray(distribution.owned, dtype=np.int64).reshape(3, 2) - whole[:, :1]
-        key = (content_digest(arr, *coords), tuple(offset.tolist()), tuple(owned.reshape(-1).tolist()),
-               content_digest(*whole_axes), name)
-        cached = self._rectilinear
-        if cached is not None and cached[0] == key:
-            return cached[1]
-        origin = tuple(float(a[0]) for a in whole_axes)
-        spacing = np.array([(a[-1] - a[0]) / (a.size - 1) for a in whole_axes])
-        dims = tuple(int(a.size) for a in whole_axes)
-        lo, hi = tuple(owned[:, 0].tolist()), tuple(owned[:, 1].tolist())
-        if all(_is_uniform(a, a) for a in whole_axes):  # the serial render's image
-            data = volume_from_array(arr, spacing, np.asarray(origin) + offset * spacing, name=name)
-            piece = VolumePiece(origin, dims, tuple(offset.tolist()), lo, hi)
-        else:
-            data = volume_from_rectilinear(arr, *coords, name=name, collapse=False)
-            voxel = float(min(np.diff(a).min() for a in whole_axes))
-            piece = VolumePiece(origin, dims, tuple(offset.tolist()), lo, hi, tuple(spacing.tolist()), voxel)
-        self._rectilinear = (key, (data, piece))
-        return data, piece
 
     def _shared_transfer_function(self, comm):
         """Piece 0's transfer function, on every process (collective). In a symmetric
@@ -1012,7 +968,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         to its box), else ``None``: what each process holds (``GetActualMemorySize()``)."""
         return self._last_piece
 
-    def _plan_for(self, inp, kind, scalars, preference, tf):
+    def _plan_for(self, inp, kind, scalars, preference, tf, data=None, options=None):
         """The :class:`GridPlan` or :class:`TetPlan` of this input, transfer function and
         options, made again only when one of them changed; the default transfer function
         of the data is kept while the data and its keywords are unchanged (it reads every
@@ -1021,7 +977,10 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         from ..data.tets import TetMesh
         from ..raycast.grid import resolve_transfer_function
 
-        if inp.IsA("vtkCompositeDataSet"):  # gathered onto one volume or merged into one mesh, cached
+        opts = self._options if options is None else options
+        if data is not None:  # prepared by the caller (a rectilinear piece)
+            pass
+        elif inp.IsA("vtkCompositeDataSet"):  # gathered onto one volume or merged into one mesh, cached
             data = as_renderable(inp, scalars=scalars, preference=preference)
         else:
             data = self._volumes.get(inp, scalars, preference)
@@ -1037,27 +996,27 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         labels = None if self._labels is None else (self._labels, id(self._label_styles))
         if self._plan is not None:
             old = self._plan[0]  # the data and the transfer function by identity, the rest by value
-            if old[0] is data and old[1] is tf and old[2:] == (self._options, labels):
+            if old[0] is data and old[1] is tf and old[2:] == (opts, labels):
                 return self._plan[1]
-            unclipped = self._options.replace(clip_planes=(), crop_box=None)
+            unclipped = opts.replace(clip_planes=(), crop_box=None)
             if old[0] is data and old[1] is tf and old[3] == labels \
                     and old[2].replace(clip_planes=(), crop_box=None) == unclipped:
                 # only the clip changed (a plane dragged): the plan's tables and arrays stay
-                plan = self._plan[1].with_clip(self._options.clip_planes, self._options.crop_box)
-                self._plan = ((data, tf, self._options, labels), plan)
+                plan = self._plan[1].with_clip(opts.clip_planes, opts.crop_box)
+                self._plan = ((data, tf, opts, labels), plan)
                 return plan
         self._plan = None  # drop the old plan (and its arrays) before making the new one
         if isinstance(data, TetMesh):
             from ..raycast.tets import TetPlan
 
-            plan = TetPlan(data, tf, self._options)
+            plan = TetPlan(data, tf, opts)
         else:
             from ..data.grid import labels_from_dataset
             from ..raycast.grid import GridPlan
 
             label_array = None if self._labels is None else labels_from_dataset(inp, self._labels, preference)
-            plan = GridPlan(data, tf, self._options, labels=label_array, label_styles=self._label_styles)
-        self._plan = ((data, tf, self._options, labels), plan)
+            plan = GridPlan(data, tf, opts, labels=label_array, label_styles=self._label_styles)
+        self._plan = ((data, tf, opts, labels), plan)
         return plan
 
 
@@ -1212,6 +1171,34 @@ class _Distribution(NamedTuple):
     ghosts: int
 
 
+def _whole_axes(inp, distribution):
+    """The whole rectilinear grid's coordinates (x, y, z arrays) from every process's
+    piece (collective: each sends its extent and coordinates), an exception to raise if
+    they do not fit, or ``None`` when the input is not a rectilinear grid (on any
+    process: all decide alike, from piece 0's class name)."""
+    import numpy as np
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    mine = None
+    if inp is not None and inp.GetClassName() == "vtkRectilinearGrid" and inp.GetNumberOfPoints():
+        mine = (tuple(inp.GetExtent()), [vtk_to_numpy(c).astype(np.float64) for c in
+                                         (inp.GetXCoordinates(), inp.GetYCoordinates(), inp.GetZCoordinates())])
+    pieces = distribution.comm.allgather(mine)
+    if all(p is None for p in pieces):
+        return None
+    whole = np.reshape(distribution.whole, (3, 2))
+    axes = [np.full(int(hi - lo + 1), np.nan) for lo, hi in whole]
+    for p in pieces:
+        if p is None:
+            continue
+        for axis in range(3):
+            lo = int(p[0][2 * axis] - whole[axis][0])
+            axes[axis][lo:lo + p[1][axis].size] = p[1][axis]
+    if any(np.isnan(a).any() for a in axes):
+        return ValueError("the rectilinear grid's pieces do not cover its whole extent: render it on one process")
+    return tuple(axes)
+
+
 def _tet_grid_of_structured(grid):
     """A curvilinear grid (a piece of one) as the ``vtkUnstructuredGrid`` of the
     tetrahedra a render of the whole grid splits it into (:func:`~pv_hdrvol.data.
@@ -1249,38 +1236,6 @@ def _tet_grid_of_structured(grid):
         values.SetName(array.GetName())
         out.GetCellData().AddArray(values)
     return out
-
-
-def _whole_axes(inp, distribution):
-    """The whole coordinates (x, y, z; float64) of a ``vtkRectilinearGrid`` spread over
-    the processes of ``distribution`` (collective: each tells the others its extent and
-    coordinates). Every process gets the same axes or raises the same error."""
-    import numpy as np
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-
-    from ..parallel.pieces import allgather_or_raise
-
-    local = error = None
-    try:
-        coords = [np.asarray(vtk_to_numpy(c), dtype=np.float64).reshape(-1) if c is not None else np.empty(0)
-                  for c in (inp.GetXCoordinates(), inp.GetYCoordinates(), inp.GetZCoordinates())]
-        local = (tuple(inp.GetExtent()), coords)
-    except Exception as e:  # every process learns of it
-        error = e
-    everyone = allgather_or_raise(distribution.comm, local, error)
-    whole = distribution.whole
-    axes = []
-    for a, label in enumerate("xyz"):
-        c = np.full(whole[2 * a + 1] - whole[2 * a] + 1, np.nan)
-        for extent, cs in everyone:
-            if cs[a].size and cs[a].size == extent[2 * a + 1] - extent[2 * a] + 1:
-                start = extent[2 * a] - whole[2 * a]
-                c[start:start + cs[a].size] = cs[a]
-        if np.isnan(c).any() or c.size < 2:
-            raise ValueError(f"the processes' pieces of the rectilinear grid of extent {tuple(whole)} do not cover "
-                             f"its {label} axis (points {np.flatnonzero(np.isnan(c))[:8].tolist()} are missing)")
-        axes.append(c)
-    return axes
 
 
 def _mesh_summary(mesh, scalars, sample=4096):

@@ -25,10 +25,13 @@ crosses it, otherwise the piece's own crossing or, failing that, where the ray e
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .._validate import as_int, as_size
 from ..data.grid import volume_from_array, volume_from_rectilinear
+from ..params import RenderOptions
 from ..rays.camera import Rays, ray_box_spans
 from ..raycast.blocks import composite_in_order
 from ..raycast.grid import GridPlan, VolumePiece, as_volume
@@ -104,9 +107,10 @@ def split_volume(volume, n, ghosts=1):
     """``n`` pieces of an image volume as a distributed run holds them: a list of
     ``(GridVolume, VolumePiece)``, each the points of one :func:`split_boxes` box plus
     ``ghosts`` layers around it (where the volume goes on). For tests and for
-    simulations that hand their own piece to :func:`render_pieces`. A rectilinear
-    volume (``axes``) gives rectilinear pieces: each its own coordinates, with the whole
-    grid's ``whole_spacing`` and ``whole_voxel``."""
+    simulations that hand their own piece to :func:`render_pieces`. A rectilinear volume
+    (``axes``) gives rectilinear pieces: each with its own coordinates (kept even where
+    they are evenly spaced within the piece) and :meth:`VolumePiece.from_rectilinear`
+    (its plan takes :meth:`VolumePiece.options_for`)."""
     volume = as_volume(volume)
     ghosts = as_int("ghosts", ghosts, low=0)
     dims = np.array(volume.dims)
@@ -117,14 +121,15 @@ def split_volume(volume, n, ghosts=1):
         values = volume.values[a[2]:b[2] + 1, a[1]:b[1] + 1, a[0]:b[0] + 1]
         if volume.axes is None:
             part = volume_from_array(values, volume.spacing, volume.origin + a * volume.spacing, name=volume.name)
-            whole_spacing = None
-        else:
-            part = volume_from_rectilinear(values, *(c[i:j + 1] for c, i, j in zip(volume.axes, a, b)),
-                                           name=volume.name, collapse=False)
-            whole_spacing = tuple(volume.spacing.tolist())
-        out.append((part, VolumePiece(tuple(volume.origin.tolist()), tuple(volume.dims), tuple(a.tolist()),
-                                      tuple(lo), tuple(hi), whole_spacing,
-                                      None if whole_spacing is None else volume.min_cell_width)))
+            out.append((part, VolumePiece(tuple(volume.origin.tolist()), tuple(volume.dims), tuple(a.tolist()),
+                                          tuple(lo), tuple(hi))))
+            continue
+        # a rectilinear grid: before, its pieces were made uniform at the nominal spacing
+        local = tuple(c[i:j + 1] for c, i, j in zip(volume.axes, a, b))
+        part = volume_from_rectilinear(values, *local, name=volume.name)
+        if part.axes is None:  # even within the piece, uneven in the whole
+            part = dataclasses.replace(part, axes=local, cache={})
+        out.append((part, VolumePiece.from_rectilinear(volume.axes, a, lo, hi)))
     return out
 
 
@@ -221,10 +226,14 @@ def render_pieces(volume, piece, tf, camera, size=(512, 512), *, comm=WORLD, roo
         volume = as_volume(volume)
         camera = as_camera(camera, piece.bounds(volume.spacing))
         rays = camera if isinstance(camera, Rays) else camera.rays(as_size(size))
-        image = GridPlan(volume, tf, **options).execute(camera, size, piece=piece, progress_bar=False)
+        plan_options = RenderOptions.from_kwargs(None, **options)
+        if piece.whole_axes is not None and volume.axes is not None:
+            # a rectilinear piece steps by the whole grid's narrowest cell, not its own
+            plan_options = piece.options_for(plan_options, volume)
+        image = GridPlan(volume, tf, plan_options).execute(camera, size, piece=piece, progress_bar=False)
     except Exception as e:  # every process learns of it in gather_pieces; none waits forever
         error = e
-    return gather_pieces(image, piece, None if error else volume, rays, comm=comm, root=root, error=error)
+    return gather_pieces(image, piece, None if error else volume.spacing, rays, comm=comm, root=root, error=error)
 
 
 def gather_pieces(image, piece, spacing, rays, *, comm=WORLD, root=0, error=None):
@@ -232,21 +241,14 @@ def gather_pieces(image, piece, spacing, rays, *, comm=WORLD, root=0, error=None
     :func:`render_pieces`, for callers that render their piece themselves).
 
     ``image``: this process's ``GridPlan.execute(piece=piece)``; ``spacing``: the
-    volume's, or the piece's GridVolume itself (which a rectilinear piece needs: its
-    owned box is in its own coordinates, :meth:`VolumePiece.owned_bounds`); ``rays``:
-    the render's. ``error``: the exception this process met instead
+    volume's; ``rays``: the render's. ``error``: the exception this process met instead
     of rendering. Every process first learns whether any failed, and then all raise
     (the failing ones their own error, the others a ``RuntimeError`` naming it), so that
     none waits forever for an image that will not come; so do all when the owned boxes
     do not tile the volume. Returns the composited HDRImage on ``root`` (every process
     for ``root=None``), else ``None``.
     """
-    if error is not None:
-        box = None
-    elif hasattr(spacing, "axes"):
-        box = piece.owned_bounds(spacing)
-    else:
-        box = piece.world_box(spacing)
+    box = None if error is not None else piece.world_box(spacing)
     return gather_boxes(image, box, rays, comm=comm, root=root, error=error, check=check_tiling, piece=piece)
 
 

@@ -441,11 +441,26 @@ def _warp_at_impl(warp, base, axis, n, u):
     return warped
 
 
+def nominal_end(warp, base, n):
+    """The nominal coordinate of an axis's last point (``n`` points, entries from
+    ``base``): ``n - 1`` on a uniform grid and on a whole rectilinear one, where a piece of
+    a rectilinear grid, in the whole grid's nominal frame, ends elsewhere (compiled only)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(nominal_end, jit_options=_FUSED_JIT, inline="always")
+def _nominal_end_impl(warp, base, n):
+    if isinstance(warp, numba.types.Integer):
+        return lambda warp, base, n: n - 1.0
+    return lambda warp, base, n: warp[0][base + n - 1]
+
+
 @fused_kernel
 def _warp_lookup(cu, inv_w, first, bucket_base, bucket_scale, base, n, u):
     """``warp_at`` on a rectilinear axis, a call (inlined at numba IR level, its walk over
-    the bucket's cells warned of variables out of scope)."""
-    u = min(max(u, 0.0), cu[_u(base + n - 1)])  # n - 1, or a piece's nominal length (grid.warp_arrays)
+    the bucket's cells warned of variables out of scope). The axis's nominal range is
+    ``cu[base] = 0`` to ``cu[base + n - 1]`` (``n - 1`` but in a piece of a grid)."""
+    u = min(max(u, 0.0), cu[_u(base + n - 1)])
     c = np.int64(first[_u(bucket_base + int(u * bucket_scale))])
     # a bucket holds at most one boundary (``raycast.grid.warp_arrays``): a select, not a
     # branch, which mispredicted at every boundary a ray crossed (1.8x the uniform time
@@ -454,20 +469,6 @@ def _warp_lookup(cu, inv_w, first, bucket_base, bucket_scale, base, n, u):
     while c < n - 2 and u >= cu[_u(base + c + 1)]:  # more only where the bucket table was capped
         c += 1
     return min(c + (u - cu[_u(base + c)]) * inv_w[_u(base + c)], n - 1.0)
-
-
-def nominal_max(warp, base, n, uniform_max):
-    """The largest nominal coordinate along an axis (compiled only): ``uniform_max``
-    (``n - 1``) on a uniform grid, else the axis's last ``cu`` -- ``n - 1`` for a whole
-    rectilinear grid, a piece's nominal length for a piece of one."""
-    raise NotImplementedError("compiled only")
-
-
-@overload(nominal_max, jit_options=_FUSED_JIT, inline="always")
-def _nominal_max_impl(warp, base, n, uniform_max):
-    if isinstance(warp, numba.types.Integer):
-        return lambda warp, base, n, uniform_max: uniform_max
-    return lambda warp, base, n, uniform_max: warp[0][_u(base + n - 1)]
 
 
 @kernel
@@ -1025,10 +1026,10 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
     y_base = nx
     z_base = nx + ny
-    # the clamps of the nominal positions: n - 1, or a rectilinear piece's nominal length
-    ux_max = nominal_max(warp, 0, nx, x_max)
-    uy_max = nominal_max(warp, y_base, ny, y_max)
-    uz_max = nominal_max(warp, z_base, nz, z_max)
+    # the nominal positions' ranges (x_max... are the index coordinates')
+    u_max = nominal_end(warp, 0, nx)
+    v_max = nominal_end(warp, y_base, ny)
+    w_max = nominal_end(warp, z_base, nz)
     size = 1 << p.block_shift
     n_table = table.shape[0] // 4
     u8 = p.precision == U8
@@ -1059,9 +1060,9 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
         # (k after the sample), leaping empty blocks
         j = 0
         while j < chunk and k < k1:
-            x = warp_at(warp, 0, 0, nx, min(max(bx0 + kf * sx, 0.0), ux_max))
-            y = warp_at(warp, y_base, 1, ny, min(max(by0 + kf * sy, 0.0), uy_max))
-            z = warp_at(warp, z_base, 2, nz, min(max(bz0 + kf * sz, 0.0), uz_max))
+            x = warp_at(warp, 0, 0, nx, min(max(bx0 + kf * sx, 0.0), u_max))
+            y = warp_at(warp, y_base, 1, ny, min(max(by0 + kf * sy, 0.0), v_max))
+            z = warp_at(warp, z_base, 2, nz, min(max(bz0 + kf * sz, 0.0), w_max))
             xi = int(x)
             yi = int(y)
             zi = int(z)

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import copy
 import contextlib
-import copy
 import dataclasses
 import math
 import sys
@@ -90,31 +89,36 @@ def point_volumes(axes):
 _MAX_BUCKETS_PER_VOXEL = 64
 
 
+def nominal_coordinates(c):
+    """An axis's points in nominal voxel units, ``(c - c[0]) / h`` for the mean spacing
+    ``h``, ending exactly at ``0`` and ``n - 1``: the frame rays of a rectilinear grid
+    march in (``_kernels._march``)."""
+    h = (c[-1] - c[0]) / (c.size - 1)
+    cu = (c - c[0]) / h
+    cu[0], cu[-1] = 0.0, c.size - 1.0
+    return cu
+
+
 def warp_arrays(volume, frame=None):
     """The kernels' ``warp`` (``_kernels.warp_at``): ``0`` for a uniform volume, else the
     tuple ``(cu, inv_w, first, bucket_base, bucket_scale)`` of its axes, built once and
-    cached on the volume.
+    cached on the volume. ``frame`` (3 arrays): a piece of a whole rectilinear grid, its
+    points' nominal coordinates in the whole grid's frame less its first point's
+    (``VolumePiece.nominal``): they start at 0 and end where the piece ends there.
 
     Per axis of ``n`` points: ``cu`` the nominal voxel coordinates of the points
     (``(c - c[0]) / h``, ``h`` the nominal spacing; ends exactly ``0`` and ``n - 1``),
     ``inv_w`` the reciprocal widths of the cells in those units (0 after the last point),
-    and ``M + 1`` buckets over ``[0, cu[n - 1]]``, ``M = ceil(cu[n - 1] / narrowest cell)``
+    and ``M + 1`` buckets over ``[0, n - 1]``, ``M = ceil((n - 1) / narrowest cell)``
     (capped at :data:`_MAX_BUCKETS_PER_VOXEL` per voxel), each holding the cell where
     the bucket's lookups start: the number of interior points whose own bucket
     ``floor(cu * scale)`` -- computed as the kernel computes it -- lies before it. Every
     such point lies below every ``u`` of the bucket, so the kernel's forward walk from
     there never passes the right cell. Axes concatenated x, y, z.
-
-    ``frame``: for a piece of a distributed rectilinear grid (:class:`VolumePiece`), the
-    tuple ``(whole_origin, whole_spacing, whole_dims, offset)``: ``cu`` is then the
-    whole grid's nominal coordinates of the piece's points, less those of its first
-    point (so ``cu[0] = 0`` and ``cu[n - 1]`` is the piece's nominal length, not
-    ``n - 1``): the piece samples where the whole grid's render does, shifted by
-    :func:`piece_frame`'s ``shift``.
     """
     if volume.axes is None:
         return 0
-    key = "warp" if frame is None else ("warp",) + tuple(tuple(np.asarray(f, dtype=np.float64).tolist()) for f in frame)
+    key = "warp" if frame is None else ("warp",) + tuple(c.tobytes() for c in frame)
     cached = volume.cache.get(key)
     if cached is not None:
         return cached
@@ -123,13 +127,9 @@ def warp_arrays(volume, frame=None):
     for a, (label, c) in enumerate(zip("xyz", volume.axes)):
         n = c.size
         if frame is None:
-            h = (c[-1] - c[0]) / (n - 1)
-            cu = (c - c[0]) / h
-            cu[0], cu[-1] = 0.0, n - 1.0
+            cu = nominal_coordinates(c)
         else:
-            cu = _whole_nominal(c, *(f[a] for f in frame))
-            cu = cu - cu[0]
-            cu[0] = 0.0
+            cu = np.array(frame[a], dtype=np.float64)
         w = np.diff(cu)
         if not (w > 0).all():
             i = int(np.flatnonzero(w <= 0)[0])
@@ -137,9 +137,9 @@ def warp_arrays(volume, frame=None):
                              f"{label}[{i}] = {float(c[i])!r}, {label}[{i + 1}] = {float(c[i + 1])!r}")
         inv = np.zeros(n)
         inv[:-1] = 1.0 / w
-        length = float(cu[-1])
-        m = int(min(math.ceil(length / float(w.min())), _MAX_BUCKETS_PER_VOXEL * (n - 1)))
-        scale = m / length
+        end = float(cu[-1])
+        m = int(min(math.ceil(end / float(w.min())), _MAX_BUCKETS_PER_VOXEL * (n - 1)))
+        scale = m / end
         keys = np.floor(cu[1:n - 1] * scale)
         first = np.minimum(np.searchsorted(keys, np.arange(m + 1, dtype=np.float64), side="left"), n - 2)
         cus.append(cu)
@@ -152,42 +152,6 @@ def warp_arrays(volume, frame=None):
             np.array(scales, dtype=np.float64))
     volume.cache[key] = warp
     return warp
-
-
-def _whole_nominal(c, origin, spacing, whole_n, offset):
-    """The whole grid's nominal coordinates ``(c - origin) / spacing`` of a piece's
-    coordinates ``c`` along one axis (its first point the whole's point ``offset``), with
-    the whole's first and last points exactly ``0`` and ``whole_n - 1`` as
-    :func:`warp_arrays` makes them for the whole grid."""
-    cu = (np.asarray(c, dtype=np.float64) - origin) / spacing
-    offset = int(offset)
-    if offset == 0:
-        cu[0] = 0.0
-    if offset + c.size == int(whole_n):
-        cu[-1] = whole_n - 1.0
-    return cu
-
-
-def piece_frame(volume, piece):
-    """``(warp, shift, owned_lo, owned_hi)`` of a piece of a distributed rectilinear grid:
-    the piece's warp in the whole grid's nominal frame (:func:`warp_arrays` with a
-    frame), the whole grid's nominal coordinates of the piece's first point (the rays are
-    shifted by them into the piece's warp) and of the owned box's corners (where
-    ``piece_segments`` cuts the whole lattice). Neighbouring pieces compute their shared
-    face from the same coordinate with the same arithmetic, so every sample has one owner."""
-    origin = np.asarray(piece.whole_origin, dtype=np.float64)
-    spacing = np.asarray(piece.whole_spacing, dtype=np.float64)
-    whole = np.asarray(piece.whole_dims, dtype=np.int64)
-    offset = np.asarray(piece.offset, dtype=np.int64)
-    frame = (origin, spacing, whole, offset)
-    warp = warp_arrays(volume, frame)
-    shift, lo, hi = np.empty(3), np.empty(3), np.empty(3)
-    for a, c in enumerate(volume.axes):
-        cu = _whole_nominal(c, origin[a], spacing[a], whole[a], offset[a])
-        shift[a] = cu[0]
-        lo[a] = cu[piece.owned_lo[a] - offset[a]]
-        hi[a] = cu[piece.owned_hi[a] - offset[a]]
-    return warp, shift, lo, hi
 
 
 def check_rectilinear(volume, **features):
@@ -673,49 +637,28 @@ class GridPlan:
         if opts.precision == "uint8" and labels is not None:
             raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
                              "transfer function")
+        prec = opts.precision
+        table_dtype = np.float64 if prec == "float64" else np.float32
         check_rectilinear(volume, **{"labels=": labels, "gradient_opacity=": opts.gradient_opacity,
                                      f"blending={opts.blending!r}": opts.blending != "composite" or None})
-        #: the volume as given; the kernels read ``_prepare().volume``
-        self.source = volume
-        self.tf, self.options = tf, opts
-        self.labels, self.label_styles = labels, label_styles
         # a voxel: the smallest spacing, or a rectilinear grid's narrowest cell
-        self._set_voxel(volume.min_cell_width)
-        self._voxel_plans = {}
-
-    def _set_voxel(self, voxel):
-        """The tables of the world length of one voxel ``voxel`` (``step=`` and the default
-        opacity unit distance are in voxels)."""
-        tf, opts, prec = self.tf, self.options, self.options.precision
-        table_dtype = np.float64 if prec == "float64" else np.float32
-        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else voxel
+        unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else volume.min_cell_width
         table_size = 256 if prec == "uint8" else tf.table_size
-        step_world = opts.step * voxel
+        step_world = opts.step * volume.min_cell_width
         rgb, sigma = tf.table(np.float64, opts.global_alpha, unit, table_size)
         # opacity correction on the host: the opacity of one full step, 1 - exp(-sigma step)
         alpha_step = -np.expm1(-sigma * step_world)
         if prec == "uint8":
             rgb = np.round(np.clip(rgb, 0, 1) * 255) / 255
             alpha_step = np.round(alpha_step * 255) / 255
+        #: the volume as given; the kernels read ``_prepare().volume``
+        self.source = volume
+        self.tf, self.options = tf, opts
         self.table = np.ascontiguousarray(np.column_stack([rgb, alpha_step]), dtype=table_dtype)
         self.sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
-        self.unit, self.step_world, self._voxel = unit, step_world, float(voxel)
+        self.unit, self.step_world = unit, step_world
+        self.labels, self.label_styles = labels, label_styles
         self._prepared = None
-
-    def _with_voxel(self, voxel):
-        """This plan with the voxel of a whole rectilinear grid that its volume is a piece
-        of (:class:`VolumePiece` ``whole_voxel``): steps and opacities as the whole grid's
-        render has them. Kept per voxel."""
-        voxel = float(voxel)
-        if voxel == self._voxel:
-            return self
-        plan = self._voxel_plans.get(voxel)
-        if plan is None:
-            plan = copy.copy(self)
-            plan._voxel_plans = {}
-            plan._set_voxel(voxel)
-            self._voxel_plans[voxel] = plan
-        return plan
 
     def _prepare(self):
         """The arrays the kernels read, built on the first execution."""
@@ -755,7 +698,6 @@ class GridPlan:
         plane re-renders without preparing again."""
         plan = copy.copy(self)
         plan.options = self.options.replace(clip_planes=clip_planes, crop_box=crop_box)
-        plan._voxel_plans = {}  # a rectilinear piece's plans (_with_voxel) are made with the options
         return plan
 
     def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, cull=None, window=None,
@@ -795,19 +737,13 @@ class GridPlan:
 
             return execute_grid(self, camera, size, lens=lens, block_mask=block_mask, cull=cull, window=window,
                                 progress=progress, progress_bar=progress_bar, chunk_seconds=chunk_seconds, far=far)
-        check_rectilinear(self.source, **{"cull=": cull, "lens=": lens, "tolerance=": opts.tolerance})
-        if isinstance(piece, VolumePiece) and piece.whole_voxel is not None and self.source.axes is not None:
-            voxel = _check_voxel(piece.whole_voxel)
-            if voxel != self._voxel:  # the whole grid's steps and opacities
-                return self._with_voxel(voxel).execute(camera, size, lens=lens, block_mask=block_mask, cull=cull,
-                                                       window=window, progress=progress, progress_bar=progress_bar,
-                                                       chunk_seconds=chunk_seconds, far=far, piece=piece)
+        check_rectilinear(self.source, **{"cull=": cull, "lens=": lens,
+                                          "tolerance=": opts.tolerance})
         if piece is not None:
             if self.labels is not None or cull is not None or block_mask is not None:
                 raise ValueError("a piece of a distributed volume renders without labels, cull= and block_mask=")
             ghosts = 1 if (opts.shade or opts.gradient_opacity is not None) else 0
-            piece_box, whole_hi, whole_origin, piece_warp, piece_inv_spacing = _check_piece(piece, self.source, opts,
-                                                                                            ghosts)
+            piece_box, whole_hi, whole_origin, nominal = _check_piece(piece, self.source, opts, ghosts)
         camera = as_camera(camera, self.source.bounds if piece is None else piece.bounds(self.source.spacing))
         if lens is not None:
             if not callable(getattr(lens, "rays", None)):
@@ -844,9 +780,8 @@ class GridPlan:
 
         # rays in voxel coordinates with t still in world units (see _kernels._march); a
         # piece's rays are in the whole volume's points, as the whole render's
-        inv_spacing = 1.0 / volume.spacing
-        if piece is not None and piece_inv_spacing is not None:
-            inv_spacing = piece_inv_spacing  # a rectilinear piece: the whole grid's nominal frame
+        # (a rectilinear piece: the whole grid's nominal spacing)
+        inv_spacing = 1.0 / (volume.spacing if piece is None or nominal is None else nominal[0])
         ray_origin = volume.origin if piece is None else whole_origin
         if rays is None:
             cam = np.concatenate([camera.kernel_array((width, height)), ray_origin, inv_spacing])
@@ -920,9 +855,8 @@ class GridPlan:
         # the precision's marker and the lighting (0: none): each kernel compiles that
         # precision's loop, lit or not, only
         marker = _MARKERS[prec]
-        light = _light(volume, opts, prec, self._voxel, None if piece is None else piece.whole_spacing) \
-            if not flat else 0
-        warp = warp_arrays(volume) if piece is None or piece_warp is None else piece_warp
+        light = _light(volume, opts, prec, piece) if not flat else 0
+        warp = warp_arrays(volume, None if piece is None or nominal is None else nominal[1])
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
@@ -1008,16 +942,13 @@ class VolumePiece(NamedTuple):
     shading and gradient opacity (central differences). ``whole_origin`` is the world
     position of the whole volume's first point, as the whole volume's ``origin``.
 
-    A piece of a rectilinear grid (a volume with ``axes``, its own points' coordinates)
-    also gives ``whole_spacing``, the whole grid's nominal spacing ``(last - first) /
-    (n - 1)`` per axis, with ``whole_origin`` the whole grid's first coordinates: the
-    piece then samples the whole grid's lattice in the whole grid's nominal coordinates,
-    as the serial render does (:func:`piece_frame`), and ``whole_voxel``, the whole
-    grid's narrowest cell (``GridVolume.min_cell_width``), in which steps and opacity
-    units are. Both ``None`` for an image piece.
+    :func:`pv_hdrvol.parallel.pieces.split_volume` makes pieces of an array;
+    :meth:`from_extents` reads them from VTK extents.
 
-    :func:`pv_hdrvol.parallel.pieces.split_volume` makes pieces of an array or a
-    rectilinear volume; :meth:`from_extents` reads them from VTK extents.
+    ``whole_axes``: a piece of a rectilinear grid, the whole grid's coordinates (3 arrays,
+    x, y, z; ``whole_origin`` their first values): the piece samples the whole grid's
+    lattice in its nominal frame (:meth:`from_rectilinear`; its plan's step and opacity
+    unit from :meth:`options_for`). ``None``: a piece of an image volume.
     """
 
     whole_origin: tuple
@@ -1025,8 +956,37 @@ class VolumePiece(NamedTuple):
     offset: tuple
     owned_lo: tuple
     owned_hi: tuple
-    whole_spacing: tuple = None
-    whole_voxel: float = None
+    whole_axes: tuple = None
+
+    @classmethod
+    def from_rectilinear(cls, whole_axes, offset, owned_lo, owned_hi):
+        """A piece of the rectilinear grid whose coordinates are ``whole_axes``: its first
+        point's index ``offset`` and owned box, in points of the whole."""
+        axes = tuple(np.asarray(a, dtype=np.float64).reshape(-1) for a in whole_axes)
+        return cls(tuple(float(a[0]) for a in axes), tuple(a.size for a in axes), tuple(int(v) for v in offset),
+                   tuple(int(v) for v in owned_lo), tuple(int(v) for v in owned_hi), axes)
+
+    def options_for(self, options, volume):
+        """``options`` for the plan of this piece's ``volume`` (a rectilinear piece): the
+        step and opacity unit of the whole grid (its narrowest cell), not the piece's, so
+        that the pieces sample the whole render's lattice. An image piece: unchanged."""
+        if self.whole_axes is None:
+            return options
+        whole = float(min(np.diff(a).min() for a in self.whole_axes))
+        mine = float(min(np.diff(a).min() for a in volume.axes))
+        unit = options.opacity_unit_distance if options.opacity_unit_distance is not None else whole
+        return options.replace(step=options.step * whole / mine, opacity_unit_distance=unit)
+
+    def nominal(self, dims):
+        """A rectilinear piece (of ``dims`` points) in the whole grid's nominal frame
+        (``_kernels._march``'s, as ``warp_arrays`` makes it for the whole grid): the
+        nominal spacing per axis, the owned box and first point, and the piece's points
+        less its first point's, per axis."""
+        h = np.array([(a[-1] - a[0]) / (a.size - 1) for a in self.whole_axes])
+        cu = [nominal_coordinates(a) for a in self.whole_axes]
+        at = lambda index: np.array([c[i] for c, i in zip(cu, index)])  # noqa: E731
+        frame = tuple(c[o:o + n] - c[o] for c, o, n in zip(cu, self.offset, dims))
+        return h, at(self.owned_lo), at(self.owned_hi), at(self.offset), frame
 
     @classmethod
     def from_extents(cls, origin, spacing, whole_extent, extent, owned_extent):
@@ -1040,40 +1000,21 @@ class VolumePiece(NamedTuple):
                    tuple((oe[:, 0] - we[:, 0]).tolist()), tuple((oe[:, 1] - we[:, 0]).tolist()))
 
     def bounds(self, spacing):
-        """The whole volume's ``(xmin, xmax, ymin, ymax, zmin, zmax)`` (a rectilinear
-        piece's ``whole_spacing``, when given, overrides ``spacing``)."""
-        if self.whole_spacing is not None:
-            spacing = self.whole_spacing
+        """The whole volume's ``(xmin, xmax, ymin, ymax, zmin, zmax)``."""
+        if self.whole_axes is not None:
+            return tuple(float(v) for a in self.whole_axes for v in (a[0], a[-1]))
         lo = np.asarray(self.whole_origin, dtype=np.float64)
         hi = lo + (np.asarray(self.whole_dims) - 1) * np.asarray(spacing, dtype=np.float64)
         return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
 
-    def owned_bounds(self, volume):
-        """``(lo, hi)``: the owned box in world coordinates, of the piece's ``volume``:
-        for a rectilinear piece the coordinates of its owned points (its own axes), else
-        :meth:`world_box` of the volume's spacing."""
-        if getattr(volume, "axes", None) is None or self.whole_spacing is None:
-            return self.world_box(volume.spacing)
-        lo = np.array([c[l - o] for c, l, o in zip(volume.axes, self.owned_lo, self.offset)])
-        hi = np.array([c[h - o] for c, h, o in zip(volume.axes, self.owned_hi, self.offset)])
-        return lo, hi
-
     def world_box(self, spacing):
-        """``(lo, hi)``: the owned box in world coordinates (an image piece's; a
-        rectilinear piece's is :meth:`owned_bounds`)."""
+        """``(lo, hi)``: the owned box in world coordinates."""
+        if self.whole_axes is not None:
+            return (np.array([a[i] for a, i in zip(self.whole_axes, self.owned_lo)]),
+                    np.array([a[i] for a, i in zip(self.whole_axes, self.owned_hi)]))
         o = np.asarray(self.whole_origin, dtype=np.float64)
         sp = np.asarray(spacing, dtype=np.float64)
         return o + np.asarray(self.owned_lo) * sp, o + np.asarray(self.owned_hi) * sp
-
-
-def _check_voxel(voxel):
-    try:
-        value = float(voxel)
-    except (TypeError, ValueError):
-        raise ValueError(f"whole_voxel must be a number > 0; got {voxel!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"whole_voxel must be a finite number > 0; got {voxel!r}")
-    return value
 
 
 def _check_piece(piece, volume, opts, ghosts):
@@ -1090,24 +1031,6 @@ def _check_piece(piece, volume, opts, ghosts):
     except (TypeError, ValueError):
         raise ValueError(f"piece must hold three numbers per field; got {piece!r}") from None
     dims = np.array(volume.dims, dtype=np.int64)
-    if volume.axes is not None and piece.whole_spacing is None:
-        raise ValueError("a piece of a rectilinear grid needs the whole grid's nominal spacing: give "
-                         "VolumePiece(whole_spacing=...), (last - first) / (n - 1) of the whole grid's coordinates")
-    if piece.whole_spacing is not None:
-        try:
-            whole_spacing = np.array(piece.whole_spacing, dtype=np.float64).reshape(3)
-        except (TypeError, ValueError):
-            raise ValueError(f"whole_spacing must be three numbers; got {piece.whole_spacing!r}") from None
-        if not (np.isfinite(whole_spacing).all() and (whole_spacing > 0).all()):
-            raise ValueError(f"whole_spacing must be three finite numbers > 0; got {tuple(whole_spacing.tolist())}")
-        if volume.axes is None and not np.allclose(whole_spacing, volume.spacing, rtol=1e-9, atol=0.0):
-            raise ValueError(f"the piece's volume is uniform with spacing {tuple(volume.spacing.tolist())}, not the "
-                             f"whole_spacing {tuple(whole_spacing.tolist())}: give a piece of a graded rectilinear grid "
-                             f"its axes (a GridVolume with axes), or whole_spacing=None for an image piece")
-        if volume.axes is not None and piece.whole_voxel is None:
-            raise ValueError("a piece of a rectilinear grid needs the whole grid's narrowest cell: give "
-                             "VolumePiece(whole_voxel=...), the world width of the whole grid's narrowest cell "
-                             "(GridVolume.min_cell_width): steps and opacities are in it")
     if (whole < 2).any() or (lo < 0).any() or (hi > whole - 1).any() or (hi <= lo).any():
         raise ValueError(f"piece's owned box {tuple(lo.tolist())}..{tuple(hi.tolist())} must be a box of at least one "
                          f"cell per axis inside the whole volume's points 0..{tuple((whole - 1).tolist())}")
@@ -1118,19 +1041,25 @@ def _check_piece(piece, volume, opts, ghosts):
                          f"cover its owned box {tuple(lo.tolist())}..{tuple(hi.tolist())} with {ghosts} ghost "
                          f"layer(s) inside the volume ({'shading and gradient opacity read' if ghosts else 'samples read'} "
                          f"them)")
-    expected = origin + offset * (volume.spacing if piece.whole_spacing is None else whole_spacing)
-    if volume.axes is None and \
-            not np.allclose(volume.origin, expected, rtol=0.0, atol=1e-6 * float(volume.spacing.min())):
-        raise ValueError(f"the piece's origin {tuple(volume.origin.tolist())} is not the whole volume's origin plus "
-                         f"offset x spacing {tuple(expected.tolist())}")
     if opts.blending != "composite":
         raise ValueError(f"a piece of a distributed volume composites in depth order: blending='composite' only; got "
                          f"{opts.blending!r}")
+    if (piece.whole_axes is None) != (volume.axes is None):
+        raise ValueError("a piece of a rectilinear grid needs a VolumePiece with the whole grid's axes "
+                         "(VolumePiece.from_rectilinear), and a piece of an image volume one without")
     if volume.axes is not None:
-        warp, shift, nominal_lo, nominal_hi = piece_frame(volume, piece)
-        return np.concatenate([nominal_lo, nominal_hi, shift]), (whole - 1).astype(np.float64), origin, warp, \
-            1.0 / whole_spacing
-    return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin, None, None
+        # the rays, the owned box and the piece's first point in the whole grid's nominal frame
+        for label, a, c, o in zip("xyz", piece.whole_axes, volume.axes, offset):
+            if a.size != whole[("xyz".index(label))] or not np.array_equal(a[o:o + c.size], c):
+                raise ValueError(f"the piece's {label} coordinates are not the whole grid's from index {o}")
+        h, nominal_lo, nominal_hi, nominal_offset, frame = piece.nominal(volume.dims)
+        return (np.concatenate([nominal_lo, nominal_hi, nominal_offset]), (whole - 1).astype(np.float64), origin,
+                (h, frame))
+    expected = origin + offset * volume.spacing
+    if not np.allclose(volume.origin, expected, rtol=0.0, atol=1e-6 * float(volume.spacing.min())):
+        raise ValueError(f"the piece's origin {tuple(volume.origin.tolist())} is not the whole volume's origin plus "
+                         f"offset x spacing {tuple(expected.tolist())}")
+    return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin, None
 
 
 def _check_far(far, width, height, name="far"):
@@ -1280,12 +1209,12 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
                      e)
 
 
-def _light(volume, opts, prec, voxel=None, spacing=None):
+def _light(volume, opts, prec, piece=None):
     """The kernels' ``light`` (``_kernels.lit``): 0 for an unshaded render, else the
     tuple ``(shading, lights, gradient vectors)`` (the vectors bricked in the kernel
-    precision for ``shade_gradient="interpolated"``, else a placeholder). ``voxel`` and
-    ``spacing``: a rectilinear piece's whole grid's narrowest cell and nominal spacing
-    (default the volume's)."""
+    precision for ``shade_gradient="interpolated"``, else a placeholder). ``piece``: a
+    rectilinear piece's :class:`VolumePiece`, whose shading fades over the whole grid's
+    spacing and narrowest cell."""
     if not opts.shade:
         return 0
     dtype = np.float64 if prec == "float64" else np.float32
@@ -1293,8 +1222,11 @@ def _light(volume, opts, prec, voxel=None, spacing=None):
         # a rectilinear grid lights from its points' gradients (central differences over
         # the true neighbours, exact for linear fields), interpolated at the sample's index
         # coordinates: the sampled gradient's stencil assumes even spacing
-        shading, lights = shading_arrays(opts, volume.spacing if spacing is None else spacing,
-                                         unit=volume.min_cell_width if voxel is None else voxel, sampled=False)
+        spacing, unit = volume.spacing, volume.min_cell_width
+        if piece is not None and piece.whole_axes is not None:
+            spacing = piece.nominal(volume.dims)[0]
+            unit = float(min(np.diff(a).min() for a in piece.whole_axes))
+        shading, lights = shading_arrays(opts, spacing, unit=unit, sampled=False)
         return shading, lights, _gradient_vector_bricks(volume, dtype)
     interpolated = opts.shade_gradient == "interpolated"
     gvec = _gradient_vector_bricks(volume, dtype) if interpolated else np.zeros(1, dtype)

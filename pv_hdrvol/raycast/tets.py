@@ -189,6 +189,9 @@ class TetPlan:
         boxes of a scene's grid blocks (``raycast/blocks.py``)."""
         mesh, tf, opts, params, table, active = self.mesh, self.tf, self.options, self.params, self.table, self.active
         if opts.tolerance is not None:
+            if near is not None:
+                raise ValueError("near= and tolerance= do not go together: tolerance= chooses the knobs on a pilot "
+                                 "of the whole rays; give tau_max= and termination=")
             if piece is not None:
                 raise ValueError("tolerance= chooses the knobs per render; a piece of a distributed mesh needs the "
                                  "whole render's: choose them once (metadata['tolerance'] of a render of the whole) "
@@ -207,8 +210,6 @@ class TetPlan:
         width, height = as_size(size)
         far = _check_far(far, width, height)
         if near is not None:
-            if opts.tolerance is not None:
-                raise ValueError("near= and tolerance= do not go together: give tau_max= and termination=")
             near = _check_far(near, width, height, "near")
         span = ray_spans(camera, (width, height), opts, far, near)  # clip planes, crop box, far (rays/clip.py)
         own = np.empty((0, 2))

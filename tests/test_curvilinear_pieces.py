@@ -1,0 +1,44 @@
+"""Pieces of a curvilinear grid become the serial render's tetrahedra where they live
+(HDRVolumeRenderer's mesh path then moves them to boxes: tests/paraview/mpi_render.py).
+Here, without MPI: extents cut at an odd index give together the whole grid's tets."""
+import numpy as np
+
+import pv_hdrvol as hv
+
+W, H = 40, 30
+
+
+# -- curvilinear grids: each process splits its extent into the serial render's tetrahedra --
+def test_curvilinear_pieces_split_into_the_serial_tetrahedra():
+    """A vtkStructuredGrid cut into extents at an odd index (the 5-tet split's parity is
+    the global index's): the pieces' tetrahedra together are the serial split's, so
+    their render equals the serial render of the whole grid (the mesh path then moves
+    them to boxes: tests/paraview/mpi_render.py)."""
+    import pyvista as pv
+    from vtkmodules.vtkFiltersCore import vtkAppendFilter
+    from vtkmodules.vtkFiltersExtraction import vtkExtractGrid
+
+    from pv_hdrvol.integrations.vtk_algorithm import _tet_grid_of_structured
+
+    r, th, z = np.linspace(1, 2, 9), np.linspace(0, 1.2, 11), np.linspace(0, 1, 7)
+    rr, tt, zz = np.meshgrid(r, th, z, indexing="ij")
+    grid = pv.StructuredGrid(rr * np.cos(tt), rr * np.sin(tt), zz + 0.1 * rr ** 2)
+    grid["f"] = np.exp(-((grid.points[:, 0] - 1.2) ** 2 + (grid.points[:, 1] - 0.8) ** 2) / 0.3)
+    nx, ny, nz = grid.dimensions
+    append = vtkAppendFilter()
+    total = 0
+    for voi in ((0, 3, 0, ny - 1, 0, nz - 1), (3, nx - 1, 0, ny - 1, 0, nz - 1)):
+        extract = vtkExtractGrid()
+        extract.SetInputData(grid)
+        extract.SetVOI(*voi)
+        extract.Update()
+        tets = _tet_grid_of_structured(extract.GetOutput())
+        total += tets.GetNumberOfCells()
+        append.AddInputData(tets)
+    append.Update()
+    assert total == _tet_grid_of_structured(grid).GetNumberOfCells()
+    tf = hv.TransferFunction([0.0, 1.0], [[1, 0.5, 0.2], [0.2, 0.5, 1]], [0.0, 0.9])
+    expected = hv.render(grid, tf, "iso", (W, H), progress_bar=False, precision="float64")
+    assert expected.rgba[..., 3].max() > 0.5
+    got = hv.render(pv.wrap(append.GetOutput()), tf, "iso", (W, H), progress_bar=False, precision="float64")
+    np.testing.assert_allclose(got.rgba, expected.rgba, rtol=0, atol=1e-12)

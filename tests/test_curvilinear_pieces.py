@@ -42,3 +42,23 @@ def test_curvilinear_pieces_split_into_the_serial_tetrahedra():
     assert expected.rgba[..., 3].max() > 0.5
     got = hv.render(pv.wrap(append.GetOutput()), tf, "iso", (W, H), progress_bar=False, precision="float64")
     np.testing.assert_allclose(got.rgba, expected.rgba, rtol=0, atol=1e-12)
+
+
+def test_ghost_cells_of_a_curvilinear_piece_are_left_to_their_owner():
+    """A piece read with a ghost level marks its neighbours' cells DUPLICATECELL: they
+    make no tetrahedra here (their owner renders them), so nothing is counted twice."""
+    import pyvista as pv
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+
+    from pv_hdrvol.integrations.vtk_algorithm import _tet_grid_of_structured
+
+    x, y, z = np.meshgrid(np.linspace(0, 1, 6), np.linspace(0, 1, 5), np.linspace(0, 1, 4), indexing="ij")
+    grid = pv.StructuredGrid(x + 0.1 * y, y, z)
+    grid["f"] = np.arange(grid.n_points, dtype=float)
+    whole = _tet_grid_of_structured(grid).GetNumberOfCells()
+    ghost = np.zeros(grid.n_cells, dtype=np.uint8)
+    ghost[:8] = 1  # DUPLICATECELL
+    array = numpy_to_vtk(ghost, deep=True)
+    array.SetName("vtkGhostType")
+    grid.GetCellData().AddArray(array)
+    assert _tet_grid_of_structured(grid).GetNumberOfCells() == whole - 8 * 5

@@ -1203,7 +1203,8 @@ def _tet_grid_of_structured(grid):
     """A curvilinear grid (a piece of one) as the ``vtkUnstructuredGrid`` of the
     tetrahedra a render of the whole grid splits it into (:func:`~pv_hdrvol.data.
     structured.structured_tets`: the lattice alone decides the split, so pieces that
-    share a face cut it alike; blanked cells and collapsed tetrahedra left out), with
+    share a face cut it alike; blanked cells, ghost cells (DUPLICATECELL: another
+    piece's) and collapsed tetrahedra left out), with
     its points and point data as they are and its cell data repeated per tetrahedron."""
     import numpy as np
     from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
@@ -1216,6 +1217,11 @@ def _tet_grid_of_structured(grid):
         return out
     points = vtk_to_numpy(grid.GetPoints().GetData())
     visible = visible_cells(grid)
+    ghosts = grid.GetCellGhostArray()
+    if ghosts is not None:  # a ghost layer's cells are another piece's: DUPLICATECELL
+        owned = (vtk_to_numpy(ghosts).astype(np.uint8) & 1) == 0
+        if not owned.all():
+            visible = owned if visible is None else visible & owned
     cells = np.arange(grid.GetNumberOfCells()) if visible is None else np.flatnonzero(visible)
     tets = structured_tets(points, grid_dims(grid), visible, start=grid.GetExtent()[0::2])
     of_cell = np.repeat(cells, tets.shape[0] // max(cells.size, 1))

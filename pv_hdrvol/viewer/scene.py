@@ -334,7 +334,16 @@ class HDRVolumeActor:
         self._render_window()
 
     def close(self):
-        """Stop the worker thread and the timer (the plotter's close does this)."""
+        """Stop the worker thread and the timer, and release the clip widgets (the
+        plotter's close does this)."""
+        for widget in self._clip_widgets:
+            # their observers hold callbacks that hold this actor: a cycle through VTK
+            widget.Off()
+            widget.RemoveAllObservers()
+            for store in _widget_lists(self.plotter):
+                if widget in store:
+                    store.remove(widget)
+        self._clip_widgets = []
         if self._timer is not None and getattr(self.plotter, "iren", None) is not None:
             interactor = self.plotter.iren.interactor
             interactor.DestroyTimer(self._timer)

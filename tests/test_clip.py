@@ -9,6 +9,7 @@ import pytest
 
 import pv_hdrvol as hv
 from meshes import box_mesh
+from test_far import _down, _slab, _tf  # the slab z in [0, 4], a camera looking down on it
 from pv_hdrvol.params import ClipPlane, RenderOptions, as_clip_planes
 from pv_hdrvol.raycast.grid import GridPlan
 from pv_hdrvol.raycast.tets import TetPlan
@@ -18,19 +19,6 @@ from pv_hdrvol.settings import options_from_dict, options_to_dict
 pytestmark = pytest.mark.core
 
 SIGMA = -math.log1p(-0.2) / 0.5  # extinction of opacity 0.2 over the unit distance 0.5
-
-
-def _slab():
-    return hv.volume_from_array(np.full((9, 5, 5), 1.0), spacing=(1.0, 1.0, 0.5))  # z from 0 to 4
-
-
-def _down(bounds, top=14.0, half_height=1.0):
-    cx, cy = 0.5 * (bounds[0] + bounds[1]), 0.5 * (bounds[2] + bounds[3])
-    return hv.Camera((cx, cy, top), (cx, cy, 0.0), (0, 1, 0), parallel_projection=True, parallel_scale=half_height)
-
-
-def _tf(alpha=0.2):
-    return hv.TransferFunction([0.0, 2.0], [[0.2, 0.5, 1.0]] * 2, [alpha, alpha])
 
 
 # rays straight down through the slab [0, 4] in z: what each clip keeps of it

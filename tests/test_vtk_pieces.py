@@ -36,11 +36,12 @@ def vti(tmp_path_factory):
     return path, image
 
 
-def _run(path, n, tf, **options):
-    """Render ``path`` on ``n`` thread-processes; returns, per process, the output image
-    (None where empty), the extent its reader read, and its error."""
+def _run(path, n, tf, reader_class=vtkXMLImageDataReader, **options):
+    """Render ``path`` (read by ``reader_class``) on ``n`` thread-processes; returns, per
+    process, the output image (None where empty), the extent its reader read, and its
+    error."""
     def process(comm):
-        reader = vtkXMLImageDataReader()
+        reader = reader_class()
         reader.SetFileName(path)
         renderer = HDRVolumeRenderer()
         renderer.SetInputConnection(reader.GetOutputPort())
@@ -144,25 +145,7 @@ def test_a_rectilinear_grid_is_rendered_where_it_lives(vtr, n, shade):
 
     path, grid = vtr
     tf = resolve_transfer_function(as_volume(grid))
-
-    def process(comm):
-        reader = vtkXMLRectilinearGridReader()
-        reader.SetFileName(path)
-        renderer = HDRVolumeRenderer()
-        renderer.SetInputConnection(reader.GetOutputPort())
-        renderer.SetCommunicator(comm)
-        renderer.SetImageSize(W, H)
-        renderer.SetCamera("iso")
-        renderer.SetTransferFunction(tf)
-        renderer.SetPrecision("float64")
-        renderer.SetShade(shade)
-        ok = renderer.UpdatePiece(comm.rank, comm.size, 0)
-        out = renderer.GetOutput()
-        return (hv.HDRImage.from_pyvista(out) if out.GetNumberOfPoints() else None,
-                reader.GetOutput().GetExtent(), ok, renderer.GetLastError())
-
-    results, errors = run_spmd(n, process)
-    assert errors == [None] * n, errors
+    results = _run(path, n, tf, vtkXMLRectilinearGridReader, Precision="float64", Shade=shade)
     expected = hv.render(grid, tf, "iso", (W, H), progress_bar=False, precision="float64", shade=shade)
     assert expected.rgba[..., 3].max() > 0.5
     got = results[0][0]

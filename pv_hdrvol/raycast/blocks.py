@@ -137,14 +137,8 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     boxes = [(np.array(v.bounds[0::2]), np.array(v.bounds[1::2])) for v in volumes]
     _check_disjoint(blocks, boxes)
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
-    refused = [what for what, on in (("tolerance=", opts.tolerance is not None),
-                                     (f"blending={opts.blending!r}", opts.blending != "composite"),
-                                     ("gradient_opacity=", opts.gradient_opacity is not None),
-                                     ("shade=True", opts.shade)) if on]
-    if refused:
-        raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; these grid "
-                         f"blocks are rendered one by one (not on one lattice, or too sparse to gather): render "
-                         f"without {' and '.join(refused)}, or resample the blocks onto one lattice")
+    _check_part_by_part(opts, "these grid blocks are rendered one by one (not on one lattice, or too sparse to "
+                              "gather)", "resample the blocks onto one lattice")
     unit_spacing = min(_cell_width(v) for v in volumes)
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
@@ -162,12 +156,8 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     try:
         with collected_warnings() as reasons:
             for i, volume in enumerate(volumes):
-                # the same world step and opacity unit in every block: step is in voxels of the finest block
-                step = opts.step * unit_spacing / _cell_width(volume)
-                block_opts = dataclasses.replace(opts, step=step, opacity_unit_distance=unit)
                 report = _block_progress(progress, bar, start[i], start[i + 1])
-                images.append(GridPlan(volume, tf, block_opts).execute(camera, size, progress=report,
-                                                                       progress_bar=False))
+                images.append(_render_block(volume, tf, opts, unit_spacing, unit, camera, size, report))
     finally:
         if bar is not None:
             bar.close()
@@ -229,14 +219,8 @@ def render_mixed_blocks(blocks, mesh, tf=None, camera=None, size=(512, 512), opt
     _check_disjoint(blocks, boxes)
     _check_outside(mesh, blocks, boxes)
     opts = RenderOptions.from_kwargs(options, **option_kwargs)
-    refused = [what for what, on in (("tolerance=", opts.tolerance is not None),
-                                     (f"blending={opts.blending!r}", opts.blending != "composite"),
-                                     ("gradient_opacity=", opts.gradient_opacity is not None),
-                                     ("shade=True", opts.shade)) if on]
-    if refused:
-        raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; this scene of "
-                         f"grid and mesh blocks is rendered part by part: render without {' and '.join(refused)}, "
-                         f"or each part alone (hv.render(dataset[...]))")
+    _check_part_by_part(opts, "this scene of grid and mesh blocks is rendered part by part",
+                        "each part alone (hv.render(dataset[...]))")
     unit_spacing = min(_cell_width(v) for v in volumes)
     lo = np.minimum(np.min([b[0] for b in boxes], axis=0), np.asarray(mesh.bounds[0::2]))
     hi = np.maximum(np.max([b[1] for b in boxes], axis=0), np.asarray(mesh.bounds[1::2]))
@@ -268,11 +252,8 @@ def render_mixed_blocks(blocks, mesh, tf=None, camera=None, size=(512, 512), opt
     try:
         with collected_warnings() as reasons:
             for i, volume in enumerate(volumes):
-                step = opts.step * unit_spacing / _cell_width(volume)
-                block_opts = dataclasses.replace(opts, step=step, opacity_unit_distance=unit)
                 report = _block_progress(progress, bar, start[i], start[i + 1])
-                images.append(GridPlan(volume, tf, block_opts).execute(camera, (width, height), progress=report,
-                                                                       progress_bar=False))
+                images.append(_render_block(volume, tf, opts, unit_spacing, unit, camera, (width, height), report))
                 entries.append(enter[i])
             plan = TetPlan(mesh, tf, dataclasses.replace(opts, opacity_unit_distance=unit))
             for k, j in enumerate(gaps):
@@ -306,6 +287,26 @@ def _check_outside(mesh, blocks, boxes):
             raise ValueError(f"{int(inside.sum())} tetrahedra of the mesh blocks lie inside the box of grid block "
                              f"{block.path!r} ({tuple(lo.tolist())}..{tuple(hi.tolist())}); grid and mesh blocks are "
                              f"composited along each ray in depth order and may share faces only: remove the overlap")
+
+
+def _check_part_by_part(opts, how, instead):
+    """Raise ``ValueError`` for the options a scene rendered part by part (``how``)
+    cannot keep: they need one volume; ``instead`` says what to do."""
+    refused = [what for what, on in (("tolerance=", opts.tolerance is not None),
+                                     (f"blending={opts.blending!r}", opts.blending != "composite"),
+                                     ("gradient_opacity=", opts.gradient_opacity is not None),
+                                     ("shade=True", opts.shade)) if on]
+    if refused:
+        raise ValueError(f"{', '.join(refused)} need{'s' if len(refused) == 1 else ''} one volume; {how}: render "
+                         f"without {' and '.join(refused)}, or {instead}")
+
+
+def _render_block(volume, tf, opts, unit_spacing, unit, camera, size, report):
+    """One grid block of a scene rendered alone, at the scene's world step and opacity
+    unit (``opts.step`` is in voxels of the finest block, ``unit_spacing`` wide)."""
+    block_opts = dataclasses.replace(opts, step=opts.step * unit_spacing / _cell_width(volume),
+                                     opacity_unit_distance=unit)
+    return GridPlan(volume, tf, block_opts).execute(camera, size, progress=report, progress_bar=False)
 
 
 def _cell_width(volume):

@@ -1,7 +1,6 @@
 """Render image volumes: validate, build tables and the block grid, call the kernel."""
 from __future__ import annotations
 
-import copy
 import contextlib
 import dataclasses
 import math
@@ -19,7 +18,7 @@ from ..image.hdr import HDRImage
 from .._validate import as_real, as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, Rays, as_camera, check_window
-from ..rays.clip import has_clip, ray_spans
+from ..rays.clip import has_clip, ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
@@ -691,14 +690,7 @@ class GridPlan:
                                    min(volume.dims) < 2)
         return self._prepared
 
-    def with_clip(self, clip_planes=None, crop_box=None):
-        """This plan with other ``clip_planes`` and ``crop_box`` (as
-        :class:`~pv_hdrvol.RenderOptions`'; ``None``: none). A clip changes only each
-        ray's interval, so the copy shares the tables and prepared arrays: dragging a
-        plane re-renders without preparing again."""
-        plan = copy.copy(self)
-        plan.options = self.options.replace(clip_planes=clip_planes, crop_box=crop_box)
-        return plan
+    with_clip = with_clip
 
     def execute(self, camera=None, size=(512, 512), *, lens=None, block_mask=None, cull=None, window=None,
                 progress=None, progress_bar=None, chunk_seconds=None, far=None, piece=None):

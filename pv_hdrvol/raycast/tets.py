@@ -5,7 +5,6 @@ march. See :func:`render_tets`.
 """
 from __future__ import annotations
 
-import copy
 import math
 import time
 from typing import NamedTuple
@@ -19,7 +18,7 @@ from ..image.hdr import HDRImage
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, as_camera, ray_box_spans
-from ..rays.clip import ray_spans
+from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
@@ -155,14 +154,7 @@ class TetPlan:
         self._empty_reason = empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf,
                                                  visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
 
-    def with_clip(self, clip_planes=None, crop_box=None):
-        """This plan with other ``clip_planes`` and ``crop_box`` (as
-        :class:`~pv_hdrvol.RenderOptions`'; ``None``: none). A clip changes only each
-        ray's interval, so the copy shares the tables and prepared arrays: dragging a
-        plane re-renders without preparing again."""
-        plan = copy.copy(self)
-        plan.options = self.options.replace(clip_planes=clip_planes, crop_box=crop_box)
-        return plan
+    with_clip = with_clip
 
     def execute(self, camera=None, size=(512, 512), *, progress=None, progress_bar=None, chunk_seconds=None,
                 far=None, piece=None, near=None):

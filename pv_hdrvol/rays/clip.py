@@ -13,10 +13,22 @@ render's spans are the clip interval cut at that depth.
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from .._validate import as_size
 from . import _kernels as K
+
+
+def with_clip(plan, clip_planes=None, crop_box=None):
+    """``plan`` (a GridPlan or TetPlan, whose ``with_clip`` this is) with other
+    ``clip_planes`` and ``crop_box`` (as :class:`~pv_hdrvol.RenderOptions`'; ``None``:
+    none). A clip changes only each ray's interval, so the copy shares the tables and
+    prepared arrays: dragging a plane re-renders without preparing again."""
+    out = copy.copy(plan)
+    out.options = plan.options.replace(clip_planes=clip_planes, crop_box=crop_box)
+    return out
 
 
 def has_clip(options):

@@ -1210,7 +1210,7 @@ def _tet_grid_of_structured(grid):
     from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
     from vtkmodules.vtkCommonDataModel import VTK_TETRA, vtkCellArray, vtkUnstructuredGrid
 
-    from ..data.structured import collapsed_tets, grid_dims, structured_tets, visible_cells
+    from ..data.structured import TETS_PER_CELL, collapsed_tets, grid_dims, grid_start, structured_tets, visible_cells
 
     out = vtkUnstructuredGrid()
     if grid.GetNumberOfPoints() == 0 or grid.GetNumberOfCells() == 0:
@@ -1223,8 +1223,8 @@ def _tet_grid_of_structured(grid):
         if not owned.all():
             visible = owned if visible is None else visible & owned
     cells = np.arange(grid.GetNumberOfCells()) if visible is None else np.flatnonzero(visible)
-    tets = structured_tets(points, grid_dims(grid), visible, start=grid.GetExtent()[0::2])
-    of_cell = np.repeat(cells, tets.shape[0] // max(cells.size, 1))
+    tets = structured_tets(points, grid_dims(grid), visible, grid_start(grid))
+    of_cell = np.repeat(cells, TETS_PER_CELL)
     keep = ~collapsed_tets(points, tets)
     tets, of_cell = tets[keep], of_cell[keep]
     out.SetPoints(grid.GetPoints())

@@ -972,6 +972,127 @@ def _lit_impl(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_rang
     return _shade
 
 
+# -- the stencil of the plain loop: bricks in memory, or the pages of an out-of-core volume ------
+#: Points a side of a page (a chunk of an out-of-core store): ``2**PAGE_SHIFT``.
+PAGE_SHIFT = 6
+
+
+def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
+    """The trilinear value at voxel position ``(x, y, z)`` (clamped to the volume;
+    ``xi = int(x)`` ...; ``(ib, jb, kb)`` its empty-space block, ``bx, by`` blocks per
+    row and slab) for ``_march_plain`` (compiled only).
+
+    ``offs`` picks the storage at compile time. An array: the volume in memory,
+    ``bricks`` bricked by ``make_bricks``, point ``(i, j, k)`` at ``offs[i] +
+    offs[oy_off + j] + offs[oz_off + k]`` (``brick_offsets``). A tuple ``(page, slots,
+    levi, levf)``: an out-of-core volume whose resident chunks sit in the pool
+    ``bricks``, ``2**(3 PAGE_SHIFT)`` values each (z, y, x, rows of ``2**PAGE_SHIFT``):
+
+    - ``page`` (uint8, one per empty-space block, which must be ``2**PAGE_SHIFT``
+      cells): the level ``L`` the block samples;
+    - ``levf[L] = ((2**L - 1) / 2, 2**-L)``: level-``L`` point ``j`` lies at voxel
+      coordinate ``2**L j + (2**L - 1) / 2``;
+    - ``levi[L] = (base, nx, ny, nz, cx, cy)``: where level ``L``'s chunk table starts in
+      ``slots``, its points along x, y, z, and its chunks along x and y; chunk
+      ``(c, b, a)`` (z, y, x) is in pool slot ``slots[base + (c cy + b) cx + a]`` (the
+      caller makes sure every chunk a block's samples read is resident).
+
+    At level 0 the position, the eight values and the arithmetic are those of the bricks
+    in memory, so an out-of-core render at level 0 is the in-core one bit for bit. A
+    stencil across chunks reads each corner from its own chunk.
+    """
+    raise NotImplementedError("compiled only")
+
+
+@overload(stencil, jit_options=_FUSED_JIT, inline="always")
+def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
+    # no call to another jitted helper in either: see _sample
+    if isinstance(offs, numba.types.Array):
+        def in_memory(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
+            fx = x - xi
+            fy = y - yi
+            fz = z - zi
+            # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
+            q = np.uint64(offs[np.uint64(xi)] + offs[oy_off + np.uint64(yi)] + offs[oz_off + np.uint64(zi)])
+            one = np.uint64(1)
+            p1 = np.uint64((1 << BRICK_SHIFT) + 1)
+            p2 = p1 * p1
+            v000 = np.float64(bricks[q])
+            v100 = np.float64(bricks[q + one])
+            v010 = np.float64(bricks[q + p1])
+            v110 = np.float64(bricks[q + p1 + one])
+            v001 = np.float64(bricks[q + p2])
+            v101 = np.float64(bricks[q + p2 + one])
+            v011 = np.float64(bricks[q + p2 + p1])
+            v111 = np.float64(bricks[q + p2 + p1 + one])
+            c00 = v000 + fx * (v100 - v000)
+            c10 = v010 + fx * (v110 - v010)
+            c01 = v001 + fx * (v101 - v001)
+            c11 = v011 + fx * (v111 - v011)
+            c0 = c00 + fy * (c10 - c00)
+            c1 = c01 + fy * (c11 - c01)
+            return c0 + fz * (c1 - c0)
+        return in_memory
+
+    def paged(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
+        page, slots, levi, levf = offs
+        level = np.int64(page[np.uint64((kb * by + jb) * bx + ib)])
+        h = levf[level, 0]
+        s = levf[level, 1]
+        base = levi[level, 0]
+        n_x = levi[level, 1]
+        n_y = levi[level, 2]
+        n_z = levi[level, 3]
+        cx = levi[level, 4]
+        cy = levi[level, 5]
+        u = min(max((x - h) * s, 0.0), n_x - 1.0)
+        v = min(max((y - h) * s, 0.0), n_y - 1.0)
+        w = min(max((z - h) * s, 0.0), n_z - 1.0)
+        u0 = int(u)
+        v0 = int(v)
+        w0 = int(w)
+        fx = u - u0
+        fy = v - v0
+        fz = w - w0
+        u1 = min(u0 + 1, n_x - 1)  # the far edge: fraction 0, the edge value again
+        v1 = min(v0 + 1, n_y - 1)
+        w1 = min(w0 + 1, n_z - 1)
+        m = (1 << PAGE_SHIFT) - 1
+        sh = PAGE_SHIFT
+        per = np.int64(1) << (3 * PAGE_SHIFT)
+        # each corner from its own chunk's slot (the same slot, but where the stencil
+        # crosses a chunk's side); no branches: IR inlining warns of variables assigned
+        # in two of them
+        r00 = base + ((w0 >> sh) * cy + (v0 >> sh)) * cx
+        r10 = base + ((w0 >> sh) * cy + (v1 >> sh)) * cx
+        r01 = base + ((w1 >> sh) * cy + (v0 >> sh)) * cx
+        r11 = base + ((w1 >> sh) * cy + (v1 >> sh)) * cx
+        l00 = (((w0 & m) << sh) + (v0 & m)) << sh
+        l10 = (((w0 & m) << sh) + (v1 & m)) << sh
+        l01 = (((w1 & m) << sh) + (v0 & m)) << sh
+        l11 = (((w1 & m) << sh) + (v1 & m)) << sh
+        a0 = u0 >> sh
+        a1 = u1 >> sh
+        b0 = u0 & m
+        b1 = u1 & m
+        v000 = np.float64(bricks[np.uint64(slots[np.uint64(r00 + a0)] * per + l00 + b0)])
+        v100 = np.float64(bricks[np.uint64(slots[np.uint64(r00 + a1)] * per + l00 + b1)])
+        v010 = np.float64(bricks[np.uint64(slots[np.uint64(r10 + a0)] * per + l10 + b0)])
+        v110 = np.float64(bricks[np.uint64(slots[np.uint64(r10 + a1)] * per + l10 + b1)])
+        v001 = np.float64(bricks[np.uint64(slots[np.uint64(r01 + a0)] * per + l01 + b0)])
+        v101 = np.float64(bricks[np.uint64(slots[np.uint64(r01 + a1)] * per + l01 + b1)])
+        v011 = np.float64(bricks[np.uint64(slots[np.uint64(r11 + a0)] * per + l11 + b0)])
+        v111 = np.float64(bricks[np.uint64(slots[np.uint64(r11 + a1)] * per + l11 + b1)])
+        c00 = v000 + fx * (v100 - v000)
+        c10 = v010 + fx * (v110 - v010)
+        c01 = v001 + fx * (v101 - v001)
+        c11 = v011 + fx * (v111 - v011)
+        c0 = c00 + fy * (c10 - c00)
+        c1 = c01 + fy * (c11 - c01)
+        return c0 + fz * (c1 - c0)
+    return paged
+
+
 @inline_kernel
 def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
     """``(bx, by, bz, sx, sy, sz)``: the midpoint of full segment ``k`` lies at
@@ -1043,9 +1164,6 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
     eye = eye_of(light, dx, dy, dz)
     oy_off = _u(nx)
     oz_off = _u(nx + ny)
-    one = _u(1)
-    p1 = _u((1 << BRICK_SHIFT) + 1)
-    p2 = p1 * p1
     state = _start(marker)
     depth = math.inf
     samples = 0
@@ -1074,28 +1192,9 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
                 k = leap_past(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
                 kf = float(k)
                 continue
-            fx = x - xi
-            fy = y - yi
-            fz = z - zi
-            # the stencil of _sample's plain sampler, written out for the same reason; it must
-            # stay the same expression (the labelled loop samples through _sample).
-            # x = n - 1: fraction 0 in the bricks' repeated edge (exact grid values)
-            q = _u(offs[_u(xi)] + offs[oy_off + _u(yi)] + offs[oz_off + _u(zi)])
-            v000 = np.float64(bricks[q])
-            v100 = np.float64(bricks[q + one])
-            v010 = np.float64(bricks[q + p1])
-            v110 = np.float64(bricks[q + p1 + one])
-            v001 = np.float64(bricks[q + p2])
-            v101 = np.float64(bricks[q + p2 + one])
-            v011 = np.float64(bricks[q + p2 + p1])
-            v111 = np.float64(bricks[q + p2 + p1 + one])
-            c00 = v000 + fx * (v100 - v000)
-            c10 = v010 + fx * (v110 - v010)
-            c01 = v001 + fx * (v101 - v001)
-            c11 = v011 + fx * (v111 - v011)
-            c0 = c00 + fy * (c10 - c00)
-            c1 = c01 + fy * (c11 - c01)
-            v = c0 + fz * (c1 - c0)
+            # trilinear in the bricks (the stencil of _sample's plain sampler: the labelled
+            # loop samples through _sample), or in the pages of an out-of-core volume
+            v = stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi)
             k += 1
             kf += 1.0
             if v != v:  # NaN in the stencil: empty
@@ -1132,7 +1231,18 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
         xm = warp_at(warp, 0, 0, nx, ox + tm * dx)
         ym = warp_at(warp, y_base, 1, ny, oy + tm * dy)
         zm = warp_at(warp, z_base, 2, nz, oz + tm * dz)
-        radius, ib, jb, kb, v = _sample(0, bricks, leap, g, xm, ym, zm)
+        # as _sample's plain sampler, through the same stencil as the full segments
+        xm = min(max(xm, 0.0), x_max)
+        ym = min(max(ym, 0.0), y_max)
+        zm = min(max(zm, 0.0), z_max)
+        xi = int(xm)
+        yi = int(ym)
+        zi = int(zm)
+        ib = min(xi, nx - 2) >> shift
+        jb = min(yi, ny - 2) >> shift
+        kb = min(zi, nz - 2) >> shift
+        radius = leap[_u((kb * by + jb) * bx + ib)]
+        v = stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, xm, ym, zm, xi, yi, zi) if radius == 0 else math.nan
         if radius == 0 and v == v:
             samples += 1
             r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)

@@ -1,0 +1,170 @@
+"""Chunks of a store in memory: a fixed pool of slots, filled by loader threads, least
+recently used chunks evicted first, never more than ``cache_bytes``.
+
+The pool is one array of ``cache_bytes // chunk_bytes`` slots, allocated once (the
+operating system commits its pages as they are first written, so a large budget costs
+nothing until it is used). A chunk is *requested* (a slot taken, a read queued on the
+loader threads), then *ready* (its values in the slot); the render thread reads ready
+slots only. Only the render thread takes and frees slots, and never frees one a render
+is using (``pinned``) or that is still being read.
+"""
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import threading
+
+import numpy as np
+
+from ..raycast._kernels import PAGE_SHIFT
+
+CHUNK = 1 << PAGE_SHIFT
+SLOT_VALUES = CHUNK ** 3
+
+
+class ChunkCache:
+    """The resident chunks of a :class:`~pv_hdrvol.outofcore.store.MultiscaleStore`.
+
+    Parameters
+    ----------
+    store : MultiscaleStore
+    cache_bytes : int
+        The pool's size; at least enough for the coarsest level, which stays resident.
+    dtype : numpy dtype
+        What the kernels read (float32, or float64 for float64 renders of float64 data).
+    threads : int
+        Loader threads.
+    """
+
+    def __init__(self, store, cache_bytes, dtype, threads=2):
+        if store.chunk != CHUNK:
+            raise ValueError(f"the renderer reads chunks of {CHUNK} points a side; the store has {store.chunk}")
+        self.store = store
+        self.dtype = np.dtype(dtype)
+        slot_bytes = SLOT_VALUES * self.dtype.itemsize
+        self.n_slots = int(cache_bytes) // slot_bytes
+        coarsest = int(np.prod(store.levels[-1].chunks))
+        if self.n_slots < coarsest + 8:
+            need = (coarsest + 8) * slot_bytes
+            raise ValueError(f"cache_bytes={int(cache_bytes)} holds {self.n_slots} chunks of {slot_bytes} bytes; the "
+                             f"coarsest level ({coarsest} chunks) and one block's 8 need at least {need} bytes")
+        self.cache_bytes = int(cache_bytes)
+        self.pool = np.empty(self.n_slots * SLOT_VALUES, dtype=self.dtype)
+        # chunk tables: per level, the slot of each chunk (-1: not ready), flat (z, y, x)
+        self.bases = np.cumsum([0] + [int(np.prod(lv.chunks)) for lv in store.levels])
+        self.slots = np.full(int(self.bases[-1]), -1, dtype=np.int64)
+        self._slot_of = {}  # key -> slot, requested or ready
+        self._lru = collections.OrderedDict()  # ready keys, least recently used first
+        self._loading = {}  # key -> future
+        self._free = list(range(self.n_slots - 1, -1, -1))
+        self._lock = threading.Lock()
+        self._errors = []
+        self.bytes_read = [0] * store.n_levels
+        self.chunks_read = [0] * store.n_levels
+        self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, int(threads)),
+                                                           thread_name_prefix="pv_hdrvol-loader")
+        # the coarsest level: read now, never evicted (every block can fall back on it)
+        self.permanent = set()
+        keys = [(store.n_levels - 1,) + tuple(int(v) for v in idx) for idx in np.ndindex(*store.levels[-1].chunks)]
+        self.request(keys)
+        self.wait(keys)
+        self.permanent.update(keys)
+
+    # -- state ----------------------------------------------------------------------------
+    def index(self, key):
+        """Position of chunk ``key = (level, cz, cy, cx)`` in :attr:`slots`."""
+        level, cz, cy, cx = key
+        _, ny, nx = self.store.levels[level].chunks
+        return int(self.bases[level]) + (cz * ny + cy) * nx + cx
+
+    def is_ready(self, key):
+        return self.slots[self.index(key)] >= 0
+
+    @property
+    def resident_bytes(self):
+        """Bytes of the pool holding ready chunks."""
+        return len(self._lru) * SLOT_VALUES * self.dtype.itemsize
+
+    @property
+    def pending(self):
+        with self._lock:
+            return len(self._loading)
+
+    def raise_errors(self):
+        """Raise the first read error of the loader threads (a damaged chunk)."""
+        with self._lock:
+            if self._errors:
+                raise self._errors[0]
+
+    # -- requests -------------------------------------------------------------------------
+    def touch(self, keys):
+        """Mark ready ``keys`` as just used (the last to be evicted)."""
+        with self._lock:
+            for key in keys:
+                if key in self._lru:
+                    self._lru.move_to_end(key)
+
+    def request(self, keys, pinned=()):
+        """Queue reads of the ``keys`` not yet requested, in order, while slots last:
+        a free slot, else the least recently used ready chunk not in ``pinned`` (nor
+        permanent). Returns the number of keys that got no slot (the budget is spent)."""
+        self.raise_errors()
+        pinned = set(pinned)
+        refused = 0
+        for key in keys:
+            if key in self._slot_of:
+                continue
+            with self._lock:
+                slot = self._take_slot(pinned)
+            if slot is None:
+                refused += 1
+                continue
+            self._slot_of[key] = slot
+            with self._lock:
+                self._loading[key] = self._pool.submit(self._load, key, slot)
+        return refused
+
+    def _take_slot(self, pinned):
+        # under the lock: loader threads add to the LRU list
+        if self._free:
+            return self._free.pop()
+        for key in self._lru:
+            if key not in pinned and key not in self.permanent:
+                del self._lru[key]
+                slot = self._slot_of.pop(key)
+                self.slots[self.index(key)] = -1
+                return slot
+        return None
+
+    def _load(self, key, slot):
+        level, cz, cy, cx = key
+        try:
+            block = self.store.read_chunk(level, (cz, cy, cx))
+            start = slot * SLOT_VALUES
+            view = self.pool[start:start + SLOT_VALUES].reshape(CHUNK, CHUNK, CHUNK)
+            view[:block.shape[0], :block.shape[1], :block.shape[2]] = block
+        except BaseException as e:  # noqa: BLE001 - handed to the render thread
+            with self._lock:
+                self._errors.append(e)
+                self._loading.pop(key, None)
+            raise
+        with self._lock:
+            self.bytes_read[level] += block.nbytes
+            self.chunks_read[level] += 1
+            self._loading.pop(key, None)
+            self._lru[key] = None
+            self.slots[self.index(key)] = slot  # last: the render thread may use it now
+
+    def wait(self, keys=None, timeout=None):
+        """Wait until ``keys`` (default: every request) are ready; raise a read error."""
+        wanted = None if keys is None else set(keys)
+        with self._lock:
+            futures = [f for k, f in self._loading.items() if wanted is None or k in wanted]
+        concurrent.futures.wait(futures, timeout=timeout)
+        self.raise_errors()
+
+    def close(self):
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+__all__ = ["CHUNK", "ChunkCache", "SLOT_VALUES"]

@@ -1,0 +1,502 @@
+"""Render a multiresolution store out of core: level of detail per block by screen-space
+error, chunks read on demand into a bounded cache, the nearest resident ancestor where
+a chunk has not arrived (never a hole).
+
+Per frame (:meth:`MultiscalePlan.execute`):
+
+1. **Blocks.** The volume's level-0 cells are cut into blocks of 64 cells (a store
+   chunk; the ray caster's empty-space blocks). Blocks outside the view frustum are not
+   rendered (nor read).
+2. **Level of detail.** Each block's level ``D`` is the coarsest whose voxels (the
+   largest spacing times ``2**D``) project to at most ``screen_error`` pixels at the
+   block's nearest point (perspective) or anywhere (parallel projection). Given rays
+   (``Rays``, a lens) have no pixel footprint to measure: every block is at level 0.
+3. **Empty blocks.** A block samples, at level ``L``, only the points of a few level-``L``
+   chunks (``required``); the union of their stored value ranges, through the transfer
+   function, says whether the block can show anything. Blocks that cannot are neither
+   read nor sampled.
+4. **Reads.** The chunks of the visible blocks at their levels are requested front to
+   back (nearest block first) from the loader threads (:class:`~.cache.ChunkCache`).
+   When they do not all fit in ``cache_bytes``, every block is coarsened by one more
+   level until they do (``metadata["coarsened"]``).
+5. **Pages.** Each block samples the finest level at or above its ``D`` whose required
+   chunks are all resident (the coarsest level always is), so a frame rendered before
+   its chunks arrive shows coarser data, never a hole. ``wait=True`` (the default)
+   waits for every chunk first: the converged image.
+6. **Rays.** The plain ray caster (``raycast/_kernels.render_tiles``) samples the
+   pages (``_kernels.stencil``) with one step for the frame: ``step`` voxels of the
+   finest level any visible block samples. With every block at level 0 the samples,
+   values and arithmetic are those of the in-core render: the images are equal bit for
+   bit.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from .._validate import as_real, as_size
+from ..data.transfer import SCALE_CODES, TF_KEYWORDS, TransferFunction, auto_transfer_function
+from ..image.hdr import HDRImage
+from ..params import PRECISION_CODES, RenderOptions
+from ..raycast import _kernels as K
+from ..raycast.grid import (
+    _MARKERS, _TILE, _check_progress_bar, _lanes, _visible, leap_radius, pixel_rows, run_in_chunks,
+)
+from ..rays.camera import Camera, Rays, as_camera
+from ..rays.clip import ray_spans
+from ..settings import settings_metadata
+from .cache import CHUNK, ChunkCache
+from .store import MultiscaleStore
+
+#: Cells a side of a block (one chunk of level 0).
+BLOCK = CHUNK
+DEFAULT_CACHE_BYTES = 2 * 2 ** 30
+
+
+def _axis_required(n0, n_level, level, blocks):
+    """Per block along one axis (``blocks`` of ``BLOCK`` cells over ``n0`` level-0
+    points): the first and last level-``level`` chunk whose points its samples read."""
+    i = np.arange(blocks, dtype=np.float64)
+    h = (2.0 ** level - 1.0) / 2.0
+    s = 2.0 ** -level
+    x0 = BLOCK * i
+    x1 = np.minimum(BLOCK * (i + 1), n0 - 1)
+    u0 = np.clip((x0 - h) * s, 0.0, n_level - 1.0)
+    u1 = np.clip((x1 - h) * s, 0.0, n_level - 1.0)
+    p0 = np.floor(u0).astype(np.int64)
+    p1 = np.minimum(np.floor(u1).astype(np.int64) + 1, n_level - 1)
+    return p0 >> K.PAGE_SHIFT, p1 >> K.PAGE_SHIFT
+
+
+class MultiscaleVolume:
+    """A volume in a multiresolution store, rendered out of core (:func:`open_multiscale`).
+
+    Attributes
+    ----------
+    store : MultiscaleStore
+    cache_bytes : int
+        The most bytes of chunks held in memory (per precision rendered).
+    """
+
+    def __init__(self, store, cache_bytes=DEFAULT_CACHE_BYTES, threads=2):
+        self.store = store if isinstance(store, MultiscaleStore) else MultiscaleStore(store)
+        self.cache_bytes = int(as_real("cache_bytes", cache_bytes, low=1.0))
+        self.threads = int(threads)
+        if self.threads < 1:
+            raise ValueError(f"threads must be >= 1; got {threads}")
+        self._caches = {}
+        s = self.store
+        self.block_shape = tuple(max(1, -(-(n - 1) // BLOCK)) for n in s.levels[0].shape)  # z, y, x
+        # per level and axis (z, y, x): the chunks each block's samples read
+        self._required = [[_axis_required(s.levels[0].shape[a], lv.shape[a], L, self.block_shape[a])
+                           for a in range(3)] for L, lv in enumerate(s.levels)]
+
+    # -- what front ends read -------------------------------------------------------------
+    @property
+    def dims(self):
+        return self.store.dims
+
+    @property
+    def spacing(self):
+        return self.store.spacing
+
+    @property
+    def origin(self):
+        return self.store.origin
+
+    @property
+    def bounds(self):
+        return self.store.bounds
+
+    @property
+    def value_range(self):
+        return self.store.value_range
+
+    @property
+    def name(self):
+        return self.store.name
+
+    @property
+    def n_levels(self):
+        return self.store.n_levels
+
+    def cache(self, dtype=np.float32):
+        """The chunk cache of the values the kernels read as ``dtype`` (made on first use:
+        it reads the coarsest level)."""
+        key = np.dtype(dtype).str
+        if key not in self._caches:
+            self._caches[key] = ChunkCache(self.store, self.cache_bytes, dtype, self.threads)
+        return self._caches[key]
+
+    def close(self):
+        for c in self._caches.values():
+            c.close()
+        self._caches.clear()
+
+    def default_transfer_function(self, *, cmap=None, clim=None, opacity=None, scale=None):
+        """The default transfer function (as an in-core volume's), from the coarsest
+        level's values: the only ones known without reading the volume."""
+        s = self.store
+        b = np.asarray(s.bounds, dtype=np.float64)
+        diagonal = float(np.linalg.norm(b[1::2] - b[0::2]))
+        unit = float(s.spacing.min())
+        integer = np.issubdtype(s.dtype, np.integer)
+        keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+        if integer and scale is None:
+            keywords["scale"] = "linear"
+        return auto_transfer_function(s.read_level(s.n_levels - 1), diagonal / unit, spacing=s.spacing / unit,
+                                      integer=integer, **keywords)
+
+    def render(self, tf=None, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, progress_bar=None,
+               progress=None, options=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
+        """Render (``MultiscalePlan(self, tf, ...).execute(camera, size, ...)``)."""
+        plan = MultiscalePlan(self, tf, options, cmap=cmap, clim=clim, opacity=opacity, scale=scale, **option_kwargs)
+        return plan.execute(camera, size, screen_error=screen_error, wait=wait, progress_bar=progress_bar,
+                            progress=progress)
+
+    def __repr__(self):
+        return f"MultiscaleVolume({self.store.path!r}, {self.n_levels} levels, level 0 {self.dims} points)"
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def open_multiscale(path, cache_bytes=DEFAULT_CACHE_BYTES, threads=2):
+    """Open a multiresolution store (:func:`~pv_hdrvol.write_multiscale`, ``pv-hdrvol
+    convert``) for rendering out of core.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The store (``*.ome.zarr``).
+    cache_bytes : int
+        The most bytes of chunks kept in memory (default 2 GiB); at least enough for the
+        coarsest level and one block (a ``ValueError`` says how much).
+    threads : int
+        Loader threads that read chunks while the renderer works.
+
+    Returns
+    -------
+    MultiscaleVolume
+        ``hv.render`` takes it, as ``volume.render(...)``.
+    """
+    return MultiscaleVolume(MultiscaleStore(os.fspath(path)), cache_bytes, threads)
+
+
+class MultiscalePlan:
+    """An out-of-core render validated once, executed for any camera (see the module).
+
+    Parameters
+    ----------
+    volume : MultiscaleVolume
+    tf, options, cmap, clim, opacity, scale, **option_kwargs
+        As :func:`pv_hdrvol.render`. Composite blending without shading or gradient
+        opacity, in float64, float32 or float16 (the out-of-core path samples values
+        only; the rest comes later).
+    """
+
+    def __init__(self, volume, tf=None, options=None, *, cmap=None, clim=None, opacity=None, scale=None,
+                 **option_kwargs):
+        if not isinstance(volume, MultiscaleVolume):
+            raise TypeError(f"volume must be a MultiscaleVolume (pv_hdrvol.open_multiscale); got {type(volume).__name__}")
+        opts = RenderOptions.from_kwargs(options, **option_kwargs)
+        refused = [name for name, on in (("shade=True", opts.shade), ("gradient_opacity=", opts.gradient_opacity),
+                                         (f"blending={opts.blending!r}", opts.blending != "composite"),
+                                         ("tolerance=", opts.tolerance is not None),
+                                         ("precision='uint8'", opts.precision == "uint8")) if on]
+        if refused:
+            raise ValueError(f"an out-of-core volume renders composite blending of values in float64, float32 or "
+                             f"float16; {', '.join(refused)} is not supported for it yet")
+        given = [n for n, v in zip(TF_KEYWORDS, (cmap, clim, opacity, scale)) if v is not None]
+        if tf is None:
+            tf = volume.default_transfer_function(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+            self.default_tf = True
+        elif given:
+            raise TypeError(f"pass either tf= or {', '.join(n + '=' for n in given)}, not both: a TransferFunction "
+                            "sets colour, opacity, range and axis already")
+        elif not isinstance(tf, TransferFunction):
+            raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
+        else:
+            self.default_tf = False
+        self.volume, self.tf, self.options = volume, tf, opts
+        prec = opts.precision
+        self.dtype = np.float64 if prec == "float64" and volume.store.dtype == np.float64 else np.float32
+        table_dtype = np.float64 if prec == "float64" else np.float32
+        h0 = float(volume.spacing.min())
+        self.unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else h0
+        rgb, sigma = tf.table(np.float64, opts.global_alpha, self.unit, tf.table_size)
+        self._rgb, self._sigma64, self._table_dtype = rgb, sigma, table_dtype
+        self.sigma = np.ascontiguousarray(sigma, dtype=table_dtype)
+        self._tables = {}
+        a0, a1 = tf.axis_range
+        self.params = K.GridParams(
+            float(opts.step * h0), PRECISION_CODES[prec], SCALE_CODES[tf.scale], float(a0), float(1.0 / (a1 - a0)),
+            float(tf.linthresh), 1.0 - opts.termination if opts.termination > 0 else math.inf,
+            float(opts.depth_threshold), K.PAGE_SHIFT)
+        # which blocks can show anything, per level (from the stored ranges alone)
+        self._visible = [self._visible_at(L) for L in range(volume.n_levels)]
+
+    def table(self, finest):
+        """The (r, g, b, opacity of one step) table for a frame stepping at ``finest``'s
+        voxels, and that step in world units."""
+        if finest not in self._tables:
+            step_world = self.options.step * float(self.volume.spacing.min()) * 2 ** finest
+            alpha = -np.expm1(-self._sigma64 * step_world)
+            table = np.ascontiguousarray(np.column_stack([self._rgb, alpha]), dtype=self._table_dtype)
+            self._tables[finest] = (table, step_world)
+        return self._tables[finest]
+
+    def _corner_gather(self, level, values):
+        """For every block (z, y, x), ``values`` (a per-chunk array of ``level``) at each of
+        the up to 8 chunks its samples read: a list of 8 arrays of the block grid's shape."""
+        (z0, z1), (y0, y1), (x0, x1) = self._volume_required(level)
+        out = []
+        for zz in (z0, z1):
+            for yy in (y0, y1):
+                for xx in (x0, x1):
+                    out.append(values[zz[:, None, None], yy[None, :, None], xx[None, None, :]])
+        return out
+
+    def _volume_required(self, level):
+        return self.volume._required[level]
+
+    def _visible_at(self, level):
+        ranges = self.volume.store.levels[level].ranges
+        lo = np.minimum.reduce(self._corner_gather(level, ranges[..., 0]))
+        hi = np.maximum.reduce(self._corner_gather(level, ranges[..., 1]))
+        table = self.table(0)[0]
+        return _visible(lo, hi, table[:, 3], self.params).astype(bool)
+
+    def _ready_at(self, cache, level):
+        lv = self.volume.store.levels[level]
+        ready = cache.slots[int(cache.bases[level]):int(cache.bases[level + 1])].reshape(lv.chunks) >= 0
+        return np.logical_and.reduce(self._corner_gather(level, ready))
+
+    def _keys(self, level, blocks):
+        """The chunk keys ``(level, cz, cy, cx)`` that ``blocks`` (indices z, y, x arrays)
+        read at ``level``, in the blocks' order, without repeats."""
+        (z0, z1), (y0, y1), (x0, x1) = self._volume_required(level)
+        kz, ky, kx = blocks
+        keys = []
+        for zz in (z0, z1):
+            for yy in (y0, y1):
+                for xx in (x0, x1):
+                    keys.append(np.stack([zz[kz], yy[ky], xx[kx]], axis=1))
+        stacked = np.stack(keys, axis=1).reshape(-1, 3)  # block by block
+        _, first = np.unique(stacked, axis=0, return_index=True)
+        return [(level,) + tuple(int(v) for v in stacked[i]) for i in np.sort(first)]
+
+    def desired_levels(self, camera, size):
+        """Per block (z, y, x): the level screen-space error asks for, or -1 outside the
+        view. ``camera``: a Camera (Rays: level 0 everywhere)."""
+        vol = self.volume
+        shape = vol.block_shape
+        if not isinstance(camera, Camera):
+            return np.zeros(shape, dtype=np.int64)
+        w, h = as_size(size)
+        dims = np.array(vol.dims, dtype=np.float64)  # x, y, z
+        idx = [np.arange(n, dtype=np.float64) for n in shape[::-1]]  # x, y, z
+        lo = [vol.origin[a] + BLOCK * idx[a] * vol.spacing[a] for a in range(3)]
+        hi = [vol.origin[a] + np.minimum(BLOCK * (idx[a] + 1), dims[a] - 1) * vol.spacing[a] for a in range(3)]
+        pos = np.asarray(camera.position, dtype=np.float64)
+        # nearest distance of each block's box to the eye, broadcast to (z, y, x)
+        d = [np.maximum(np.maximum(lo[a] - pos[a], pos[a] - hi[a]), 0.0) for a in range(3)]
+        dist = np.sqrt(d[2][:, None, None] ** 2 + d[1][None, :, None] ** 2 + d[0][None, None, :] ** 2)
+        right, up, fwd = camera.basis()
+        if camera.parallel_projection:
+            half_h = camera.parallel_scale
+            pixel = np.full(shape, 2.0 * half_h / h)
+        else:
+            half_h = math.tan(math.radians(camera.view_angle) / 2.0)
+            pixel = dist * (2.0 * half_h / h)
+        half_w = half_h * w / h
+        voxel = float(vol.spacing.max())
+        with np.errstate(divide="ignore"):
+            level = np.floor(np.log2(np.maximum(self.screen_error * pixel / voxel, 1e-300)))
+        level = np.clip(level, 0, vol.n_levels - 1).astype(np.int64)
+        # outside the frustum: every corner beyond one side plane (a pixel's margin)
+        margin = 1.0 + 2.0 / min(w, h)
+        outside = np.zeros(shape, dtype=bool)
+        corners = []
+        for cz in (lo[2], hi[2]):
+            for cy in (lo[1], hi[1]):
+                for cx in (lo[0], hi[0]):
+                    rel = (cx[None, None, :] - pos[0], cy[None, :, None] - pos[1], cz[:, None, None] - pos[2])
+                    x = rel[0] * right[0] + rel[1] * right[1] + rel[2] * right[2]
+                    y = rel[0] * up[0] + rel[1] * up[1] + rel[2] * up[2]
+                    z = rel[0] * fwd[0] + rel[1] * fwd[1] + rel[2] * fwd[2]
+                    corners.append(np.broadcast_arrays(x, y, z))
+        xs = np.stack([c[0] for c in corners])
+        ys = np.stack([c[1] for c in corners])
+        zs = np.stack([c[2] for c in corners])
+        if camera.parallel_projection:
+            outside |= (xs > half_w * margin).all(0) | (xs < -half_w * margin).all(0)
+            outside |= (ys > half_h * margin).all(0) | (ys < -half_h * margin).all(0)
+        else:
+            outside |= (zs <= 0).all(0)
+            outside |= (xs > zs * half_w * margin).all(0) | (xs < -zs * half_w * margin).all(0)
+            outside |= (ys > zs * half_h * margin).all(0) | (ys < -zs * half_h * margin).all(0)
+        level[outside] = -1
+        self._distance = dist
+        return level
+
+    def execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
+                progress_bar=None):
+        """Render one frame; returns an :class:`~pv_hdrvol.HDRImage`.
+
+        ``screen_error``: the largest projected voxel, in pixels, a block may show
+        (default 1). ``wait``: wait for every chunk the frame asks for (the converged
+        image); ``False`` renders what is resident now (coarser ancestors where chunks
+        have not arrived) and leaves the rest loading for the next frame. ``timeout``:
+        seconds to wait at most (then as ``wait=False``).
+        ``metadata``: ``levels`` (blocks per level), ``converged``, ``pending``,
+        ``bytes_read`` and ``chunks_read`` (per level, by this volume's cache so far),
+        ``coarsened``.
+        """
+        vol, opts = self.volume, self.options
+        self.screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
+        _check_progress_bar(progress_bar)
+        camera = as_camera(camera, vol.bounds)
+        if isinstance(camera, Rays):
+            rays, width, height = camera, camera.width, camera.height
+        else:
+            rays = None
+            width, height = as_size(size)
+        cache = vol.cache(self.dtype)
+        t_start = time.perf_counter()
+        desired = self.desired_levels(camera, (width, height))
+        n_levels = vol.n_levels
+        # visible where the desired level's data can show anything under the function
+        shown = desired >= 0
+        for L in range(n_levels):
+            at = desired == L
+            shown[at] &= self._visible[L][at]
+        coarsened = 0
+        # nearest blocks first
+        order = np.argsort(self._distance[shown] if isinstance(camera, Camera) else np.zeros(int(shown.sum())),
+                           kind="stable")
+        while True:
+            want = np.where(shown, np.minimum(desired + coarsened, n_levels - 1), -1)
+            blocks = np.nonzero(shown)
+            keys = []
+            seen = set()
+            for L in range(n_levels):
+                sel = want[blocks] == L
+                if sel.any():
+                    for key in self._keys(L, tuple(b[order][sel[order]] for b in blocks)):
+                        if key not in seen:
+                            seen.add(key)
+                            keys.append(key)
+            if len(keys) + len(cache.permanent) <= cache.n_slots or coarsened >= n_levels:
+                break
+            coarsened += 1
+        refused = cache.request(keys, pinned=keys)
+        cache.touch(keys)
+        if wait:
+            cache.wait(keys, timeout=timeout)
+        cache.raise_errors()
+        # each shown block at the finest resident level at or above the one it wants
+        level = np.full(vol.block_shape, n_levels - 1, dtype=np.int64)
+        assigned = np.zeros(vol.block_shape, dtype=bool)
+        for L in range(n_levels):
+            ok = shown & ~assigned & (want <= L) & self._ready_at(cache, L)
+            level[ok] = L
+            assigned |= ok
+        active = shown & self._visible_at_levels(level)
+        finest = int(level[active].min()) if active.any() else n_levels - 1
+        table, step_world = self.table(finest)
+        params = self.params._replace(step=float(step_world))
+        page = np.ascontiguousarray(level.astype(np.uint8).reshape(-1))
+        slots = cache.slots.copy()  # this frame's view: loader threads fill other entries meanwhile
+        levi = np.array([[int(cache.bases[L]), lv.shape[2], lv.shape[1], lv.shape[0], lv.chunks[2], lv.chunks[1]]
+                         for L, lv in enumerate(vol.store.levels)], dtype=np.int64)
+        levf = np.array([[(2.0 ** L - 1.0) / 2.0, 2.0 ** -L] for L in range(n_levels)])
+        for L in np.unique(level[active]):  # never sample a chunk that is not resident
+            chunks = self._keys(int(L), np.nonzero(active & (level == L)))
+            missing = [k for k in chunks if slots[cache.index(k)] < 0]
+            if missing:
+                raise RuntimeError(f"internal error: blocks at level {L} read chunks not in memory: {missing[:4]}")
+        leap = leap_radius(active).reshape(-1)
+        bz, by, bx = vol.block_shape
+        grids = np.array([bz, by, bx, 1, 1, 1], dtype=np.int64)
+        dims = np.array(vol.dims, dtype=np.int64)
+        inv_spacing = 1.0 / vol.spacing
+        if rays is None:
+            cam = np.concatenate([camera.kernel_array((width, height)), vol.origin, inv_spacing])
+            origins = directions = np.empty((0, 3))
+        else:
+            cam = np.empty(0)
+            origins = np.ascontiguousarray((rays.origins - vol.origin) * inv_spacing)
+            directions = np.ascontiguousarray(rays.directions * inv_spacing)
+        span = ray_spans(rays if rays is not None else camera, (width, height), opts, np.empty(0))
+        lo = np.zeros(3)
+        hi = dims.astype(np.float64) - 1.0
+        piece_box = np.concatenate([lo, hi, np.zeros(3)])
+        prec = opts.precision
+        out_dtype = np.float64 if prec == "float64" else np.float32
+        rgba = np.zeros((height * width, 4), dtype=out_dtype)
+        depth = np.full(height * width, np.inf, dtype=np.float64)
+        samples = np.zeros(height * width, dtype=np.int64)
+        marker = _MARKERS[prec]
+        lanes = _lanes()
+        offs = (page, slots, levi, levf)
+        flat = min(vol.dims) < 2
+
+        def cast(tile_rows):
+            rows = np.ascontiguousarray(tile_rows)
+            if not flat:
+                K.render_tiles(marker, cache.pool, offs, table.reshape(-1), self.sigma, leap, grids, dims, cam,
+                               origins, directions, span, width, height, _TILE, rows, lanes, lo, hi, piece_box,
+                               params, 0, 0, rgba, depth, samples)
+            return pixel_rows(tile_rows, height)
+
+        run_in_chunks(cast, height, progress, progress_bar)
+        elapsed = time.perf_counter() - t_start
+        counts = np.bincount(level[active], minlength=n_levels)
+        meta = {
+            "renderer": "pv_hdrvol out-of-core grid ray caster",
+            "scalars": vol.name,
+            "store": vol.store.path,
+            "precision": prec,
+            "step_voxels": opts.step,
+            "step_world": step_world,
+            "global_alpha": opts.global_alpha,
+            "opacity_unit_distance": self.unit,
+            "termination": opts.termination,
+            "depth_threshold": opts.depth_threshold,
+            "transfer_function": repr(self.tf),
+            "camera": repr(camera) if isinstance(camera, Camera) else "rays",
+            "settings": settings_metadata(self.tf, camera, (width, height), opts),
+            "render_seconds": elapsed,
+            "samples": int(samples.sum()),
+            "screen_error": self.screen_error,
+            "levels": [int(c) for c in counts],
+            "desired_levels": [int(c) for c in np.bincount(np.minimum(desired[shown] + coarsened, n_levels - 1),
+                                                            minlength=n_levels)],
+            "converged": bool((level[shown] == want[shown]).all()),
+            "pending": cache.pending,
+            "not_requested": int(refused),
+            "coarsened": coarsened,
+            "bytes_read": int(sum(cache.bytes_read)),
+            "bytes_read_per_level": [int(b) for b in cache.bytes_read],
+            "chunks_read_per_level": [int(c) for c in cache.chunks_read],
+            "cache_bytes": cache.n_slots * cache.pool.itemsize * (CHUNK ** 3),
+            "resident_bytes": cache.resident_bytes,
+        }
+        return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
+
+    def _visible_at_levels(self, level):
+        out = np.zeros(level.shape, dtype=bool)
+        for L in range(self.volume.n_levels):
+            at = level == L
+            out[at] = self._visible[L][at]
+        return out
+
+
+__all__ = ["MultiscalePlan", "MultiscaleVolume", "open_multiscale"]

@@ -138,9 +138,17 @@ class ParaViewGUI:
         self.xdotool("type", "--delay", 20, text)
         time.sleep(1.5)
 
-    def press_apply(self, timeout=60):
+    def press_apply(self, timeout=60, done_timeout=400):
+        """Click the green Apply button, then wait until it is no longer green: Apply has
+        run and the GUI draws again. ParaView applies in its GUI thread, so while a filter
+        executes (HDR Volume Render's first render loads or compiles the ray caster: 25 s
+        on 2 cores with numba's cache, over a minute without) the window is not repainted
+        and a screenshot shows the screen of before the click, Apply still green; X events
+        sent meanwhile wait in the queue and are handled after."""
         x, y = self.wait_for("the Apply button to turn green", self.apply_button, timeout)
         self.click(x, y)
+        self.wait_for("Apply to be done (its button no longer green)", lambda: self.apply_button() is None,
+                      done_timeout)
 
     def menu(self, x_title, keys):
         """Open the menu whose title is at ``x_title`` on the menu bar, then press ``keys``."""

@@ -441,10 +441,21 @@ def test_gui_clip_checkbox_shows_the_plane_widget_and_cuts(shared_data, tmp_path
         assert box is not None, "no Clip check box in the Properties panel (clip_search.png)"
         gui.click(*box)
         gui.wait_for("Apply to turn green after Clip was checked", gui.apply_button, 20)
-        widget = gui.screenshot("clip_widget.png")
         top, left, rows, cols = view_rectangle(shot)
-        changed = np.any(widget[top:top + rows, left:left + cols] != shot[top:top + rows, left:left + cols], axis=2)
-        assert changed.sum() > 500, f"the plane widget did not appear in the view ({changed.sum()} pixels changed)"
+        changed = []
+
+        def widget_shown():  # the widget is drawn at the view's next render: poll
+            widget = gui.screenshot("clip_widget.png")
+            changed[:] = [np.any(widget[top:top + rows, left:left + cols] != shot[top:top + rows, left:left + cols],
+                                 axis=2).sum()]
+            return changed[0] > 500
+
+        try:
+            gui.wait_for("the plane widget in the view", widget_shown, 20)
+        except AssertionError:
+            gui.check_alive("after Clip was checked")
+            raise AssertionError(f"the plane widget did not appear in the view within 20 s ({changed[0]} pixels "
+                                 f"changed)") from None
         gui.press_apply()
         time.sleep(3)
         _open_python_shell(gui)

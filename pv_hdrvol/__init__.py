@@ -15,6 +15,8 @@ from .editor.model import TransferFunctionModel
 from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
 from .image.upsample import upsample
+from .outofcore.render import MultiscaleVolume, open_multiscale
+from .outofcore.store import MultiscaleStore, write_multiscale
 from .parallel.render import render_parallel
 from .params import PRECISIONS, ClipPlane, Light, RenderOptions
 from .proxy.generate import VolumeDistortionCamera, make_proxies
@@ -36,7 +38,9 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
     """Render a volume to an :class:`HDRImage` (see :func:`render_volume` for all options).
 
     ``data`` is a ``pyvista.ImageData``, ``vtkImageData``, a 3-D numpy array (z, y, x) or
-    a :class:`GridVolume`, or a tetrahedral mesh (``pyvista.UnstructuredGrid``,
+    a :class:`GridVolume`, a :class:`MultiscaleVolume` (a store larger than memory,
+    :func:`open_multiscale`; ``screen_error=`` and ``wait=`` as
+    :meth:`~pv_hdrvol.outofcore.render.MultiscalePlan.execute`), or a tetrahedral mesh (``pyvista.UnstructuredGrid``,
     ``vtkUnstructuredGrid``, :class:`TetMesh`: see :func:`render_tets`), or a composite
     dataset of either (``pyvista.MultiBlock``, ``vtkMultiBlockDataSet``,
     ``vtkPartitionedDataSet(Collection)``: all blocks as one scene, see
@@ -48,6 +52,14 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
     volumes only.
     """
     tf_keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+    if isinstance(data, MultiscaleVolume):
+        for name, value in (("scalars", scalars), ("block_mask", block_mask), ("cull", cull), ("lens", lens),
+                            ("labels", labels), ("label_styles", label_styles)):
+            if value is not None:
+                raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
+        frame = {k: option_kwargs.pop(k) for k in ("screen_error", "wait") if k in option_kwargs}
+        return data.render(tf, camera, size, options=options, progress_bar=progress_bar, progress=progress,
+                           **frame, **tf_keywords, **option_kwargs)
     from .data.blocks import is_composite
     from .data.tets import is_unstructured
     from .raycast.grid import as_volume
@@ -169,4 +181,5 @@ __all__ = [
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
     "volume_from_array", "volume_from_dataset", "volume_from_rectilinear", "view", "add_hdr_volume", "TransferFunctionEditor",
     "make_proxies", "load_proxies", "ProxySet", "ProxyFormatError", "VolumeDistortionCamera",
+    "MultiscaleStore", "MultiscaleVolume", "open_multiscale", "write_multiscale",
 ]

@@ -43,10 +43,11 @@ from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
 from ..raycast.grid import (
-    _MARKERS, _TILE, _check_progress_bar, _lanes, _visible, leap_radius, pixel_rows, run_in_chunks,
+    _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, leap_radius, pixel_rows,
+    run_in_chunks,
 )
-from ..rays.camera import Camera, Rays, as_camera
-from ..rays.clip import ray_spans
+from ..rays.camera import Camera, Rays, as_camera, check_window
+from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
 from .cache import CHUNK, ChunkCache
 from .store import MultiscaleStore
@@ -149,6 +150,13 @@ class MultiscaleVolume:
             keywords["scale"] = "linear"
         return auto_transfer_function(s.read_level(s.n_levels - 1), diagonal / unit, spacing=s.spacing / unit,
                                       integer=integer, **keywords)
+
+    def multiscale_plan(self, tf=None, options=None, *, labels=None, label_styles=None, **kwargs):
+        """The :class:`MultiscalePlan` of this volume (what ``GridPlan(volume, ...)``
+        returns for it, so that front ends that plan grids plan this too)."""
+        if labels is not None or label_styles is not None:
+            raise ValueError("labels= is not supported for out-of-core volumes (MultiscaleVolume) yet")
+        return MultiscalePlan(self, tf, options, **kwargs)
 
     def render(self, tf=None, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, progress_bar=None,
                progress=None, options=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
@@ -346,8 +354,11 @@ class MultiscalePlan:
         self._distance = dist
         return level
 
+    with_clip = with_clip
+
     def execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
-                progress_bar=None):
+                progress_bar=None, chunk_seconds=None, window=None, far=None, lens=None, block_mask=None, cull=None,
+                piece=None):
         """Render one frame; returns an :class:`~pv_hdrvol.HDRImage`.
 
         ``screen_error``: the largest projected voxel, in pixels, a block may show
@@ -355,11 +366,17 @@ class MultiscalePlan:
         image); ``False`` renders what is resident now (coarser ancestors where chunks
         have not arrived) and leaves the rest loading for the next frame. ``timeout``:
         seconds to wait at most (then as ``wait=False``).
+        ``chunk_seconds``, ``window`` and ``far``: as :meth:`GridPlan.execute
+        <pv_hdrvol.raycast.grid.GridPlan.execute>` (a window's level of detail is the
+        whole image's).
         ``metadata``: ``levels`` (blocks per level), ``converged``, ``pending``,
         ``bytes_read`` and ``chunks_read`` (per level, by this volume's cache so far),
         ``coarsened``.
         """
         vol, opts = self.volume, self.options
+        for name, value in (("lens", lens), ("block_mask", block_mask), ("cull", cull), ("piece", piece)):
+            if value is not None:
+                raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
         self.screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
         _check_progress_bar(progress_bar)
         camera = as_camera(camera, vol.bounds)
@@ -371,6 +388,13 @@ class MultiscalePlan:
         cache = vol.cache(self.dtype)
         t_start = time.perf_counter()
         desired = self.desired_levels(camera, (width, height))
+        far = _check_far(far, width, height)
+        if window is not None:
+            if far.size:
+                col, row, w, h = check_window(window, width, height)
+                far = np.ascontiguousarray(far.reshape(height, width)[row:row + h, col:col + w]).reshape(-1)
+            rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
+            width, height = rays.width, rays.height
         n_levels = vol.n_levels
         # visible where the desired level's data can show anything under the function
         shown = desired >= 0
@@ -434,7 +458,7 @@ class MultiscalePlan:
             cam = np.empty(0)
             origins = np.ascontiguousarray((rays.origins - vol.origin) * inv_spacing)
             directions = np.ascontiguousarray(rays.directions * inv_spacing)
-        span = ray_spans(rays if rays is not None else camera, (width, height), opts, np.empty(0))
+        span = ray_spans(rays if rays is not None else camera, (width, height), opts, far)
         lo = np.zeros(3)
         hi = dims.astype(np.float64) - 1.0
         piece_box = np.concatenate([lo, hi, np.zeros(3)])
@@ -456,7 +480,7 @@ class MultiscalePlan:
                                params, 0, 0, rgba, depth, samples)
             return pixel_rows(tile_rows, height)
 
-        run_in_chunks(cast, height, progress, progress_bar)
+        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
         elapsed = time.perf_counter() - t_start
         counts = np.bincount(level[active], minlength=n_levels)
         meta = {
@@ -472,7 +496,7 @@ class MultiscalePlan:
             "depth_threshold": opts.depth_threshold,
             "transfer_function": repr(self.tf),
             "camera": repr(camera) if isinstance(camera, Camera) else "rays",
-            "settings": settings_metadata(self.tf, camera, (width, height), opts),
+            "settings": settings_metadata(self.tf, camera, (width, height), opts, window=window),
             "render_seconds": elapsed,
             "samples": int(samples.sum()),
             "screen_error": self.screen_error,

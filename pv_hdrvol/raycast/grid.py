@@ -627,6 +627,14 @@ class GridPlan:
     ((8, 8), (32, 32))
     """
 
+    def __new__(cls, volume=None, *args, **kwargs):
+        # a volume larger than memory (pv_hdrvol.outofcore, a later stage: known by its
+        # method) brings its own plan, which executes as this one does
+        make = getattr(volume, "multiscale_plan", None)
+        if callable(make):
+            return make(*args, **kwargs)
+        return super().__new__(cls)
+
     def __init__(self, volume, tf=None, options=None, *, labels=None, label_styles=None, cmap=None, clim=None,
                  opacity=None, scale=None, **option_kwargs):
         volume = as_volume(volume)

@@ -107,9 +107,9 @@ def downsample_mean(block):
     nz, ny, nx = b.shape
     parts = b.reshape(nz // 2, 2, ny // 2, 2, nx // 2, 2)
     valid = ~np.isnan(parts)
-    total = np.where(valid, parts, 0.0).sum(axis=(1, 3, 5))
-    count = valid.sum(axis=(1, 3, 5))
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):  # inf + -inf: NaN, as numpy's mean gives
+        total = np.where(valid, parts, 0.0).sum(axis=(1, 3, 5))
+        count = valid.sum(axis=(1, 3, 5))
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
@@ -451,7 +451,9 @@ def _parent_error(fine, coarse):
     f = _pad_even(fine.astype(np.float64))
     nz, ny, nx = f.shape
     # the repeated planes of an odd axis are copies of real points: they change no maximum
-    diff = np.abs(f.reshape(nz // 2, 2, ny // 2, 2, nx // 2, 2) - coarse.astype(np.float64)[:, None, :, None, :, None])
+    with np.errstate(invalid="ignore"):  # inf - inf: NaN, ignored
+        diff = np.abs(f.reshape(nz // 2, 2, ny // 2, 2, nx // 2, 2)
+                      - coarse.astype(np.float64)[:, None, :, None, :, None])
     diff = diff[~np.isnan(diff)]
     return float(diff.max()) if diff.size else 0.0
 

@@ -325,6 +325,10 @@ def test_overwrite(tmp_path):
     with pytest.raises(FileExistsError, match="is not a zarr store"):
         write_multiscale(np.ones((4, 4, 4), np.float32), tmp_path / "folder", overwrite=True)
     assert (tmp_path / "folder" / "keep.txt").read_text() == "mine"
+    # a bad option is refused before the old store is removed
+    with pytest.raises(TypeError, match="progress_bar must be True, False or None"):
+        write_multiscale(np.ones((4, 4, 4), np.float32), path, overwrite=True, progress_bar="yes")
+    assert MultiscaleStore(path).value_range == (1.0, 1.0)
 
 
 def test_missing_shard_is_an_error_naming_chunk_and_file(tmp_path):
@@ -337,6 +341,12 @@ def test_missing_shard_is_an_error_naming_chunk_and_file(tmp_path):
         with pytest.raises(OSError, match=re.escape(f"chunk {index} of level 0 ({path}) is missing")):
             store.read_chunk(0, index)
     assert store.read_chunk(0, (1, 0, 0)).tobytes() == values[64:128].tobytes()
+    # outside the store: the caller's mistake, not damage
+    for index in ((4, 0, 0), (-1, 0, 0), (0, 0)):
+        with pytest.raises(IndexError, match=r"is outside level 0's chunks \(4, 1, 1\)"):
+            store.read_chunk(0, index)
+    with pytest.raises(IndexError, match="level must be 0 to 2; got 3"):
+        store.read_chunk(3, (0, 0, 0))
 
 
 def test_corrupted_shard_is_an_error_naming_the_chunk(tmp_path):

@@ -362,6 +362,9 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     src = _as_source(source, shape, dtype, spacing, origin, name, scalars)
     if downsample == "mode" and not np.issubdtype(src.dtype, np.integer):
         raise ValueError(f"downsample='mode' is for label volumes (integers); got dtype {src.dtype}")
+    from ..raycast.grid import _auto_bar_wanted, _check_progress_bar
+
+    _check_progress_bar(progress_bar)  # every check before an old store is removed
     path = os.fspath(path)
     if os.path.lexists(path):
         if not overwrite:
@@ -372,9 +375,6 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                                   f"remove it yourself or choose another path")
         shutil.rmtree(path)
     shapes = level_shapes(src.shape, chunk)
-    from ..raycast.grid import _auto_bar_wanted, _check_progress_bar
-
-    _check_progress_bar(progress_bar)
     edges = [shard_edge(_level_dtype(src.dtype, L, downsample).itemsize, chunk) for L in range(len(shapes))]
     total = sum(len(_boxes(s, e)) for s, e in zip(shapes, edges))
     bar = None
@@ -582,7 +582,14 @@ class MultiscaleStore:
     def read_chunk(self, level, index):
         """The points of chunk ``index = (cz, cy, cx)`` of ``level`` (at most ``chunk`` a
         side; smaller at the far edges). Raises ``OSError`` naming the chunk and its file
-        when the file is missing or cannot be decoded: never zeros or NaN in its place."""
+        when the file is missing or cannot be decoded: never zeros or NaN in its place;
+        ``IndexError`` for a level or index outside the store."""
+        if not 0 <= level < len(self.levels):
+            raise IndexError(f"level must be 0 to {len(self.levels) - 1}; got {level!r}")
+        grid = self.levels[level].chunks
+        if len(index) != 3 or not all(isinstance(i, (int, np.integer)) and 0 <= i < n for i, n in zip(index, grid)):
+            # not "missing": a chunk outside the level is the caller's mistake, not damage
+            raise IndexError(f"chunk index {tuple(index)} is outside level {level}'s chunks {grid} (z, y, x)")
         arr = self._arrays[level]
         c = self.chunk
         where = f"chunk {tuple(index)} of level {level} ({self.chunk_path(level, index)})"

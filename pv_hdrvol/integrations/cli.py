@@ -7,6 +7,7 @@
     pv-hdrvol render volume.vti -o out.exr --tolerance 1e-3
     pv-hdrvol demo -o outdir --size 128
     pv-hdrvol info out.exr
+    pv-hdrvol convert big.raw big.ome.zarr --raw-shape 1024 1024 1024 --raw-dtype float32
 
 User errors (missing files, unknown scalars, invalid options) end with an
 argparse-style message on stderr and exit status 2, without a traceback.
@@ -221,6 +222,32 @@ def build_parser():
     q.add_argument("--ambient-occlusion", type=float, default=None, metavar="STRENGTH",
                    help="layers: proxy ambient occlusion (paper Eq. 5)")
     q.set_defaults(handler=_cmd_proxy_view, subparser=q)
+
+    p = sub.add_parser("convert", help="write a volume as a multiresolution OME-Zarr store (volumes larger than "
+                                       "memory)",
+                       description="Write a volume file as a multiresolution OME-Zarr 0.5 store "
+                                   "(pv_hdrvol.write_multiscale): every level 2x coarser than the one below, in "
+                                   "64^3 chunks with per-chunk value ranges, read a shard at a time so the volume "
+                                   "never has to fit in memory. IN is a .raw file (x fastest; give --raw-shape and "
+                                   "--raw-dtype) or an image volume (" + ", ".join(IMAGE_FORMATS) + ").")
+    p.add_argument("file", metavar="IN", help="volume file: .raw or " + ", ".join(IMAGE_FORMATS))
+    p.add_argument("output", metavar="OUT.ome.zarr", help="the store's folder (must not exist; see --overwrite)")
+    p.add_argument("--raw-shape", type=int, nargs=3, default=None, metavar=("NZ", "NY", "NX"),
+                   help="points of a .raw file along z, y, x (x fastest in the file)")
+    p.add_argument("--raw-dtype", default=None, metavar="DTYPE",
+                   help="numpy dtype of a .raw file: float32, uint16, '>f4' (big-endian), ...")
+    p.add_argument("--scalars", default=None, metavar="NAME", help="array of an image file (default: active scalars)")
+    p.add_argument("--spacing", type=float, nargs=3, default=None, metavar=("X", "Y", "Z"),
+                   help="distance between points (default: the file's, else 1)")
+    p.add_argument("--origin", type=float, nargs=3, default=None, metavar=("X", "Y", "Z"),
+                   help="position of the first point (default: the file's, else 0)")
+    p.add_argument("--downsample", choices=("mean", "mode"), default="mean",
+                   help="how each level is made from the one below: 2x2x2 mean (default), or the most frequent "
+                        "value (label volumes)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing store at OUT.ome.zarr")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="show a progress bar (default: when stderr is a terminal)")
+    p.set_defaults(handler=_cmd_convert, subparser=p)
 
     p = sub.add_parser("paraview", help="print the environment that loads the ParaView plugin",
                        description="Print shell lines that make ParaView (GUI, pvpython, pvbatch) load the "
@@ -463,6 +490,47 @@ def _cmd_proxy_view(args):
     except OSError as exc:
         raise UserError(f"cannot write: {exc}") from None
     print(f"wrote {out}")
+
+
+def _cmd_convert(args):
+    import time
+
+    import numpy as np
+
+    path = _existing_file(args.file)
+    raw = path.suffix.lower() == ".raw"
+    if raw and (args.raw_shape is None or args.raw_dtype is None):
+        raise UserError(f"{str(path)!r} is a .raw file: give --raw-shape NZ NY NX and --raw-dtype")
+    if not raw:
+        if args.raw_shape is not None or args.raw_dtype is not None:
+            raise UserError(f"--raw-shape and --raw-dtype describe a .raw file; {str(path)!r} has its own")
+        path = _readable_file(args.file, IMAGE_FORMATS)
+    if raw:
+        try:
+            np.dtype(args.raw_dtype)
+        except TypeError:
+            raise UserError(f"--raw-dtype: {args.raw_dtype!r} is not a numpy dtype (float32, uint16, '>f4', ...)") \
+                from None
+    out = pathlib.Path(args.output)
+    if out.exists() and not args.overwrite:
+        raise UserError(f"{str(out)!r} exists; add --overwrite to replace it")
+    from ..outofcore.store import write_multiscale
+
+    start = time.perf_counter()
+    try:
+        store = write_multiscale(path, out, shape=args.raw_shape, dtype=args.raw_dtype, spacing=args.spacing,
+                                 origin=args.origin, scalars=args.scalars, downsample=args.downsample,
+                                 overwrite=args.overwrite, progress_bar=args.progress)
+    except (ValueError, TypeError, FileExistsError) as exc:
+        raise UserError(str(exc)) from None
+    except OSError as exc:
+        raise UserError(f"cannot write {str(out)!r}: {exc}") from None
+    seconds = time.perf_counter() - start
+    print(f"wrote {out}: {store.n_levels} levels of {store.dtype} ({store.downsample}), chunks of {store.chunk}^3")
+    for level, lv in enumerate(store.levels):
+        print(f"  level {level}: {'x'.join(map(str, lv.dims))} points, {lv.dtype}, "
+              f"{int(np.prod(lv.chunks))} chunks")
+    print(f"  value range {store.value_range[0]:.6g} .. {store.value_range[1]:.6g}; {seconds:.2f} s")
 
 
 def _cmd_info(args):

@@ -5,9 +5,11 @@ The format (``FORMAT`` = 1), an OME-Zarr 0.5 image (NGFF multiscales on zarr v3)
 - arrays ``0, 1, ...``: level ``L`` has ``ceil(n / 2)`` points per axis of level
   ``L - 1``'s ``n``, from the 2x2x2 mean (NaN ignored; the last plane repeated on an odd
   axis) or mode (label volumes); down to the first level that fits one chunk. Inner
-  chunks of ``CHUNK`` = 64 points a side in shards of at most ``SHARD_BYTES`` (one
-  read per chunk, few files), blosc-zstd level 3 with byte shuffle; every chunk is
-  written (``write_empty_chunks``), so a missing shard file is damage, not zeros.
+  chunks of ``chunk`` points a side (``pv_hdrvol.chunk``; default ``CHUNK`` = 64) in
+  shards of at most ``SHARD_BYTES`` (one read per chunk, few files), blosc-zstd level
+  3 with byte shuffle, then a crc32c checksum (a damaged chunk fails to read rather
+  than decoding to wrong numbers); every chunk is written (``write_empty_chunks``), so
+  a missing shard file is damage, not zeros.
 - level ``L`` point ``j`` lies at level-0 voxel coordinate ``2**L j + (2**L - 1) / 2``
   (the centre of the points it averages): each dataset's ``scale`` is ``2**L`` times
   level 0's spacing and its ``translation`` the origin moved by ``(2**L - 1) / 2``
@@ -27,6 +29,7 @@ The format (``FORMAT`` = 1), an OME-Zarr 0.5 image (NGFF multiscales on zarr v3)
 from __future__ import annotations
 
 import dataclasses
+import errno
 import math
 import os
 import shutil
@@ -79,15 +82,15 @@ def _boxes(shape, edge):
 def _chunk_ranges(block, chunk):
     """(cz, cy, cx, 2) min and max (NaN ignored) of each ``chunk``-cube of ``block``."""
     nz, ny, nx = block.shape
-    cz, cy, cx = (-(-nz // chunk), -(-ny // chunk), -(-nx // chunk))
-    out = np.empty((cz, cy, cx, 2))
-    values = block.astype(np.float64, copy=False)
-    for k in range(cz):
-        for j in range(cy):
-            for i in range(cx):
-                part = values[k * chunk:(k + 1) * chunk, j * chunk:(j + 1) * chunk, i * chunk:(i + 1) * chunk]
-                finite = part[~np.isnan(part)]
-                out[k, j, i] = (finite.min(), finite.max()) if finite.size else (np.inf, -np.inf)
+    out = np.empty((-(-nz // chunk), -(-ny // chunk), -(-nx // chunk), 2))
+    floating = np.issubdtype(block.dtype, np.floating)
+    for k in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            for i in range(out.shape[2]):
+                part = block[k * chunk:(k + 1) * chunk, j * chunk:(j + 1) * chunk, i * chunk:(i + 1) * chunk]
+                if floating:
+                    part = part[~np.isnan(part)]
+                out[k, j, i] = (float(part.min()), float(part.max())) if part.size else (np.inf, -np.inf)
     return out
 
 
@@ -104,9 +107,9 @@ def downsample_mean(block):
     nz, ny, nx = b.shape
     parts = b.reshape(nz // 2, 2, ny // 2, 2, nx // 2, 2)
     valid = ~np.isnan(parts)
-    total = np.where(valid, parts, 0.0).sum(axis=(1, 3, 5))
-    count = valid.sum(axis=(1, 3, 5))
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):  # inf + -inf: NaN, as numpy's mean gives
+        total = np.where(valid, parts, 0.0).sum(axis=(1, 3, 5))
+        count = valid.sum(axis=(1, 3, 5))
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
@@ -125,70 +128,169 @@ def downsample_mode(block):
 @dataclasses.dataclass(frozen=True)
 class _Source:
     shape: tuple  # (z, y, x)
-    dtype: np.dtype
-    read: object  # read(box) -> array of the box's shape
+    dtype: np.dtype  # native byte order: the store's level-0 dtype
+    read: object  # read(box) -> array of the box's shape and of ``dtype`` (never the caller's memory)
     spacing: tuple  # x, y, z
     origin: tuple
     name: str
 
 
-def _as_source(source, shape, dtype, spacing, origin, name):
-    """What :func:`write_multiscale` reads: shape, dtype, a reader of boxes, geometry."""
-    from ..data.grid import GridVolume, as_volume
-
-    def geometry(default_spacing=(1.0, 1.0, 1.0), default_origin=(0.0, 0.0, 0.0)):
-        s = tuple(float(v) for v in (default_spacing if spacing is None else spacing))
-        o = tuple(float(v) for v in (default_origin if origin is None else origin))
-        if len(s) != 3 or len(o) != 3:
-            raise ValueError(f"spacing and origin need 3 values (x, y, z); got {s} and {o}")
-        if not all(math.isfinite(v) and v > 0 for v in s):
-            raise ValueError(f"spacing must be finite and > 0 on every axis; got {s}")
-        if not all(math.isfinite(v) for v in o):
-            raise ValueError(f"origin must be finite; got {o}")
-        return s, o
-
-    if callable(source) and not hasattr(source, "shape"):
-        if shape is None or dtype is None:
-            raise ValueError("a function source fills boxes of a volume it does not describe: give shape=(nz, ny, nx) "
-                             "and dtype=")
-        shp = tuple(as_int("shape", n, low=1) for n in shape)
-        if len(shp) != 3:
-            raise ValueError(f"shape must be (nz, ny, nx); got {shape}")
+def _real_dtype(what, dtype):
+    """``dtype`` as a native-order numpy dtype of integers or floats (TypeError otherwise)."""
+    try:
         dt = np.dtype(dtype)
+    except TypeError:
+        raise TypeError(f"dtype must be a numpy dtype of integers or floats; got {dtype!r}") from None
+    if dt == np.bool_ or not (np.issubdtype(dt, np.integer) or np.issubdtype(dt, np.floating)):
+        raise TypeError(f"{what} must hold real numbers (integers or floats); got dtype {dt}")
+    return dt.newbyteorder("=")
+
+
+def _shape3(what, shape):
+    if isinstance(shape, (str, bytes)) or not hasattr(shape, "__len__") or len(shape) != 3:
+        raise ValueError(f"{what} must be 3 sizes (nz, ny, nx); got {shape!r}")
+    return tuple(as_int(what, n, low=1) for n in shape)
+
+
+def _vector3(what, value, positive):
+    try:
+        v = tuple(float(x) for x in value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{what} must be 3 numbers (x, y, z); got {value!r}") from None
+    if len(v) != 3:
+        raise ValueError(f"{what} must be 3 numbers (x, y, z); got {len(v)}: {value!r}")
+    if positive and not all(math.isfinite(x) and x > 0 for x in v):
+        raise ValueError(f"{what} must be finite and > 0 on every axis; got {v}")
+    if not all(math.isfinite(x) for x in v):
+        raise ValueError(f"{what} must be finite; got {v}")
+    return v
+
+
+def _box_slices(box):
+    return tuple(slice(a, b) for a, b in box)
+
+
+def _raw_memmap(path, shape, dtype):
+    """A read-only ``np.memmap`` of the raw file ``path`` (z, y, x; x fastest)."""
+    if shape is None or dtype is None:
+        raise ValueError(f"a .raw file holds no shape or dtype: give shape=(nz, ny, nx) and dtype= for {path!r}")
+    shp = _shape3("shape", shape)
+    dt = _real_dtype("a .raw file", dtype)
+    dt = np.dtype(dtype)  # the file's byte order, as given ('>f4' reads big-endian)
+    want = math.prod(shp) * dt.itemsize
+    size = os.path.getsize(path)
+    if size != want:
+        raise ValueError(f"{path!r} has {size} bytes; shape {shp} of {dt} needs {want} "
+                         f"({' x '.join(map(str, shp))} x {dt.itemsize} bytes)")
+    return np.memmap(path, dtype=dt, mode="r", shape=shp)
+
+
+def _read_file(path, shape, dtype, scalars):
+    """The array (z, y, x), spacing, origin and name of a volume file: ``.raw`` (with
+    ``shape`` and ``dtype``) or one that :mod:`pv_hdrvol.integrations.files` reads."""
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), p)
+    if p.lower().endswith(".raw"):
+        if scalars is not None:
+            raise ValueError(f"scalars names an array of a dataset; a .raw file has one: got {scalars!r}")
+        return _raw_memmap(p, shape, dtype), None, None, os.path.splitext(os.path.basename(p))[0]
+    if shape is not None or dtype is not None:
+        raise ValueError(f"shape and dtype describe a .raw file or a function source; {p!r} has its own")
+    from ..data.grid import _image_array
+    from ..data.kinds import as_renderable
+    from ..integrations.files import IMAGE_FORMATS, READABLE, read_dataset
+
+    dataset = read_dataset(p, READABLE)
+    if getattr(dataset, "GetClassName", lambda: "")() in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
+        # the file's own dtype (a GridVolume may hold a float32 copy of integers)
+        arr, spacing, origin, name = _image_array(dataset, scalars, "point")
+        return arr, spacing, origin, name
+    volume = as_renderable(dataset, scalars=scalars)
+    from ..data.grid import GridVolume
+
+    if not isinstance(volume, GridVolume):
+        raise ValueError(f"{p!r} holds a {type(volume).__name__}; a multiresolution store is made of an image "
+                         f"volume ({', '.join(IMAGE_FORMATS)} or .raw)")
+    if volume.axes is not None:
+        raise ValueError(f"{p!r} holds a rectilinear grid; a multiresolution store holds uniform grids "
+                         f"(resample it first)")
+    return volume.values, volume.spacing, volume.origin, volume.name
+
+
+def _as_source(source, shape, dtype, spacing, origin, name, scalars=None):
+    """What :func:`write_multiscale` reads: shape, dtype, a reader of boxes, geometry."""
+    from ..data.grid import GridVolume, _image_array
+
+    default_spacing, default_origin, default_name = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), ""
+    if isinstance(source, (str, os.PathLike)):
+        arr, sp, org, default_name = _read_file(source, shape, dtype, scalars)
+        if sp is not None:
+            default_spacing, default_origin = sp, org
+        shape = dtype = None
+        kind = f"the file {os.fspath(source)!r}"
+    elif callable(source) and not hasattr(source, "shape"):
+        if shape is None or dtype is None:
+            raise ValueError("a function source fills boxes of a volume it does not describe: give "
+                             "shape=(nz, ny, nx) and dtype=")
+        arr, kind = None, "a function source"
+    elif isinstance(source, GridVolume):
+        if source.axes is not None:
+            raise ValueError("a multiresolution store holds uniform grids; resample a rectilinear grid first")
+        arr, default_spacing, default_origin, default_name = (source.values, source.spacing, source.origin,
+                                                              source.name)
+        kind = "a GridVolume"
+    elif hasattr(source, "shape") and hasattr(source, "dtype") and hasattr(source, "__getitem__"):
+        arr, kind = source, f"the {type(source).__name__} source"  # numpy, np.memmap, a zarr array: sliced lazily
+    elif hasattr(source, "GetClassName"):  # pyvista.ImageData, vtkImageData
+        if getattr(source, "GetClassName")() in ("vtkRectilinearGrid",):
+            raise ValueError("a multiresolution store holds uniform grids; resample a rectilinear grid first")
+        arr, sp, org, default_name = _image_array(source, scalars, "point")
+        default_spacing, default_origin = tuple(sp), tuple(org)
+        kind = f"a {type(source).__name__}"
+    else:
+        raise TypeError(f"source must be an array (numpy, np.memmap, zarr), image data, a GridVolume, a volume "
+                        f"file's path or a function f(box); got {type(source).__name__}")
+    if scalars is not None and not (isinstance(source, (str, os.PathLike)) or hasattr(source, "GetClassName")):
+        raise ValueError(f"scalars names an array of a dataset or file; {kind} has one: got {scalars!r}")
+    sp = _vector3("spacing", default_spacing if spacing is None else spacing, positive=True)
+    org = _vector3("origin", default_origin if origin is None else origin, positive=False)
+    vname = default_name if name is None else str(name)
+
+    if arr is None:
+        shp = _shape3("shape", shape)
+        dt = _real_dtype("dtype", dtype)
 
         def read(box):
             want = tuple(b - a for a, b in box)
             block = np.asarray(source(box))
             if block.shape != want:
-                raise ValueError(f"the source function returned shape {block.shape} for the box {box}; expected {want}")
-            return block
+                raise ValueError(f"the source function returned shape {block.shape} for the box {box}; "
+                                 f"expected {want}")
+            if not np.can_cast(block.dtype, dt, "same_kind"):
+                raise TypeError(f"the source function returned dtype {block.dtype} for the box {box}; expected "
+                                f"{dt} (or one that casts to it: same kind)")
+            return block.astype(dt, copy=False)
 
-        s, o = geometry()
-        return _Source(shp, dt, read, s, o, name or "")
-    if not isinstance(source, np.ndarray) and hasattr(source, "shape") and hasattr(source, "dtype") \
-            and not isinstance(source, GridVolume) and len(getattr(source, "shape", ())) == 3:
-        arr = source  # an array-like that slices lazily: np.memmap, a zarr array
-        s, o = geometry()
-        return _Source(tuple(int(n) for n in arr.shape), np.dtype(arr.dtype),
-                       lambda box: np.asarray(arr[box[0][0]:box[0][1], box[1][0]:box[1][1], box[2][0]:box[2][1]]),
-                       s, o, name or "")
-    if isinstance(source, np.ndarray):
-        if source.ndim != 3:
-            raise ValueError(f"a numpy source must be 3-D (z, y, x); got shape {source.shape}")
-        arr = source
-        s, o = geometry()
-        vname = name or ""
-    else:
-        volume = as_volume(source)
-        if volume.axes is not None:
-            raise ValueError("a multiresolution store holds uniform grids; resample a rectilinear grid first")
-        arr = volume.values
-        s, o = geometry(volume.spacing, volume.origin)
-        vname = name or volume.name
-    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise TypeError(f"a store holds real numbers; got dtype {arr.dtype}")
-    return _Source(arr.shape, arr.dtype, lambda box: arr[box[0][0]:box[0][1], box[1][0]:box[1][1],
-                                                             box[2][0]:box[2][1]], s, o, vname)
+        return _Source(shp, dt, read, sp, org, vname)
+
+    if shape is not None and tuple(shape) != tuple(arr.shape):
+        raise ValueError(f"shape={tuple(shape)} does not match {kind}'s shape {tuple(arr.shape)} (give neither)")
+    if dtype is not None and np.dtype(dtype) != np.dtype(arr.dtype):
+        raise ValueError(f"dtype={np.dtype(dtype)} does not match {kind}'s dtype {np.dtype(arr.dtype)} "
+                         f"(give neither)")
+    if len(arr.shape) != 3:
+        raise ValueError(f"{kind} must be 3-D (z, y, x); got shape {tuple(arr.shape)}")
+    if min(arr.shape) < 1:
+        raise ValueError(f"{kind} must not be empty; got shape {tuple(arr.shape)}")
+    dt = _real_dtype(kind, arr.dtype)
+
+    def read(box):
+        # np.array: a copy (or a fresh array from zarr), in native order: the caller's memory is never
+        # handed on to be changed
+        return np.array(arr[_box_slices(box)], dtype=dt)
+
+    return _Source(tuple(int(n) for n in arr.shape), dt, read, sp, org, vname)
 
 
 def _level_dtype(dtype, level, downsample):
@@ -198,54 +300,82 @@ def _level_dtype(dtype, level, downsample):
     return np.dtype(np.float32)
 
 
-def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, origin=None, name=None,
-                     downsample="mean", overwrite=False, progress_bar=None):
+def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, origin=None, name=None, scalars=None,
+                     downsample="mean", chunk=CHUNK, overwrite=False, progress_bar=None):
     """Write a multiresolution OME-Zarr store (see the module's notes for the format).
 
     Parameters
     ----------
-    source : array, np.memmap, zarr array, dataset, GridVolume or function
-        The level-0 values, (z, y, x). A function ``f(box)`` returns the values of
-        ``box = ((z0, z1), (y0, y1), (x0, x1))`` (procedural data, never held whole);
-        it needs ``shape`` and ``dtype``.
+    source : array, np.memmap, zarr array, dataset, GridVolume, file path or function
+        The level-0 values, (z, y, x). A path names a ``.raw`` file (x fastest, read
+        through a read-only ``np.memmap``; needs ``shape`` and ``dtype``) or a file that
+        :mod:`pv_hdrvol.integrations.files` reads (``.vti``, ``.vtk``, ``.nrrd``, ...;
+        an image's array keeps its dtype). A function ``f(box)`` returns the values of
+        ``box = ((z0, z1), (y0, y1), (x0, x1))`` (procedural data, never held whole); it
+        needs ``shape`` and ``dtype`` and may return any dtype of the same kind (cast).
+        The source is only read: its values are never changed.
     path : str or os.PathLike
         The store's directory (``*.ome.zarr`` by convention).
+    shape : 3 ints (nz, ny, nx), dtype : numpy dtype
+        For a function or a ``.raw`` file (a ``.raw`` dtype may name a byte order:
+        ``">f4"``; the store is native).
     spacing, origin : 3 floats (x, y, z)
         World geometry of level 0 (default: the dataset's, else 1 and 0).
+    scalars : str, optional
+        The array of a dataset or file (default: its active scalars).
     downsample : "mean" or "mode"
         How each level is made from the previous one: the 2x2x2 mean (NaN ignored) or,
         for label volumes, the most frequent value.
+    chunk : int
+        Points a side of an inner chunk (a power of two, 8 to 512; default 64): what a
+        renderer reads at once.
     overwrite : bool
-        Replace an existing store at ``path`` (default: refuse).
+        Replace an existing store at ``path`` (default: refuse). Only a zarr store is
+        replaced: any other file or folder there is refused.
     progress_bar : bool or None
         A tqdm bar over the shards written (None: when stderr is a terminal).
 
-    Memory: one shard of the level being written and the eight of the level below
-    (at most ``9 * SHARD_BYTES`` plus their float64 means), whatever the volume's size.
+    Memory: one shard of the level being written (at most ``SHARD_BYTES``), zarr's
+    encoding of it, and the float64 work on one chunk of the level below, whatever the
+    volume's size.
 
     Returns
     -------
     MultiscaleStore
         The finished store, opened.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists and ``overwrite`` is False (or it is not a zarr store).
+    TypeError, ValueError
+        A source, option or returned box that is not allowed; the message names it.
     """
     zarr = _zarr()
-    from zarr.codecs import BloscCodec
+    from zarr.codecs import BloscCodec, Crc32cCodec
 
     if downsample not in DOWNSAMPLE:
         raise ValueError(f"downsample must be one of {DOWNSAMPLE}; got {downsample!r}")
-    src = _as_source(source, shape, dtype, spacing, origin, name)
+    chunk = as_int("chunk", chunk, low=8, high=512)
+    if chunk & (chunk - 1):
+        raise ValueError(f"chunk must be a power of two (8 to 512); got {chunk}")
+    src = _as_source(source, shape, dtype, spacing, origin, name, scalars)
     if downsample == "mode" and not np.issubdtype(src.dtype, np.integer):
         raise ValueError(f"downsample='mode' is for label volumes (integers); got dtype {src.dtype}")
-    path = os.fspath(path)
-    if os.path.exists(path):
-        if not overwrite:
-            raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
-        shutil.rmtree(path) if os.path.isdir(path) else os.remove(path)
-    shapes = level_shapes(src.shape)
     from ..raycast.grid import _auto_bar_wanted, _check_progress_bar
 
-    _check_progress_bar(progress_bar)
-    edges = [shard_edge(_level_dtype(src.dtype, L, downsample).itemsize) for L in range(len(shapes))]
+    _check_progress_bar(progress_bar)  # every check before an old store is removed
+    path = os.fspath(path)
+    if os.path.lexists(path):
+        if not overwrite:
+            raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+        if not (os.path.isdir(path) and os.path.isfile(os.path.join(path, "zarr.json"))):
+            # overwrite replaces a store, never a folder of other things or the source file
+            raise FileExistsError(f"{path} exists and is not a zarr store; overwrite=True replaces only a store: "
+                                  f"remove it yourself or choose another path")
+        shutil.rmtree(path)
+    shapes = level_shapes(src.shape, chunk)
+    edges = [shard_edge(_level_dtype(src.dtype, L, downsample).itemsize, chunk) for L in range(len(shapes))]
     total = sum(len(_boxes(s, e)) for s, e in zip(shapes, edges))
     bar = None
     if progress_bar or (progress_bar is None and _auto_bar_wanted()):
@@ -258,44 +388,40 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                 raise ImportError("progress_bar=True needs tqdm (pip install tqdm)") from None
 
     group = zarr.open_group(store=path, mode="w-", zarr_format=3)
-    meta = {"format": FORMAT, "chunk": CHUNK, "downsample": downsample, "spacing": list(src.spacing),
+    meta = {"format": FORMAT, "chunk": chunk, "downsample": downsample, "spacing": list(src.spacing),
             "origin": list(src.origin), "name": src.name, "complete": False}
     group.attrs.update({"pv_hdrvol": meta})
+    reduce = downsample_mean if downsample == "mean" else downsample_mode
     arrays, ranges = [], []
     try:
         for level, (shp, edge) in enumerate(zip(shapes, edges)):
             dt = _level_dtype(src.dtype, level, downsample)
+            # crc32c after blosc: a damaged chunk fails to read instead of decoding to wrong numbers
             arr = group.create_array(
-                name=str(level), shape=shp, dtype=dt, chunks=(CHUNK,) * 3,
-                shards=tuple(min(edge, CHUNK * -(-n // CHUNK)) for n in shp),
-                compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"),
+                name=str(level), shape=shp, dtype=dt, chunks=(chunk,) * 3,
+                shards=tuple(min(edge, chunk * -(-n // chunk)) for n in shp),
+                compressors=(BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()),
                 fill_value=np.nan if np.issubdtype(dt, np.floating) else 0,
                 dimension_names=("z", "y", "x"), config={"write_empty_chunks": True})
-            cz, cy, cx = (-(-n // CHUNK) for n in shp)
-            rng = np.zeros((cz, cy, cx, 5))
+            rng = np.zeros(tuple(-(-n // chunk) for n in shp) + (5,))
             for box in _boxes(shp, edge):
                 if level == 0:
                     block = src.read(box)
                 else:
-                    below = arrays[-1]
-                    fine = below[2 * box[0][0]:min(2 * box[0][1], below.shape[0]),
-                                 2 * box[1][0]:min(2 * box[1][1], below.shape[1]),
-                                 2 * box[2][0]:min(2 * box[2][1], below.shape[2])]
-                    coarse = downsample_mean(fine) if downsample == "mean" else downsample_mode(fine)
-                    block = coarse.astype(dt)
-                    # the fine chunks' largest difference to their parents (as stored)
-                    parent = np.repeat(np.repeat(np.repeat(block.astype(np.float64), 2, 0), 2, 1), 2, 2)
-                    parent = parent[:fine.shape[0], :fine.shape[1], :fine.shape[2]]
-                    diff = np.abs(fine.astype(np.float64) - parent)
-                    diff[np.isnan(diff)] = 0.0
-                    c0 = [2 * b[0] // CHUNK for b in box]
-                    err = _chunk_max(diff, CHUNK)
-                    ranges[-1][c0[0]:c0[0] + err.shape[0], c0[1]:c0[1] + err.shape[1],
-                               c0[2]:c0[2] + err.shape[2], 2] = err
-                arr[box[0][0]:box[0][1], box[1][0]:box[1][1], box[2][0]:box[2][1]] = block
-                c = [b[0] // CHUNK for b in box]
-                r = _chunk_ranges(block, CHUNK)
+                    block = np.empty(tuple(b - a for a, b in box), dt)
+                    # one fine chunk at a time (half a chunk of this level): the float64 work stays small
+                    for sub in _boxes(block.shape, chunk // 2):
+                        fbox = tuple((2 * (o + a), min(2 * (o + b), n)) for (o, _), (a, b), n
+                                     in zip(box, sub, arrays[-1].shape))
+                        fine = np.asarray(arrays[-1][_box_slices(fbox)])
+                        coarse = reduce(fine).astype(dt)
+                        block[_box_slices(sub)] = coarse
+                        ranges[-1][tuple(a // chunk for a, _ in fbox) + (2,)] = _parent_error(fine, coarse)
+                arr[_box_slices(box)] = block
+                r = _chunk_ranges(block, chunk)
+                c = [a // chunk for a, _ in box]
                 rng[c[0]:c[0] + r.shape[0], c[1]:c[1] + r.shape[1], c[2]:c[2] + r.shape[2], :2] = r
+                del block
                 if bar is not None:
                     bar.update(1)
             arrays.append(arr)
@@ -319,15 +445,17 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     return MultiscaleStore(path)
 
 
-def _chunk_max(values, chunk):
-    nz, ny, nx = values.shape
-    out = np.zeros((-(-nz // chunk), -(-ny // chunk), -(-nx // chunk)))
-    for k in range(out.shape[0]):
-        for j in range(out.shape[1]):
-            for i in range(out.shape[2]):
-                part = values[k * chunk:(k + 1) * chunk, j * chunk:(j + 1) * chunk, i * chunk:(i + 1) * chunk]
-                out[k, j, i] = part.max() if part.size else 0.0
-    return out
+def _parent_error(fine, coarse):
+    """The largest ``|fine - parent|`` (NaN ignored; 0 for none) of the points of ``fine``
+    against the ``coarse`` point whose 2x2x2 group holds them."""
+    f = _pad_even(fine.astype(np.float64))
+    nz, ny, nx = f.shape
+    # the repeated planes of an odd axis are copies of real points: they change no maximum
+    with np.errstate(invalid="ignore"):  # inf - inf: NaN, ignored
+        diff = np.abs(f.reshape(nz // 2, 2, ny // 2, 2, nx // 2, 2)
+                      - coarse.astype(np.float64)[:, None, :, None, :, None])
+    diff = diff[~np.isnan(diff)]
+    return float(diff.max()) if diff.size else 0.0
 
 
 def _pool2(a, op, fill):
@@ -454,7 +582,14 @@ class MultiscaleStore:
     def read_chunk(self, level, index):
         """The points of chunk ``index = (cz, cy, cx)`` of ``level`` (at most ``chunk`` a
         side; smaller at the far edges). Raises ``OSError`` naming the chunk and its file
-        when the file is missing or cannot be decoded: never zeros or NaN in its place."""
+        when the file is missing or cannot be decoded: never zeros or NaN in its place;
+        ``IndexError`` for a level or index outside the store."""
+        if not 0 <= level < len(self.levels):
+            raise IndexError(f"level must be 0 to {len(self.levels) - 1}; got {level!r}")
+        grid = self.levels[level].chunks
+        if len(index) != 3 or not all(isinstance(i, (int, np.integer)) and 0 <= i < n for i, n in zip(index, grid)):
+            # not "missing": a chunk outside the level is the caller's mistake, not damage
+            raise IndexError(f"chunk index {tuple(index)} is outside level {level}'s chunks {grid} (z, y, x)")
         arr = self._arrays[level]
         c = self.chunk
         where = f"chunk {tuple(index)} of level {level} ({self.chunk_path(level, index)})"

@@ -43,7 +43,7 @@ from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
 from ..raycast.grid import (
-    _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, leap_radius, pixel_rows,
+    VolumePiece, _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, leap_radius, pixel_rows,
     run_in_chunks,
 )
 from ..rays.camera import Camera, Rays, as_camera, check_window
@@ -374,9 +374,10 @@ class MultiscalePlan:
         ``coarsened``.
         """
         vol, opts = self.volume, self.options
-        for name, value in (("lens", lens), ("block_mask", block_mask), ("cull", cull), ("piece", piece)):
+        for name, value in (("lens", lens), ("block_mask", block_mask), ("cull", cull)):
             if value is not None:
                 raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
+        owned = None if piece is None else self._check_piece(piece)
         self.screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
         _check_progress_bar(progress_bar)
         camera = as_camera(camera, vol.bounds)
@@ -401,6 +402,11 @@ class MultiscalePlan:
         for L in range(n_levels):
             at = desired == L
             shown[at] &= self._visible[L][at]
+        # a piece steps as the whole render does: at the finest level any block of the
+        # whole asks for (from metadata and the camera alone: the same on every process)
+        piece_finest = int(desired[shown].min()) if shown.any() else n_levels - 1
+        if owned is not None:
+            shown &= owned
         coarsened = 0
         # nearest blocks first
         order = np.argsort(self._distance[shown] if isinstance(camera, Camera) else np.zeros(int(shown.sum())),
@@ -434,6 +440,8 @@ class MultiscalePlan:
             assigned |= ok
         active = shown & self._visible_at_levels(level)
         finest = int(level[active].min()) if active.any() else n_levels - 1
+        if owned is not None:
+            finest = min(finest, piece_finest)
         table, step_world = self.table(finest)
         params = self.params._replace(step=float(step_world))
         page = np.ascontiguousarray(level.astype(np.uint8).reshape(-1))
@@ -461,7 +469,8 @@ class MultiscalePlan:
         span = ray_spans(rays if rays is not None else camera, (width, height), opts, far)
         lo = np.zeros(3)
         hi = dims.astype(np.float64) - 1.0
-        piece_box = np.concatenate([lo, hi, np.zeros(3)])
+        piece_box = np.concatenate([lo, hi, np.zeros(3)]) if piece is None else \
+            np.array(list(piece.owned_lo) + list(piece.owned_hi) + [0, 0, 0], dtype=np.float64)
         prec = opts.precision
         out_dtype = np.float64 if prec == "float64" else np.float32
         rgba = np.zeros((height * width, 4), dtype=out_dtype)
@@ -513,7 +522,34 @@ class MultiscalePlan:
             "cache_bytes": cache.n_slots * cache.pool.itemsize * (CHUNK ** 3),
             "resident_bytes": cache.resident_bytes,
         }
+        if piece is not None:
+            meta["piece"] = {"offset": [0, 0, 0], "owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi),
+                             "whole_dims": list(piece.whole_dims)}
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
+
+    def _check_piece(self, piece):
+        """The blocks (bool, z, y, x) whose cells meet ``piece``'s owned box, after checking
+        that ``piece`` is a :class:`VolumePiece` of this store's level 0 (offset 0: every
+        process addresses the store's chunks itself)."""
+        vol = self.volume
+        if not isinstance(piece, VolumePiece):
+            raise TypeError(f"piece must be a VolumePiece; got {type(piece).__name__}")
+        if tuple(piece.whole_dims) != tuple(vol.dims) or \
+                not np.allclose(np.asarray(piece.whole_origin, float), vol.origin, rtol=0, atol=0):
+            raise ValueError(f"the piece is of a volume of {tuple(piece.whole_dims)} points at "
+                             f"{tuple(piece.whole_origin)}; the store's level 0 has {tuple(vol.dims)} at "
+                             f"{tuple(vol.origin.tolist())}")
+        if tuple(piece.offset) != (0, 0, 0):
+            raise ValueError(f"a piece of a store has offset (0, 0, 0) (it reads the store's own chunks); got "
+                             f"{tuple(piece.offset)}")
+        lo = np.array(piece.owned_lo)[::-1]  # z, y, x
+        hi = np.array(piece.owned_hi)[::-1]
+        if (lo < 0).any() or (hi > np.array(vol.dims)[::-1] - 1).any() or (hi <= lo).any():
+            raise ValueError(f"the owned box {tuple(piece.owned_lo)}..{tuple(piece.owned_hi)} is not a box of "
+                             f"the volume's {tuple(vol.dims)} points")
+        meets = [(BLOCK * np.arange(n) < h) & (BLOCK * (np.arange(n) + 1) > l)
+                 for n, l, h in zip(vol.block_shape, lo, hi)]
+        return meets[0][:, None, None] & meets[1][None, :, None] & meets[2][None, None, :]
 
     def _visible_at_levels(self, level):
         out = np.zeros(level.shape, dtype=bool)

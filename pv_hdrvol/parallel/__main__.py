@@ -3,6 +3,7 @@
     python -m pv_hdrvol.parallel pof head.vti --tf skin.json --tf bone.json -o head.pof.npz
     mpiexec -n 4 python -m pv_hdrvol.parallel render head.vti --pof head.pof.npz --k 0.25,0.9 -o frame.exr
     mpiexec -n 4 python -m pv_hdrvol.parallel render blocks.vtm --tf tf.json -o frame.exr
+    mpiexec -n 4 python -m pv_hdrvol.parallel render big.ome.zarr --screen-error 1 -o frame.exr
 
 Transfer functions are JSON files of ``TransferFunction.to_dict()``. ``render`` without
 ``--pof`` renders every non-empty block with ``--tf`` (or the default transfer
@@ -20,6 +21,12 @@ measured in float64). Without ``--tf`` rank 0 gathers every block's values once 
 choose the default transfer function, as the serial render does. Other ``.vtm``
 contents (leaves that are not ``.vti``, other lattices, holes, overlaps, cell data,
 ``--pof``) are refused: render them serially with ``pv-hdrvol render FILE.vtm``.
+
+A multiresolution store (``.ome.zarr``, :func:`pv_hdrvol.write_multiscale`) is rendered
+out of core with each rank reading only the chunks of its own box of blocks (and the
+plane of points across its faces) at the levels of detail ``--screen-error`` asks for
+(:mod:`pv_hdrvol.outofcore.parallel`; the command-line front end reaches that later
+stage); ``--cache-bytes`` bounds each rank's chunks in memory.
 
 User errors (files that are missing or unreadable, volumes that are not image data,
 POF files that do not fit, outputs that cannot be written) end with one
@@ -53,7 +60,9 @@ RENDER_DESCRIPTION = (
     "the whole; the image equals pv-hdrvol render FILE.vtm's (serial pv_hdrvol.render) to 1e-6 of the brightest "
     "value. Without --tf rank 0 gathers all blocks' values once to choose the default transfer function. Other .vtm "
     "files (non-.vti leaves, several lattices, holes, overlaps, cell data) and --pof with a .vtm are refused: render "
-    "them with pv-hdrvol render FILE.vtm.")
+    "them with pv-hdrvol render FILE.vtm. A multiresolution store (.ome.zarr folder, pv-hdrvol convert): each rank "
+    "reads only the chunks of its own box of blocks at the levels --screen-error asks for, within --cache-bytes; "
+    "the transfer function without --tf is chosen from the coarsest level (as pv_hdrvol.open_multiscale's).")
 
 
 class UserError(Exception):
@@ -92,6 +101,10 @@ def build_parser():
                    help="how blocks are dealt to ranks (default hilbert)")
     r.add_argument("--precision", default="float32", choices=("float32", "float64"),
                    help="compositing precision (default float32)")
+    r.add_argument("--screen-error", type=float, default=1.0, metavar="PIXELS",
+                   help="a store's level of detail: the largest projected voxel, in pixels (default 1)")
+    r.add_argument("--cache-bytes", type=float, default=2 * 2 ** 30, metavar="BYTES",
+                   help="a store's chunks in memory per rank, at most (default 2 GiB)")
     r.add_argument("--serial", action="store_true", help="no MPI (comm=None)")
     r.add_argument("-o", "--output", default="frame.exr", metavar="OUT",
                    help=f"image to write, one of {', '.join(OUTPUTS)} (default frame.exr)")
@@ -115,6 +128,8 @@ def main(argv=None):
         args.subparser.error(str(exc))
     if pathlib.Path(args.volume).suffix.lower() == ".vtm":
         return _render_multiblock(args, comm)
+    if (pathlib.Path(args.volume) / "zarr.json").is_file():
+        return _render_store(args, comm)
     job = error = None
     try:
         job = _prepare(args)
@@ -296,6 +311,63 @@ def _render_multiblock(args, comm):
         print(f"  rank {s['rank']}: {s['threads']} thread{'s' if s['threads'] != 1 else ''} ({s['threads_reason']}), "
               f"{len(s['blocks'])} block{'s' if len(s['blocks']) != 1 else ''} read and rendered, render "
               f"{s['render_seconds']:.3f} s, composite {s['composite_seconds']:.3f} s")
+    return 0
+
+
+def _render_store(args, comm):
+    """``render STORE.ome.zarr``: each rank reads and renders its own box of blocks out of
+    core; rank 0 composites (:mod:`pv_hdrvol.outofcore.parallel`)."""
+    import time
+
+    import pv_hdrvol as hv
+
+    from .._validate import as_size
+    from ..outofcore.parallel import render_multiscale_pieces
+
+    started = time.perf_counter()
+    volume = tf = size = output = error = None
+    try:
+        if args.pof or args.k is not None:
+            raise UserError("--pof and --k cull the blocks of an in-memory volume; a store reads only what it needs "
+                            "already: leave them out")
+        if args.scalars:
+            raise UserError("a store holds one array: leave out --scalars")
+        try:
+            size = as_size(tuple(args.size) if len(args.size) == 2 else args.size[0] if len(args.size) == 1 else None)
+        except (TypeError, ValueError):
+            raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
+        if not args.screen_error > 0:
+            raise UserError(f"--screen-error must be > 0 pixels; got {args.screen_error}")
+        output = _output(args.output, OUTPUTS)
+        try:
+            volume = hv.open_multiscale(args.volume, cache_bytes=args.cache_bytes)
+            tf = _read_tf("--tf", args.tf) if args.tf else volume.default_transfer_function()
+        except (ValueError, OSError, ImportError) as exc:
+            raise UserError(f"{args.volume!r}: {exc}") from None
+    except UserError as exc:
+        error = str(exc)
+    _agree(args, comm, error)
+    camera = hv.Camera.fit(volume.bounds, args.view)
+    try:
+        image = render_multiscale_pieces(volume, tf, camera, size, comm=comm, screen_error=args.screen_error,
+                                         precision=args.precision)
+    except (ValueError, TypeError, OSError, RuntimeError) as exc:
+        _fail(args, comm, str(exc))
+    finally:
+        volume.close()
+    if image is None:
+        return 0
+    image.metadata["source_file"] = str(args.volume)
+    seconds = time.perf_counter() - started
+    try:
+        image.save(output)
+    except OSError as exc:
+        _fail(args, comm, f"cannot write {str(output)!r}: {exc}")
+    read = image.metadata["bytes_read_per_rank"]
+    print(f"{output}: {size[0]}x{size[1]}, perspective {camera.view_angle:g} degrees from {args.view}, {comm.size} "
+          f"ranks, levels {image.metadata['levels']}, {seconds:.2f} s")
+    for rank, b in enumerate(read):
+        print(f"  rank {rank}: {b / 2 ** 20:.1f} MiB read")
     return 0
 
 

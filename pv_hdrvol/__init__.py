@@ -53,12 +53,12 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
     """
     tf_keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     if isinstance(data, MultiscaleVolume):
-        for name, value in (("scalars", scalars), ("block_mask", block_mask), ("cull", cull), ("lens", lens),
-                            ("labels", labels), ("label_styles", label_styles)):
+        for name, value in (("scalars", scalars), ("block_mask", block_mask), ("cull", cull), ("labels", labels),
+                            ("label_styles", label_styles)):
             if value is not None:
                 raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
         frame = {k: option_kwargs.pop(k) for k in ("screen_error", "wait") if k in option_kwargs}
-        return data.render(tf, camera, size, options=options, progress_bar=progress_bar, progress=progress,
+        return data.render(tf, camera, size, options=options, lens=lens, progress_bar=progress_bar, progress=progress,
                            **frame, **tf_keywords, **option_kwargs)
     from .data.blocks import is_composite
     from .data.tets import is_unstructured

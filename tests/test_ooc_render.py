@@ -278,3 +278,31 @@ def test_bad_arguments_are_refused_with_clear_messages(case, tmp_path):
             ooc.render("viridis", "iso", SIZE)
     with pytest.raises(FileNotFoundError, match=r"no multiresolution store"):
         open_multiscale(tmp_path / "nothing.ome.zarr")
+
+
+def test_a_magnifier_asks_for_finer_blocks_inside_it_and_renders_as_in_core(case):
+    """Given rays (a lens's): each block's level comes from the distance between
+    neighbouring rays along each ray's stretch in it. Plain camera rays ask for the levels
+    the camera path computes; a magnifier (factor 4) makes blocks under it finer; at
+    level 0 the lens render is the in-core one bit for bit."""
+    values, volume, tf, path = case
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    size = (64, 64)
+    lens = hv.Magnifier(center=(32, 32), radius=16, factor=4, antialias=False)
+    with open_multiscale(path, cache_bytes=2 ** 28) as ooc:
+        plan = MultiscalePlan(ooc, tf)
+        plan.screen_error = 1.0
+        by_camera = plan.desired_levels(camera, size)
+        by_rays = plan.desired_levels(camera.rays(size), size)
+        shown = by_camera >= 0
+        assert (by_rays[shown] >= 0).all()
+        # a footprint measured between neighbouring rays, not at a block's nearest corner:
+        # never finer than the camera's by more than a level, and the same on most blocks
+        assert (np.abs(by_rays[shown] - by_camera[shown]) <= 1).all()
+        assert (by_rays[shown] == by_camera[shown]).mean() > 0.5
+        magnified = plan.desired_levels(lens.rays(camera, size), size)
+        assert (magnified[shown] <= by_rays[shown]).all() and (magnified[shown] < by_rays[shown]).any()
+        image = ooc.render(tf, camera, size, screen_error=1e-9, lens=lens)
+    reference = hv.render(volume, tf, camera, size, lens=lens, progress_bar=False)
+    assert np.array_equal(image.rgba, reference.rgba)
+    assert image.metadata["lens"] == repr(lens)

@@ -42,6 +42,7 @@ from ..data.transfer import SCALE_CODES, TF_KEYWORDS, TransferFunction, auto_tra
 from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
+from . import _kernels as KO
 from ..raycast.grid import (
     VolumePiece, _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, leap_radius, pixel_rows,
     run_in_chunks,
@@ -158,11 +159,11 @@ class MultiscaleVolume:
             raise ValueError("labels= is not supported for out-of-core volumes (MultiscaleVolume) yet")
         return MultiscalePlan(self, tf, options, **kwargs)
 
-    def render(self, tf=None, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, progress_bar=None,
-               progress=None, options=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
+    def render(self, tf=None, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, lens=None,
+               progress_bar=None, progress=None, options=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
         """Render (``MultiscalePlan(self, tf, ...).execute(camera, size, ...)``)."""
         plan = MultiscalePlan(self, tf, options, cmap=cmap, clim=clim, opacity=opacity, scale=scale, **option_kwargs)
-        return plan.execute(camera, size, screen_error=screen_error, wait=wait, progress_bar=progress_bar,
+        return plan.execute(camera, size, screen_error=screen_error, wait=wait, lens=lens, progress_bar=progress_bar,
                             progress=progress)
 
     def __repr__(self):
@@ -302,11 +303,12 @@ class MultiscalePlan:
 
     def desired_levels(self, camera, size):
         """Per block (z, y, x): the level screen-space error asks for, or -1 outside the
-        view. ``camera``: a Camera (Rays: level 0 everywhere)."""
+        view. ``camera``: a Camera (the distance of each block's nearest point, the
+        frustum) or Rays (a lens's: :meth:`_ray_levels`)."""
         vol = self.volume
         shape = vol.block_shape
-        if not isinstance(camera, Camera):
-            return np.zeros(shape, dtype=np.int64)
+        if isinstance(camera, Rays):
+            return self._ray_levels(camera)
         w, h = as_size(size)
         dims = np.array(vol.dims, dtype=np.float64)  # x, y, z
         idx = [np.arange(n, dtype=np.float64) for n in shape[::-1]]  # x, y, z
@@ -356,6 +358,34 @@ class MultiscalePlan:
 
     with_clip = with_clip
 
+    def _ray_levels(self, rays):
+        """:meth:`desired_levels` of given rays (a lens's, or any): per block, the finest
+        level any ray crossing it asks for, from the distance to the rays of the
+        neighbouring pixels over the ray's stretch in the block (``_kernels.ray_block_levels``:
+        a magnifier's dense rays ask for finer blocks). Blocks no ray crosses are -1,
+        except those next to one (rounding at a block's face): the coarsest level."""
+        vol = self.volume
+        n_levels = vol.n_levels
+        out = np.full(vol.block_shape, n_levels, dtype=np.int64)
+        KO.ray_block_levels(np.ascontiguousarray(rays.origins, dtype=np.float64),
+                            np.ascontiguousarray(rays.directions, dtype=np.float64), rays.width, rays.height,
+                            vol.origin, 1.0 / vol.spacing, np.array(vol.dims, dtype=np.int64), float(BLOCK),
+                            np.array(vol.block_shape, dtype=np.int64), float(vol.spacing.max()),
+                            float(self.screen_error), n_levels, out)
+        hit = out < n_levels
+        near = hit.copy()
+        for axis in range(3):  # a 26-neighbourhood dilation: three 1-D ones
+            grown = near.copy()
+            lo = [slice(None)] * 3
+            hi = [slice(None)] * 3
+            lo[axis], hi[axis] = slice(1, None), slice(None, -1)
+            grown[tuple(lo)] |= near[tuple(hi)]
+            grown[tuple(hi)] |= near[tuple(lo)]
+            near = grown
+        level = np.where(hit, out, np.where(near, n_levels - 1, -1))
+        self._distance = np.zeros(vol.block_shape)  # no order among given rays' blocks
+        return level
+
     def execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
                 progress_bar=None, chunk_seconds=None, window=None, far=None, lens=None, block_mask=None, cull=None,
                 piece=None):
@@ -374,13 +404,23 @@ class MultiscalePlan:
         ``coarsened``.
         """
         vol, opts = self.volume, self.options
-        for name, value in (("lens", lens), ("block_mask", block_mask), ("cull", cull)):
+        for name, value in (("block_mask", block_mask), ("cull", cull)):
             if value is not None:
                 raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
         owned = None if piece is None else self._check_piece(piece)
         self.screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
         _check_progress_bar(progress_bar)
         camera = as_camera(camera, vol.bounds)
+        lens_camera = None
+        if lens is not None:
+            if not isinstance(camera, Camera):
+                raise TypeError(f"a lens needs a Camera; got {type(camera).__name__}")
+            if not callable(getattr(lens, "rays", None)):
+                raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
+            rays = lens.rays(camera, size)
+            if not isinstance(rays, Rays):
+                raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
+            lens_camera, camera = camera, rays
         if isinstance(camera, Rays):
             rays, width, height = camera, camera.width, camera.height
         else:
@@ -388,6 +428,8 @@ class MultiscalePlan:
             width, height = as_size(size)
         cache = vol.cache(self.dtype)
         t_start = time.perf_counter()
+        # (a ray's level of detail, Rays.lod, is not read: the blocks' levels come from
+        # the rays' footprints, which a minifying lens's sparse rays make coarser)
         desired = self.desired_levels(camera, (width, height))
         far = _check_far(far, width, height)
         if window is not None:
@@ -504,8 +546,9 @@ class MultiscalePlan:
             "termination": opts.termination,
             "depth_threshold": opts.depth_threshold,
             "transfer_function": repr(self.tf),
-            "camera": repr(camera) if isinstance(camera, Camera) else "rays",
-            "settings": settings_metadata(self.tf, camera, (width, height), opts, window=window),
+            "camera": repr(camera) if isinstance(camera, Camera) else repr(lens_camera) if lens is not None else "rays",
+            "settings": settings_metadata(self.tf, camera if lens is None else lens_camera, (width, height), opts,
+                                          window=window, lens=lens),
             "render_seconds": elapsed,
             "samples": int(samples.sum()),
             "screen_error": self.screen_error,
@@ -522,6 +565,8 @@ class MultiscalePlan:
             "cache_bytes": cache.n_slots * cache.pool.itemsize * (CHUNK ** 3),
             "resident_bytes": cache.resident_bytes,
         }
+        if lens is not None:
+            meta["lens"] = repr(lens)
         if piece is not None:
             meta["piece"] = {"offset": [0, 0, 0], "owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi),
                              "whole_dims": list(piece.whole_dims)}

@@ -84,7 +84,7 @@ def test_given_rays_and_a_clip_plane_render_at_level_0_as_in_core(case):
     plane = ((70.0, 80.0, 50.0), (1.0, 0.3, -0.2))
     reference = hv.render(volume, tf, rays, clip_planes=[plane], progress_bar=False)
     with open_multiscale(path, cache_bytes=2 ** 28) as ooc:
-        image = ooc.render(tf, rays, screen_error=4.0, clip_planes=[plane])
+        image = ooc.render(tf, rays, screen_error=1e-9, clip_planes=[plane])
     assert image.metadata["camera"] == "rays"
     assert np.array_equal(image.rgba, reference.rgba)
 

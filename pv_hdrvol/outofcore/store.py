@@ -28,6 +28,7 @@ The format (``FORMAT`` = 1), an OME-Zarr 0.5 image (NGFF multiscales on zarr v3)
 """
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import errno
 import math
@@ -301,7 +302,7 @@ def _level_dtype(dtype, level, downsample):
 
 
 def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, origin=None, name=None, scalars=None,
-                     downsample="mean", chunk=CHUNK, overwrite=False, progress_bar=None):
+                     downsample="mean", chunk=CHUNK, overwrite=False, progress_bar=None, threads=None):
     """Write a multiresolution OME-Zarr store (see the module's notes for the format).
 
     Parameters
@@ -334,6 +335,10 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
         replaced: any other file or folder there is refused.
     progress_bar : bool or None
         A tqdm bar over the shards written (None: when stderr is a terminal).
+    threads : int or None
+        Shards made and compressed at once (default: the machine's cores). A function
+        source is called from that many threads at a time: pass ``threads=1`` if it is
+        not safe to call concurrently.
 
     Memory: one shard of the level being written (at most ``SHARD_BYTES``), zarr's
     encoding of it, and the float64 work on one chunk of the level below, whatever the
@@ -393,6 +398,8 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     group.attrs.update({"pv_hdrvol": meta})
     reduce = downsample_mean if downsample == "mean" else downsample_mode
     arrays, ranges = [], []
+    workers = (os.cpu_count() or 1) if threads is None else as_int("threads", threads, low=1)
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pv_hdrvol-writer")
     try:
         for level, (shp, edge) in enumerate(zip(shapes, edges)):
             dt = _level_dtype(src.dtype, level, downsample)
@@ -404,7 +411,9 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                 fill_value=np.nan if np.issubdtype(dt, np.floating) else 0,
                 dimension_names=("z", "y", "x"), config={"write_empty_chunks": True})
             rng = np.zeros(tuple(-(-n // chunk) for n in shp) + (5,))
-            for box in _boxes(shp, edge):
+
+            def one(box, level=level, arr=arr, dt=dt):
+                errors = []
                 if level == 0:
                     block = src.read(box)
                 else:
@@ -416,14 +425,30 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                         fine = np.asarray(arrays[-1][_box_slices(fbox)])
                         coarse = reduce(fine).astype(dt)
                         block[_box_slices(sub)] = coarse
-                        ranges[-1][tuple(a // chunk for a, _ in fbox) + (2,)] = _parent_error(fine, coarse)
+                        errors.append((tuple(a // chunk for a, _ in fbox), _parent_error(fine, coarse)))
                 arr[_box_slices(box)] = block
-                r = _chunk_ranges(block, chunk)
-                c = [a // chunk for a, _ in box]
-                rng[c[0]:c[0] + r.shape[0], c[1]:c[1] + r.shape[1], c[2]:c[2] + r.shape[2], :2] = r
-                del block
-                if bar is not None:
-                    bar.update(1)
+                return box, _chunk_ranges(block, chunk), errors
+
+            # shards on ``threads`` threads (compression and numpy release the GIL), at most
+            # two per thread in flight: memory stays a few shards whatever the volume
+            boxes = iter(_boxes(shp, edge))
+            pending = set()
+            while True:
+                for box in boxes:
+                    pending.add(pool.submit(one, box))
+                    if len(pending) >= 2 * workers:
+                        break
+                if not pending:
+                    break
+                done, pending = concurrent.futures.wait(pending, return_when=concurrent.futures.FIRST_COMPLETED)
+                for future in done:
+                    box, r, errors = future.result()
+                    c = [a // chunk for a, _ in box]
+                    rng[c[0]:c[0] + r.shape[0], c[1]:c[1] + r.shape[1], c[2]:c[2] + r.shape[2], :2] = r
+                    for index, err in errors:
+                        ranges[-1][index + (2,)] = err
+                    if bar is not None:
+                        bar.update(1)
             arrays.append(arr)
             ranges.append(rng)
         # the ranges over level-0 points below each chunk, from level 0 upwards
@@ -440,6 +465,7 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
         group.attrs.update({"ome": _ome_metadata(src, len(shapes), downsample),
                             "pv_hdrvol": dict(meta, complete=True)})
     finally:
+        pool.shutdown(wait=True, cancel_futures=True)
         if bar is not None:
             bar.close()
     return MultiscaleStore(path)

@@ -1,6 +1,13 @@
 """Chunks of a store in memory: a fixed pool of slots, filled by loader threads, least
 recently used chunks evicted first, never more than ``cache_bytes``.
 
+A slot holds a chunk's points and an apron around them: points ``64 c - 1`` to
+``64 c + 65`` of its level on each axis (``SLOT_EDGE`` = 67), so that every sample of a
+block reads one slot (``raycast._kernels.stencil``). The loader fills the chunk's own
+points; :meth:`ChunkCache.fill_aprons` copies the apron from the neighbouring chunks of
+the same level once they are resident too (a chunk's values never change, so an apron
+once filled stays valid while the slot holds that chunk).
+
 The pool is one array of ``cache_bytes // chunk_bytes`` slots, allocated once (the
 operating system commits its pages as they are first written, so a large budget costs
 nothing until it is used). A chunk is *requested* (a slot taken, a read queued on the
@@ -16,10 +23,24 @@ import threading
 
 import numpy as np
 
-from ..raycast._kernels import PAGE_SHIFT
+from ..raycast._kernels import PAGE_SHIFT, SLOT_EDGE
 
 CHUNK = 1 << PAGE_SHIFT
-SLOT_VALUES = CHUNK ** 3
+SLOT_VALUES = SLOT_EDGE ** 3
+#: The 26 neighbours of a chunk (z, y, x offsets).
+_NEIGHBOURS = [(dz, dy, dx) for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if (dz, dy, dx) != (0, 0, 0)]
+
+
+def _apron_span(d):
+    """Along one axis, for a neighbour at offset ``d``: the slot's points it fills and
+    where they are in the neighbour's own slot (both as slices of slot indices). Along an
+    axis where it is not offset, the chunk's own points only: each apron point comes
+    from the one neighbour that holds it, never from another's apron."""
+    if d < 0:
+        return slice(0, 1), slice(CHUNK, CHUNK + 1)  # point 64 c - 1: the neighbour's last
+    if d > 0:
+        return slice(CHUNK + 1, SLOT_EDGE), slice(1, 3)  # points 64 c + 64, + 65: its first two
+    return slice(1, CHUNK + 1), slice(1, CHUNK + 1)
 
 
 class ChunkCache:
@@ -59,6 +80,7 @@ class ChunkCache:
         self._free = list(range(self.n_slots - 1, -1, -1))
         self._lock = threading.Lock()
         self._errors = []
+        self._apron = {}  # slot -> neighbour offsets whose apron part is filled
         self.bytes_read = [0] * store.n_levels
         self.chunks_read = [0] * store.n_levels
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, int(threads)),
@@ -133,6 +155,7 @@ class ChunkCache:
                 del self._lru[key]
                 slot = self._slot_of.pop(key)
                 self.slots[self.index(key)] = -1
+                self._apron.pop(slot, None)
                 return slot
         return None
 
@@ -140,9 +163,8 @@ class ChunkCache:
         level, cz, cy, cx = key
         try:
             block = self.store.read_chunk(level, (cz, cy, cx))
-            start = slot * SLOT_VALUES
-            view = self.pool[start:start + SLOT_VALUES].reshape(CHUNK, CHUNK, CHUNK)
-            view[:block.shape[0], :block.shape[1], :block.shape[2]] = block
+            view = self.slot_view(slot)
+            view[1:1 + block.shape[0], 1:1 + block.shape[1], 1:1 + block.shape[2]] = block
         except BaseException as e:  # noqa: BLE001 - handed to the render thread
             with self._lock:
                 self._errors.append(e)
@@ -154,6 +176,39 @@ class ChunkCache:
             self._loading.pop(key, None)
             self._lru[key] = None
             self.slots[self.index(key)] = slot  # last: the render thread may use it now
+
+    def slot_view(self, slot):
+        """Slot ``slot`` of the pool as a (67, 67, 67) array (z, y, x)."""
+        start = slot * SLOT_VALUES
+        return self.pool[start:start + SLOT_VALUES].reshape(SLOT_EDGE, SLOT_EDGE, SLOT_EDGE)
+
+    def fill_aprons(self, keys):
+        """Copy into the slots of the ready ``keys`` the apron points of each neighbour
+        chunk (same level) that is ready too and not yet copied. Render thread only."""
+        for key in keys:
+            level, cz, cy, cx = key
+            slot = int(self.slots[self.index(key)])
+            if slot < 0:
+                continue
+            done = self._apron.setdefault(slot, set())
+            if len(done) == len(_NEIGHBOURS):
+                continue
+            chunks = self.store.levels[level].chunks
+            view = None
+            for d in _NEIGHBOURS:
+                if d in done:
+                    continue
+                n = (cz + d[0], cy + d[1], cx + d[2])
+                if not all(0 <= i < m for i, m in zip(n, chunks)):
+                    done.add(d)  # past the volume's edge: the stencil clamps there
+                    continue
+                other = int(self.slots[self.index((level,) + n)])
+                if other < 0:
+                    continue
+                view = self.slot_view(slot) if view is None else view
+                spans = [_apron_span(v) for v in d]
+                view[tuple(s[0] for s in spans)] = self.slot_view(other)[tuple(s[1] for s in spans)]
+                done.add(d)
 
     def wait(self, keys=None, timeout=None):
         """Wait until ``keys`` (default: every request) are ready; raise a read error."""
@@ -167,4 +222,4 @@ class ChunkCache:
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
-__all__ = ["CHUNK", "ChunkCache", "SLOT_VALUES"]
+__all__ = ["CHUNK", "ChunkCache", "SLOT_EDGE", "SLOT_VALUES"]

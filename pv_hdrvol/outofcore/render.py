@@ -50,7 +50,7 @@ from ..raycast.grid import (
 from ..rays.camera import Camera, Rays, as_camera, check_window
 from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
-from .cache import CHUNK, ChunkCache
+from .cache import CHUNK, SLOT_EDGE, SLOT_VALUES, ChunkCache
 from .store import MultiscaleStore
 
 #: Cells a side of a block (one chunk of level 0).
@@ -486,16 +486,25 @@ class MultiscalePlan:
             finest = min(finest, piece_finest)
         table, step_world = self.table(finest)
         params = self.params._replace(step=float(step_world))
-        page = np.ascontiguousarray(level.astype(np.uint8).reshape(-1))
-        slots = cache.slots.copy()  # this frame's view: loader threads fill other entries meanwhile
-        levi = np.array([[int(cache.bases[L]), lv.shape[2], lv.shape[1], lv.shape[0], lv.chunks[2], lv.chunks[1]]
-                         for L, lv in enumerate(vol.store.levels)], dtype=np.int64)
-        levf = np.array([[(2.0 ** L - 1.0) / 2.0, 2.0 ** -L] for L in range(n_levels)])
         for L in np.unique(level[active]):  # never sample a chunk that is not resident
             chunks = self._keys(int(L), np.nonzero(active & (level == L)))
-            missing = [k for k in chunks if slots[cache.index(k)] < 0]
+            missing = [k for k in chunks if not cache.is_ready(k)]
             if missing:
                 raise RuntimeError(f"internal error: blocks at level {L} read chunks not in memory: {missing[:4]}")
+        # each active block's slot: the chunk of its level that holds it, its apron filled
+        kz, ky, kx = np.nonzero(active)
+        lv = level[active]
+        central = np.stack([lv, kz >> lv, ky >> lv, kx >> lv], axis=1)
+        cache.fill_aprons({tuple(int(v) for v in row) for row in np.unique(central, axis=0)})
+        slot = np.array([cache.slots[cache.index(tuple(int(v) for v in row))] for row in central], dtype=np.int64)
+        e = SLOT_EDGE
+        first = CHUNK * central[:, 1:] - 1  # the slot's first point (z, y, x) in its level
+        base = np.zeros(vol.block_shape, dtype=np.int64)
+        base[active] = slot * SLOT_VALUES - ((first[:, 0] * e + first[:, 1]) * e + first[:, 2])
+        page_level = np.ascontiguousarray(level.astype(np.uint8).reshape(-1))
+        page_base = np.ascontiguousarray(base.reshape(-1))
+        dims_of = np.array([lv_.shape[::-1] for lv_ in vol.store.levels], dtype=np.int64)
+        place = np.array([[(2.0 ** L - 1.0) / 2.0, 2.0 ** -L] for L in range(n_levels)])
         leap = leap_radius(active).reshape(-1)
         bz, by, bx = vol.block_shape
         grids = np.array([bz, by, bx, 1, 1, 1], dtype=np.int64)
@@ -520,7 +529,7 @@ class MultiscalePlan:
         samples = np.zeros(height * width, dtype=np.int64)
         marker = _MARKERS[prec]
         lanes = _lanes()
-        offs = (page, slots, levi, levf)
+        offs = (page_level, page_base, dims_of, place)
         flat = min(vol.dims) < 2
 
         def cast(tile_rows):
@@ -562,7 +571,7 @@ class MultiscalePlan:
             "bytes_read": int(sum(cache.bytes_read)),
             "bytes_read_per_level": [int(b) for b in cache.bytes_read],
             "chunks_read_per_level": [int(c) for c in cache.chunks_read],
-            "cache_bytes": cache.n_slots * cache.pool.itemsize * (CHUNK ** 3),
+            "cache_bytes": cache.pool.nbytes,
             "resident_bytes": cache.resident_bytes,
         }
         if lens is not None:

@@ -975,6 +975,8 @@ def _lit_impl(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_rang
 # -- the stencil of the plain loop: bricks in memory, or the pages of an out-of-core volume ------
 #: Points a side of a page (a chunk of an out-of-core store): ``2**PAGE_SHIFT``.
 PAGE_SHIFT = 6
+#: Points a side of a page's slot in the pool: the chunk, one point before, two after.
+SLOT_EDGE = (1 << PAGE_SHIFT) + 3
 
 
 def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
@@ -984,22 +986,19 @@ def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, z
 
     ``offs`` picks the storage at compile time. An array: the volume in memory,
     ``bricks`` bricked by ``make_bricks``, point ``(i, j, k)`` at ``offs[i] +
-    offs[oy_off + j] + offs[oz_off + k]`` (``brick_offsets``). A tuple ``(page, slots,
-    levi, levf)``: an out-of-core volume whose resident chunks sit in the pool
-    ``bricks``, ``2**(3 PAGE_SHIFT)`` values each (z, y, x, rows of ``2**PAGE_SHIFT``):
-
-    - ``page`` (uint8, one per empty-space block, which must be ``2**PAGE_SHIFT``
-      cells): the level ``L`` the block samples;
-    - ``levf[L] = ((2**L - 1) / 2, 2**-L)``: level-``L`` point ``j`` lies at voxel
-      coordinate ``2**L j + (2**L - 1) / 2``;
-    - ``levi[L] = (base, nx, ny, nz, cx, cy)``: where level ``L``'s chunk table starts in
-      ``slots``, its points along x, y, z, and its chunks along x and y; chunk
-      ``(c, b, a)`` (z, y, x) is in pool slot ``slots[base + (c cy + b) cx + a]`` (the
-      caller makes sure every chunk a block's samples read is resident).
+    offs[oy_off + j] + offs[oz_off + k]`` (``brick_offsets``). A tuple ``(level, base,
+    dims, place)``: an out-of-core volume whose resident chunks sit in the pool
+    ``bricks``, each in a slot of ``SLOT_EDGE**3`` values (z, y, x) holding its level's
+    points ``2**PAGE_SHIFT c - 1`` to ``2**PAGE_SHIFT (c + 1) + 1`` on each axis (the
+    chunk and an apron from its neighbours: ``outofcore/cache.py``), so that every sample
+    of a block reads one slot. Per empty-space block (which must be ``2**PAGE_SHIFT``
+    cells): ``level[b]`` (uint8), the level ``L`` it samples, and ``base[b]``, where
+    level-``L`` point ``(i, j, k)`` of its slot sits: ``base + (k SLOT_EDGE + j) SLOT_EDGE
+    + i``. Per level: ``dims[L]``, its points (x, y, z), and ``place[L] = ((2**L - 1) / 2,
+    2**-L)``: its point ``j`` lies at voxel coordinate ``2**L j + (2**L - 1) / 2``.
 
     At level 0 the position, the eight values and the arithmetic are those of the bricks
-    in memory, so an out-of-core render at level 0 is the in-core one bit for bit. A
-    stencil across chunks reads each corner from its own chunk.
+    in memory, so an out-of-core render at level 0 is the in-core one bit for bit.
     """
     raise NotImplementedError("compiled only")
 
@@ -1035,16 +1034,15 @@ def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi,
         return in_memory
 
     def paged(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
-        page, slots, levi, levf = offs
-        level = np.int64(page[np.uint64((kb * by + jb) * bx + ib)])
-        h = levf[level, 0]
-        s = levf[level, 1]
-        base = levi[level, 0]
-        n_x = levi[level, 1]
-        n_y = levi[level, 2]
-        n_z = levi[level, 3]
-        cx = levi[level, 4]
-        cy = levi[level, 5]
+        level_of, base_of, dims, place = offs
+        b = np.uint64((kb * by + jb) * bx + ib)
+        level = np.int64(level_of[b])
+        base = base_of[b]
+        h = place[level, 0]
+        s = place[level, 1]
+        n_x = dims[level, 0]
+        n_y = dims[level, 1]
+        n_z = dims[level, 2]
         u = min(max((x - h) * s, 0.0), n_x - 1.0)
         v = min(max((y - h) * s, 0.0), n_y - 1.0)
         w = min(max((z - h) * s, 0.0), n_z - 1.0)
@@ -1054,35 +1052,19 @@ def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi,
         fx = u - u0
         fy = v - v0
         fz = w - w0
-        u1 = min(u0 + 1, n_x - 1)  # the far edge: fraction 0, the edge value again
-        v1 = min(v0 + 1, n_y - 1)
-        w1 = min(w0 + 1, n_z - 1)
-        m = (1 << PAGE_SHIFT) - 1
-        sh = PAGE_SHIFT
-        per = np.int64(1) << (3 * PAGE_SHIFT)
-        # each corner from its own chunk's slot (the same slot, but where the stencil
-        # crosses a chunk's side); no branches: IR inlining warns of variables assigned
-        # in two of them
-        r00 = base + ((w0 >> sh) * cy + (v0 >> sh)) * cx
-        r10 = base + ((w0 >> sh) * cy + (v1 >> sh)) * cx
-        r01 = base + ((w1 >> sh) * cy + (v0 >> sh)) * cx
-        r11 = base + ((w1 >> sh) * cy + (v1 >> sh)) * cx
-        l00 = (((w0 & m) << sh) + (v0 & m)) << sh
-        l10 = (((w0 & m) << sh) + (v1 & m)) << sh
-        l01 = (((w1 & m) << sh) + (v0 & m)) << sh
-        l11 = (((w1 & m) << sh) + (v1 & m)) << sh
-        a0 = u0 >> sh
-        a1 = u1 >> sh
-        b0 = u0 & m
-        b1 = u1 & m
-        v000 = np.float64(bricks[np.uint64(slots[np.uint64(r00 + a0)] * per + l00 + b0)])
-        v100 = np.float64(bricks[np.uint64(slots[np.uint64(r00 + a1)] * per + l00 + b1)])
-        v010 = np.float64(bricks[np.uint64(slots[np.uint64(r10 + a0)] * per + l10 + b0)])
-        v110 = np.float64(bricks[np.uint64(slots[np.uint64(r10 + a1)] * per + l10 + b1)])
-        v001 = np.float64(bricks[np.uint64(slots[np.uint64(r01 + a0)] * per + l01 + b0)])
-        v101 = np.float64(bricks[np.uint64(slots[np.uint64(r01 + a1)] * per + l01 + b1)])
-        v011 = np.float64(bricks[np.uint64(slots[np.uint64(r11 + a0)] * per + l11 + b0)])
-        v111 = np.float64(bricks[np.uint64(slots[np.uint64(r11 + a1)] * per + l11 + b1)])
+        e = SLOT_EDGE
+        du = min(u0 + 1, n_x - 1) - u0  # the far edge: fraction 0, the edge value again
+        dv = (min(v0 + 1, n_y - 1) - v0) * e
+        dw = (min(w0 + 1, n_z - 1) - w0) * (e * e)
+        q = base + (w0 * e + v0) * e + u0
+        v000 = np.float64(bricks[np.uint64(q)])
+        v100 = np.float64(bricks[np.uint64(q + du)])
+        v010 = np.float64(bricks[np.uint64(q + dv)])
+        v110 = np.float64(bricks[np.uint64(q + dv + du)])
+        v001 = np.float64(bricks[np.uint64(q + dw)])
+        v101 = np.float64(bricks[np.uint64(q + dw + du)])
+        v011 = np.float64(bricks[np.uint64(q + dw + dv)])
+        v111 = np.float64(bricks[np.uint64(q + dw + dv + du)])
         c00 = v000 + fx * (v100 - v000)
         c10 = v010 + fx * (v110 - v010)
         c01 = v001 + fx * (v101 - v001)

@@ -1,0 +1,150 @@
+"""Out-of-core rendering of a store larger than memory: issue 34's goals, measured.
+
+A procedural float32 volume of ``--n`` points a side (default 2048: 32 GiB) is written
+straight into a store (never held whole), then rendered out of core in fresh processes
+(their peak memory is theirs alone):
+
+1. **build**: seconds and the writer's peak resident memory (goal: <= 15 min, <= 2 GiB);
+2. **first image**: a 512^2 frame right after ``open_multiscale`` (kernels compiled
+   before, on a small store), ``wait=False``: what is resident then, the coarsest level
+   (goal: <= 1 s);
+3. **converged**: the full view at 1024^2, 1 pixel of screen error, ``wait=True``, with a
+   4 GiB cache: bytes read against level 0's size (goal: <= 16 %), seconds, and the
+   process's peak memory (goal: <= 6 GiB); then the same with a 1 GiB cache (it must
+   still finish: blocks coarsened to fit, ``coarsened``);
+4. **rest**: the camera turned by 20 degrees and left at rest: frames with ``wait=False``
+   (the viewer's way) until one shows finer blocks than the first; the time from rest
+   to it (goal: <= 1 s).
+
+    python3 benchmarks/bench_ooc_render.py --n 512      # a few minutes
+    python3 benchmarks/bench_ooc_render.py              # 2048^3: the goals (about 30 min)
+
+The store is kept (``--store``, default in the system's temporary folder) and reused
+when it is complete and of the same size.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import os
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import pv_hdrvol as hv  # noqa: E402
+from bench_ooc_store import procedural  # noqa: E402
+
+GiB = 2 ** 30
+
+
+def _peak_mib():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def _tf():
+    """Tubes (300) and sheets (100) over a smooth field (1.5 .. 1000): opaque tubes, faint
+    sheets, the field's core glowing."""
+    return hv.TransferFunction([0.0, 50.0, 100.0, 200.0, 300.0, 1000.0],
+                               [[0, 0, 0], [0.1, 0.1, 0.3], [0.3, 0.6, 1.0], [0.5, 0.5, 0.5], [1.0, 0.6, 0.2],
+                                [4.0, 3.0, 2.0]],
+                               [0.0, 0.0, 0.002, 0.001, 0.05, 0.02])
+
+
+def _build(n, path, out):
+    t = time.perf_counter()
+    hv.write_multiscale(procedural(n), path, shape=(n, n, n), dtype="float32", overwrite=True, progress_bar=False)
+    out.put({"seconds": time.perf_counter() - t, "peak_mib": _peak_mib()})
+
+
+def _warm_up():
+    """Compile the kernels on a small store (the numba cache keeps them)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        hv.write_multiscale(procedural(96), Path(tmp) / "w.ome.zarr", shape=(96, 96, 96), dtype="float32",
+                            progress_bar=False)
+        with hv.open_multiscale(Path(tmp) / "w.ome.zarr") as v:
+            v.render(_tf(), "iso", (32, 32), screen_error=1.0)
+
+
+def _render(path, cache, out):
+    _warm_up()
+    result = {"peak_before_mib": _peak_mib()}
+    tf = _tf()
+    t = time.perf_counter()
+    volume = hv.open_multiscale(path, cache_bytes=cache)
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    first = volume.render(tf, camera, (512, 512), screen_error=1.0, wait=False)
+    result["first_seconds"] = time.perf_counter() - t
+    result["first_levels"] = first.metadata["levels"]
+    t = time.perf_counter()
+    image = volume.render(tf, camera, (1024, 1024), screen_error=1.0)
+    result["converged_seconds"] = time.perf_counter() - t
+    level0 = int(np.prod(volume.store.levels[0].shape)) * volume.store.dtype.itemsize
+    for key in ("levels", "desired_levels", "coarsened", "converged", "bytes_read", "bytes_read_per_level",
+                "chunks_read_per_level", "samples", "render_seconds"):
+        result[key] = image.metadata[key]
+    result["bytes_read_share"] = image.metadata["bytes_read"] / level0
+    result["peak_mib"] = _peak_mib()
+    # rest: turn the camera, then frames until a finer one shows
+    turned = camera.azimuth(20.0) if hasattr(camera, "azimuth") else hv.Camera.fit(volume.bounds, "xz")
+    coarse = volume.render(tf, turned, (1024, 1024), screen_error=1.0, wait=False)
+    rest = time.perf_counter()
+    finer = None
+    while time.perf_counter() - rest < 120:
+        frame = volume.render(tf, turned, (1024, 1024), screen_error=1.0, wait=False)
+        if _finer(frame.metadata["levels"], coarse.metadata["levels"]) or frame.metadata["converged"]:
+            finer = time.perf_counter() - rest
+            result["rest_frame_levels"] = frame.metadata["levels"]
+            break
+        time.sleep(0.01)
+    result["rest_coarse_levels"] = coarse.metadata["levels"]
+    result["rest_seconds"] = finer
+    volume.close()
+    out.put(result)
+
+
+def _finer(levels, than):
+    """Whether block counts ``levels`` have more blocks at finer levels than ``than``."""
+    return np.cumsum(levels).tolist() > np.cumsum(than).tolist()
+
+
+def _child(target, *args):
+    q = multiprocessing.get_context("fork").Queue()
+    p = multiprocessing.get_context("fork").Process(target=target, args=args + (q,))
+    p.start()
+    result = q.get()
+    p.join()
+    return result
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=2048)
+    parser.add_argument("--store", help="the store's path (default: in the temporary folder)")
+    args = parser.parse_args(argv)
+    n = args.n
+    path = Path(args.store or Path(tempfile.gettempdir()) / f"pv_hdrvol_bench_{n}.ome.zarr")
+    report = {"n": n, "volume_gib": n ** 3 * 4 / GiB, "load_before": os.getloadavg()}
+    reuse = False
+    try:
+        reuse = hv.MultiscaleStore(path).levels[0].shape == (n, n, n)
+    except (OSError, ValueError):
+        pass
+    if not reuse:
+        report["build"] = _child(_build, n, str(path))
+    report["render_4GiB"] = _child(_render, str(path), 4 * GiB)
+    report["render_1GiB"] = _child(_render, str(path), 1 * GiB)
+    report["load_after"] = os.getloadavg()
+    print(json.dumps(report, indent=1))
+    return report
+
+
+if __name__ == "__main__":
+    main()

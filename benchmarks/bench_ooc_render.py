@@ -16,8 +16,15 @@ straight into a store (never held whole), then rendered out of core in fresh pro
    (the viewer's way) until one shows finer blocks than the first; the time from rest
    to it (goal: <= 1 s).
 
+5. **trade-off** (``--tradeoff``): ``screen_error`` against time, bytes read and error
+   (against the level-0 render, which equals the in-core one bit for bit), at 512^2;
+6. **seams** (``--seams``): where a block at level 1 meets one at level 0, the jump of the
+   sampled field at their face against the differences between neighbouring samples
+   (a tenth of a voxel apart) inside each level, along lines across the face.
+
     python3 benchmarks/bench_ooc_render.py --n 512      # a few minutes
     python3 benchmarks/bench_ooc_render.py              # 2048^3: the goals (about 30 min)
+    python3 benchmarks/bench_ooc_render.py --n 512 --tradeoff --seams
 
 The store is kept (``--store``, default in the system's temporary folder) and reused
 when it is complete and of the same size.
@@ -110,6 +117,77 @@ def _render(path, cache, out):
     out.put(result)
 
 
+def _tradeoff(path, out):
+    _warm_up()
+    tf = _tf()
+    rows = []
+    with hv.open_multiscale(path, cache_bytes=4 * GiB) as volume:
+        camera = hv.Camera.fit(volume.bounds, "iso")
+        reference = volume.render(tf, camera, (512, 512), screen_error=1e-9)
+        ref = reference.rgba.astype(np.float64)
+        peak = float(ref[..., :3].max())
+        for error in (1e-9, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0):
+            volume.close()  # a cold cache: what this error reads
+            image = volume.render(tf, camera, (512, 512), screen_error=error)
+            t = time.perf_counter()
+            image = volume.render(tf, camera, (512, 512), screen_error=error)  # warm: the render alone
+            seconds = time.perf_counter() - t
+            diff = np.abs(image.rgba.astype(np.float64) - ref)
+            rows.append({"screen_error": error, "seconds": seconds, "levels": image.metadata["levels"],
+                         "bytes_read": image.metadata["bytes_read"], "samples": image.metadata["samples"],
+                         "max_rel": float(diff[..., :3].max() / peak),
+                         "rms_rel": float(np.sqrt((diff[..., :3] ** 2).mean()) / peak),
+                         "alpha_max": float(diff[..., 3].max())})
+    out.put(rows)
+
+
+def _seams(path, out):
+    """The reconstructed field on both sides of a face between a level-1 block and a
+    level-0 block: along 64 lines in x across the face at x = 64 k (k the middle block
+    face), each side sampled as the renderer samples it (trilinear in its level, level-1
+    point j at 2 j + 1/2)."""
+    store = hv.MultiscaleStore(path)
+    n = store.levels[0].shape[2]
+    face = 64 * (n // 128)
+    lo = max(face - 64, 0)
+    hi = min(face + 64, n - 1)
+    fine = store.read_level(0)[:, :, lo:hi + 1].astype(np.float64)
+    coarse = store.read_level(1).astype(np.float64)
+    rng = np.random.default_rng(0)
+    ys = rng.uniform(1, n - 2, 64)
+    zs = rng.uniform(1, n - 2, 64)
+    xs = np.arange(lo, hi, 0.1)
+
+    def tri(values, x, y, z, offset):
+        x = np.clip(x - offset, 0, values.shape[2] - 1)
+        y = np.clip(y, 0, values.shape[1] - 1)
+        z = np.clip(z, 0, values.shape[0] - 1)
+        i, j, k = (np.minimum(np.floor(a).astype(int), m - 2) for a, m in
+                   zip((x, y, z), (values.shape[2], values.shape[1], values.shape[0])))
+        fx, fy, fz = x - i, y - j, z - k
+        c = 0.0
+        for dz in (0, 1):
+            for dy in (0, 1):
+                for dx in (0, 1):
+                    w = (fx if dx else 1 - fx) * (fy if dy else 1 - fy) * (fz if dz else 1 - fz)
+                    c = c + w * values[k + dz, j + dy, i + dx]
+        return c
+
+    jumps, steps0, steps1 = [], [], []
+    for y, z in zip(ys, zs):
+        f0 = tri(fine, xs, np.full_like(xs, y), np.full_like(xs, z), lo)
+        f1 = tri(coarse, (xs - 0.5) / 2, np.full_like(xs, (y - 0.5) / 2), np.full_like(xs, (z - 0.5) / 2), 0)
+        at = int(np.argmin(np.abs(xs - face)))
+        jumps.append(abs(f1[at] - f0[at]))
+        steps0.append(np.abs(np.diff(f0)).mean())
+        steps1.append(np.abs(np.diff(f1)).mean())
+    value_range = float(fine.max() - fine.min())
+    out.put({"face_x": face, "lines": 64, "jump_mean": float(np.mean(jumps)), "jump_max": float(np.max(jumps)),
+             "step_mean_level0": float(np.mean(steps0)), "step_mean_level1": float(np.mean(steps1)),
+             "jump_max_over_range": float(np.max(jumps)) / value_range,
+             "stored_error_max_level0": float(store.levels[0].ranges[..., 2].max())})
+
+
 def _finer(levels, than):
     """Whether block counts ``levels`` have more blocks at finer levels than ``than``."""
     return np.cumsum(levels).tolist() > np.cumsum(than).tolist()
@@ -128,6 +206,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=2048)
     parser.add_argument("--store", help="the store's path (default: in the temporary folder)")
+    parser.add_argument("--tradeoff", action="store_true", help="screen_error against time, bytes and error only")
+    parser.add_argument("--seams", action="store_true", help="the jump at a face between levels 0 and 1 only")
     args = parser.parse_args(argv)
     n = args.n
     path = Path(args.store or Path(tempfile.gettempdir()) / f"pv_hdrvol_bench_{n}.ome.zarr")
@@ -139,8 +219,14 @@ def main(argv=None):
         pass
     if not reuse:
         report["build"] = _child(_build, n, str(path))
-    report["render_4GiB"] = _child(_render, str(path), 4 * GiB)
-    report["render_1GiB"] = _child(_render, str(path), 1 * GiB)
+    if args.tradeoff or args.seams:
+        if args.tradeoff:
+            report["tradeoff"] = _child(_tradeoff, str(path))
+        if args.seams:
+            report["seams"] = _child(_seams, str(path))
+    else:
+        report["render_4GiB"] = _child(_render, str(path), 4 * GiB)
+        report["render_1GiB"] = _child(_render, str(path), 1 * GiB)
     report["load_after"] = os.getloadavg()
     print(json.dumps(report, indent=1))
     return report

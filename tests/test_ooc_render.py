@@ -306,3 +306,15 @@ def test_a_magnifier_asks_for_finer_blocks_inside_it_and_renders_as_in_core(case
     reference = hv.render(volume, tf, camera, size, lens=lens, progress_bar=False)
     assert np.array_equal(image.rgba, reference.rgba)
     assert image.metadata["lens"] == repr(lens)
+
+
+def test_the_out_of_core_page_prints_what_it_says(tmp_path, monkeypatch):
+    import re
+
+    from conftest import REPO_ROOT
+    from test_docs import python_blocks, run_blocks
+
+    page = REPO_ROOT / "docs" / "out_of_core.md"
+    blocks, _ = python_blocks(page)
+    expected = re.search(r"^prints\n\n```text\n(.*?)^```", page.read_text(), re.S | re.M).group(1)
+    assert run_blocks(blocks, tmp_path, monkeypatch) == expected

@@ -100,8 +100,7 @@ def test_level_of_detail_is_the_coarsest_whose_voxels_project_within_the_screen_
                                        (20.0, 1.0, 0)]:
             cam = hv.Camera(base.position, base.focal_point, base.view_up, parallel_projection=True,
                             parallel_scale=scale)
-            plan.screen_error = error
-            levels = plan.desired_levels(cam, (100, 40))
+            levels = plan.desired_levels(cam, (100, 40), error)
             pixel = 2 * scale / 40
             hand = min(max(math.floor(math.log2(error * pixel / max(SPACING))), 0), ooc.n_levels - 1)
             assert hand == expected
@@ -109,9 +108,8 @@ def test_level_of_detail_is_the_coarsest_whose_voxels_project_within_the_screen_
             assert shown.size > 0 and (shown == expected).all(), (scale, error, np.unique(shown))
         # perspective: the level grows with the distance of a block's nearest point
         cam = hv.Camera((70.0, 80.0, -100.0), (70.0, 80.0, 50.0), (0, 1, 0), view_angle=30.0)
-        plan.screen_error = 1.0
         levels = plan.desired_levels(cam, (32, 32))
-        pixel = plan._distance * 2 * math.tan(math.radians(15.0)) / 32
+        pixel = plan.block_distance(cam) * 2 * math.tan(math.radians(15.0)) / 32
         hand = np.clip(np.floor(np.log2(pixel / max(SPACING))), 0, ooc.n_levels - 1)
         inside = levels >= 0
         assert np.array_equal(levels[inside], hand[inside])
@@ -291,7 +289,6 @@ def test_a_magnifier_asks_for_finer_blocks_inside_it_and_renders_as_in_core(case
     lens = hv.Magnifier(center=(32, 32), radius=16, factor=4, antialias=False)
     with open_multiscale(path, cache_bytes=2 ** 28) as ooc:
         plan = MultiscalePlan(ooc, tf)
-        plan.screen_error = 1.0
         by_camera = plan.desired_levels(camera, size)
         by_rays = plan.desired_levels(camera.rays(size), size)
         shown = by_camera >= 0

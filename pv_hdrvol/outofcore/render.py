@@ -301,23 +301,37 @@ class MultiscalePlan:
         _, first = np.unique(stacked, axis=0, return_index=True)
         return [(level,) + tuple(int(v) for v in stacked[i]) for i in np.sort(first)]
 
-    def desired_levels(self, camera, size):
+    def _block_boxes(self):
+        """Per axis (x, y, z): the world coordinates where each block starts and ends."""
+        vol = self.volume
+        dims = np.array(vol.dims, dtype=np.float64)
+        idx = [np.arange(n, dtype=np.float64) for n in vol.block_shape[::-1]]
+        lo = [vol.origin[a] + BLOCK * idx[a] * vol.spacing[a] for a in range(3)]
+        hi = [vol.origin[a] + np.minimum(BLOCK * (idx[a] + 1), dims[a] - 1) * vol.spacing[a] for a in range(3)]
+        return lo, hi
+
+    def block_distance(self, camera):
+        """Per block (z, y, x): the distance from the eye to the block's nearest point (0
+        inside it; 0 everywhere for given rays): the order in which chunks are read."""
+        if not isinstance(camera, Camera):
+            return np.zeros(self.volume.block_shape)
+        lo, hi = self._block_boxes()
+        pos = np.asarray(camera.position, dtype=np.float64)
+        d = [np.maximum(np.maximum(lo[a] - pos[a], pos[a] - hi[a]), 0.0) for a in range(3)]
+        return np.sqrt(d[2][:, None, None] ** 2 + d[1][None, :, None] ** 2 + d[0][None, None, :] ** 2)
+
+    def desired_levels(self, camera, size, screen_error=1.0):
         """Per block (z, y, x): the level screen-space error asks for, or -1 outside the
         view. ``camera``: a Camera (the distance of each block's nearest point, the
         frustum) or Rays (a lens's: :meth:`_ray_levels`)."""
         vol = self.volume
         shape = vol.block_shape
         if isinstance(camera, Rays):
-            return self._ray_levels(camera)
+            return self._ray_levels(camera, screen_error)
         w, h = as_size(size)
-        dims = np.array(vol.dims, dtype=np.float64)  # x, y, z
-        idx = [np.arange(n, dtype=np.float64) for n in shape[::-1]]  # x, y, z
-        lo = [vol.origin[a] + BLOCK * idx[a] * vol.spacing[a] for a in range(3)]
-        hi = [vol.origin[a] + np.minimum(BLOCK * (idx[a] + 1), dims[a] - 1) * vol.spacing[a] for a in range(3)]
+        lo, hi = self._block_boxes()
         pos = np.asarray(camera.position, dtype=np.float64)
-        # nearest distance of each block's box to the eye, broadcast to (z, y, x)
-        d = [np.maximum(np.maximum(lo[a] - pos[a], pos[a] - hi[a]), 0.0) for a in range(3)]
-        dist = np.sqrt(d[2][:, None, None] ** 2 + d[1][None, :, None] ** 2 + d[0][None, None, :] ** 2)
+        dist = self.block_distance(camera)
         right, up, fwd = camera.basis()
         if camera.parallel_projection:
             half_h = camera.parallel_scale
@@ -328,7 +342,7 @@ class MultiscalePlan:
         half_w = half_h * w / h
         voxel = float(vol.spacing.max())
         with np.errstate(divide="ignore"):
-            level = np.floor(np.log2(np.maximum(self.screen_error * pixel / voxel, 1e-300)))
+            level = np.floor(np.log2(np.maximum(screen_error * pixel / voxel, 1e-300)))
         level = np.clip(level, 0, vol.n_levels - 1).astype(np.int64)
         # outside the frustum: every corner beyond one side plane (a pixel's margin)
         margin = 1.0 + 2.0 / min(w, h)
@@ -353,12 +367,11 @@ class MultiscalePlan:
             outside |= (xs > zs * half_w * margin).all(0) | (xs < -zs * half_w * margin).all(0)
             outside |= (ys > zs * half_h * margin).all(0) | (ys < -zs * half_h * margin).all(0)
         level[outside] = -1
-        self._distance = dist
         return level
 
     with_clip = with_clip
 
-    def _ray_levels(self, rays):
+    def _ray_levels(self, rays, screen_error):
         """:meth:`desired_levels` of given rays (a lens's, or any): per block, the finest
         level any ray crossing it asks for, from the distance to the rays of the
         neighbouring pixels over the ray's stretch in the block (``_kernels.ray_block_levels``:
@@ -371,7 +384,7 @@ class MultiscalePlan:
                             np.ascontiguousarray(rays.directions, dtype=np.float64), rays.width, rays.height,
                             vol.origin, 1.0 / vol.spacing, np.array(vol.dims, dtype=np.int64), float(BLOCK),
                             np.array(vol.block_shape, dtype=np.int64), float(vol.spacing.max()),
-                            float(self.screen_error), n_levels, out)
+                            float(screen_error), n_levels, out)
         hit = out < n_levels
         near = hit.copy()
         for axis in range(3):  # a 26-neighbourhood dilation: three 1-D ones
@@ -383,7 +396,6 @@ class MultiscalePlan:
             grown[tuple(hi)] |= near[tuple(lo)]
             near = grown
         level = np.where(hit, out, np.where(near, n_levels - 1, -1))
-        self._distance = np.zeros(vol.block_shape)  # no order among given rays' blocks
         return level
 
     def execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
@@ -408,7 +420,7 @@ class MultiscalePlan:
             if value is not None:
                 raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
         owned = None if piece is None else self._check_piece(piece)
-        self.screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
+        screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
         _check_progress_bar(progress_bar)
         camera = as_camera(camera, vol.bounds)
         lens_camera = None
@@ -430,7 +442,7 @@ class MultiscalePlan:
         t_start = time.perf_counter()
         # (a ray's level of detail, Rays.lod, is not read: the blocks' levels come from
         # the rays' footprints, which a minifying lens's sparse rays make coarser)
-        desired = self.desired_levels(camera, (width, height))
+        desired = self.desired_levels(camera, (width, height), screen_error)
         far = _check_far(far, width, height)
         if window is not None:
             if far.size:
@@ -451,8 +463,7 @@ class MultiscalePlan:
             shown &= owned
         coarsened = 0
         # nearest blocks first
-        order = np.argsort(self._distance[shown] if isinstance(camera, Camera) else np.zeros(int(shown.sum())),
-                           kind="stable")
+        order = np.argsort(self.block_distance(camera)[shown], kind="stable")
         while True:
             want = np.where(shown, np.minimum(desired + coarsened, n_levels - 1), -1)
             blocks = np.nonzero(shown)
@@ -560,7 +571,7 @@ class MultiscalePlan:
                                           window=window, lens=lens),
             "render_seconds": elapsed,
             "samples": int(samples.sum()),
-            "screen_error": self.screen_error,
+            "screen_error": screen_error,
             "levels": [int(c) for c in counts],
             "desired_levels": [int(c) for c in np.bincount(np.minimum(desired[shown] + coarsened, n_levels - 1),
                                                             minlength=n_levels)],

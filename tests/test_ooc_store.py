@@ -388,8 +388,8 @@ def test_interrupted_writing_leaves_a_refused_store(tmp_path):
 
     path = tmp_path / "i.ome.zarr"
     with pytest.raises(KeyboardInterrupt):
-        write_multiscale(source, path, shape=(400, 16, 16), dtype="float32", chunk=8, progress_bar=False)
-    # level 0 has four shards of 128 along z: two were written
+        write_multiscale(source, path, shape=(400, 16, 16), dtype="float32", chunk=8, progress_bar=False, threads=1)
+    # level 0 has four shards of 128 along z: two were written (one thread: in order)
     assert len(calls) == 3 and sorted(os.listdir(path / "0" / "c")) == ["0", "1"]
     with pytest.raises(ValueError, match="is incomplete: it is being written or its writing was interrupted"):
         MultiscaleStore(path)
@@ -439,10 +439,12 @@ def test_sigint_mid_write_leaves_a_store_no_reader_accepts(tmp_path):
 
 
 # -- memory -----------------------------------------------------------------------------
-def test_peak_memory_is_a_few_shards_not_the_volume(tmp_path):
+@pytest.mark.parametrize("threads, bound_mib", [(1, 40), (2, 80)])
+def test_peak_memory_is_a_few_shards_not_the_volume(tmp_path, threads, bound_mib):
     """A 320^3 float32 volume (125 MiB) from a function: the peak of numpy and Python
-    allocations stays under 40 MiB, five level-0 shards of 8 MiB (one shard, zarr's
-    encoding of it and the float64 work on a chunk), a third of the volume."""
+    allocations stays under five level-0 shards of 8 MiB per thread (one shard, zarr's
+    encoding of it and the float64 work on a chunk; two shards per thread in flight):
+    40 MiB on one thread, 80 on two, well under the volume."""
     n = 320
 
     def source(box):
@@ -454,12 +456,12 @@ def test_peak_memory_is_a_few_shards_not_the_volume(tmp_path):
     tracemalloc.start()
     try:
         store = write_multiscale(source, tmp_path / "big.ome.zarr", shape=(n, n, n), dtype="float32",
-                                 progress_bar=False)
+                                 progress_bar=False, threads=threads)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
     volume = n ** 3 * 4
-    assert peak < 40 * 2 ** 20 < volume / 3, peak / 2 ** 20
+    assert peak < bound_mib * 2 ** 20 < volume * 2 / 3, peak / 2 ** 20
     assert [lv.shape for lv in store.levels] == [(320,) * 3, (160,) * 3, (80,) * 3, (40,) * 3]
     assert store.value_range[1] > 10
 
@@ -524,3 +526,29 @@ def test_convert_user_errors_exit_2(args, message, tmp_path, capsys):
     (line,) = [line for line in err.splitlines() if "error:" in line]
     assert line.startswith("pv-hdrvol convert: error: ") and message in line
     assert not (tmp_path / "o.ome.zarr").exists()
+
+
+def test_threads_write_the_same_store_as_one_thread(tmp_path):
+    """Shards made on two threads: every level, the chunk ranges and the group ranges
+    are those of one thread's store, bit for bit."""
+    values = np.random.default_rng(3).random((300, 140, 130)).astype(np.float32)
+    one = write_multiscale(values, tmp_path / "one.ome.zarr", progress_bar=False, threads=1)
+    two = write_multiscale(values, tmp_path / "two.ome.zarr", progress_bar=False, threads=2)
+    assert one.n_levels == two.n_levels == 4
+    for level in range(one.n_levels):
+        assert np.array_equal(one.read_level(level), two.read_level(level))
+        assert np.array_equal(one.levels[level].ranges, two.levels[level].ranges)
+    assert np.array_equal(one.group_ranges(), two.group_ranges())
+
+
+def test_group_ranges_are_the_min_and_max_of_each_cube_of_8_points(tmp_path):
+    values = np.random.default_rng(4).random((150, 131, 140)).astype(np.float32)
+    values[:8, :8, :8] = np.nan
+    values[8:16, 0, 0] = np.nan
+    store = write_multiscale(values, tmp_path / "g.ome.zarr", progress_bar=False)
+    groups = store.group_ranges()
+    assert groups.shape == (19, 17, 18, 2)
+    assert tuple(groups[0, 0, 0]) == (np.inf, -np.inf)  # all NaN
+    for k, j, i in [(1, 0, 0), (1, 2, 3), (18, 16, 17), (9, 8, 7)]:
+        part = values[8 * k:8 * k + 8, 8 * j:8 * j + 8, 8 * i:8 * i + 8]
+        assert tuple(groups[k, j, i]) == (float(np.nanmin(part)), float(np.nanmax(part)))

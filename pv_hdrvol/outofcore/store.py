@@ -41,6 +41,8 @@ from .._validate import as_int
 
 FORMAT = 1
 CHUNK = 64
+#: Points a side of the groups whose value ranges ``pv_hdrvol/groups`` keeps (level 0).
+GROUP = 8
 SHARD_BYTES = 16 * 2 ** 20
 DOWNSAMPLE = ("mean", "mode")
 _RANGE_FIELDS = ("min", "max", "error", "sub_min", "sub_max")
@@ -93,6 +95,23 @@ def _chunk_ranges(block, chunk):
                     part = part[~np.isnan(part)]
                 out[k, j, i] = (float(part.min()), float(part.max())) if part.size else (np.inf, -np.inf)
     return out
+
+
+def group_ranges(block, group=None):
+    """(gz, gy, gx, 2) min and max (NaN ignored; ``+inf, -inf`` for none) of each
+    ``group``-cube of points of ``block`` (default :data:`GROUP`), as float64. Works in
+    the block's dtype (a partial group at a far edge repeats the edge: no value changes)."""
+    group = GROUP if group is None else group
+    g = [-(-n // group) for n in block.shape]
+    pad = [(0, gi * group - n) for gi, n in zip(g, block.shape)]
+    b = np.pad(block, pad, mode="edge") if any(p[1] for p in pad) else np.ascontiguousarray(block)
+    parts = b.reshape(g[0], group, g[1], group, g[2], group)
+    lo = np.fmin.reduce(np.fmin.reduce(np.fmin.reduce(parts, axis=5), axis=3), axis=1).astype(np.float64)
+    hi = np.fmax.reduce(np.fmax.reduce(np.fmax.reduce(parts, axis=5), axis=3), axis=1).astype(np.float64)
+    none = np.isnan(lo)  # fmin/fmax give NaN only where every value is NaN
+    lo[none] = np.inf
+    hi[none] = -np.inf
+    return np.stack([lo, hi], axis=-1)
 
 
 def _pad_even(block):
@@ -411,6 +430,12 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                 fill_value=np.nan if np.issubdtype(dt, np.floating) else 0,
                 dimension_names=("z", "y", "x"), config={"write_empty_chunks": True})
             rng = np.zeros(tuple(-(-n // chunk) for n in shp) + (5,))
+            if level == 0:
+                gshape = tuple(-(-n // GROUP) for n in shp) + (2,)
+                groups = group.create_array(name="pv_hdrvol/groups", shape=gshape, dtype="float64",
+                                            chunks=tuple(min(edge // GROUP, n) for n in gshape[:3]) + (2,),
+                                            compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"),
+                                            fill_value=np.nan, attributes={"group": GROUP, "fields": ["min", "max"]})
 
             def one(box, level=level, arr=arr, dt=dt):
                 errors = []
@@ -427,6 +452,8 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                         block[_box_slices(sub)] = coarse
                         errors.append((tuple(a // chunk for a, _ in fbox), _parent_error(fine, coarse)))
                 arr[_box_slices(box)] = block
+                if level == 0:  # the shard's own region of the groups array: no other thread writes it
+                    groups[tuple(slice(a // GROUP, -(-b // GROUP)) for a, b in box)] = group_ranges(block)
                 return box, _chunk_ranges(block, chunk), errors
 
             # shards on ``threads`` threads (compression and numpy release the GIL), at most
@@ -629,6 +656,19 @@ class MultiscaleStore:
         self.bytes_read[level] += block.nbytes
         self.chunks_read[level] += 1
         return block
+
+    def group_ranges(self):
+        """Level 0's ``(gz, gy, gx, 2)`` min and max per cube of :data:`GROUP` points (float64;
+        read once, then kept), or ``None`` for a store written without them. They bound
+        every level's values too: a coarse point is a mean (or mode) of level-0 points."""
+        if not hasattr(self, "_groups"):
+            try:
+                arr = self._group["pv_hdrvol/groups"]
+            except KeyError:
+                self._groups = None
+            else:
+                self._groups = np.asarray(arr[...])
+        return self._groups
 
     def read_level(self, level):
         """A whole level as one array (for small levels and tests)."""

@@ -315,3 +315,23 @@ def test_the_out_of_core_page_prints_what_it_says(tmp_path, monkeypatch):
     blocks, _ = python_blocks(page)
     expected = re.search(r"^prints\n\n```text\n(.*?)^```", page.read_text(), re.S | re.M).group(1)
     assert run_blocks(blocks, tmp_path, monkeypatch) == expected
+
+
+def test_infinities_render_as_the_in_core_volume_reads_them(tmp_path):
+    """+inf and -inf points (and NaN) at level 0: the store keeps them, its value range is
+    the finite one, and the renderer reads them as the largest/smallest finite value, as
+    an in-memory GridVolume does: the level-0 image is the in-core one bit for bit."""
+    values = _field((100, 90, 80))
+    values[40:44, 30:50, 20:60] = np.inf
+    values[60:62, 10:20, 10:20] = -np.inf
+    values[10:12, 10:12, 10:12] = np.nan
+    store = write_multiscale(values, tmp_path / "inf.ome.zarr", progress_bar=False)
+    assert np.isposinf(store.read_level(0)).sum() == 4 * 20 * 40
+    volume = volume_from_array(values)
+    assert store.value_range == volume.value_range
+    tf = default_transfer_function(volume)
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    reference = hv.render(volume, tf, camera, SIZE, progress_bar=False)
+    with open_multiscale(tmp_path / "inf.ome.zarr", cache_bytes=2 ** 28) as ooc:
+        image = ooc.render(tf, camera, SIZE, screen_error=1e-9)
+    assert np.array_equal(image.rgba, reference.rgba)

@@ -83,6 +83,8 @@ class ChunkCache:
         self._apron = {}  # slot -> neighbour offsets whose apron part is filled
         self.bytes_read = [0] * store.n_levels
         self.chunks_read = [0] * store.n_levels
+        # +-inf read as the largest/smallest finite value, as an in-memory GridVolume's
+        self._finite = store.value_range if np.issubdtype(store.dtype, np.floating) else None
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(1, int(threads)),
                                                            thread_name_prefix="pv_hdrvol-loader")
         # the coarsest level: read now, never evicted (every block can fall back on it)
@@ -163,6 +165,9 @@ class ChunkCache:
         level, cz, cy, cx = key
         try:
             block = self.store.read_chunk(level, (cz, cy, cx))
+            if self._finite is not None and np.isinf(block).any():
+                block = np.where(np.isposinf(block), self._finite[1], np.where(np.isneginf(block), self._finite[0],
+                                                                                block))
             view = self.slot_view(slot)
             view[1:1 + block.shape[0], 1:1 + block.shape[1], 1:1 + block.shape[2]] = block
         except BaseException as e:  # noqa: BLE001 - handed to the render thread

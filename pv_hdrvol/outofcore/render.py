@@ -279,6 +279,12 @@ class MultiscalePlan:
         ranges = self.volume.store.levels[level].ranges
         lo = np.minimum.reduce(self._corner_gather(level, ranges[..., 0]))
         hi = np.maximum.reduce(self._corner_gather(level, ranges[..., 1]))
+        # +-inf is read as the finite extremes (cache.py), as in memory; no number: none
+        none = ~(lo <= hi)
+        if np.issubdtype(self.volume.store.dtype, np.floating):
+            v0, v1 = self.volume.value_range
+            lo, hi = np.clip(lo, v0, v1), np.clip(hi, v0, v1)
+            lo[none], hi[none] = np.inf, -np.inf
         table = self.table(0)[0]
         return _visible(lo, hi, table[:, 3], self.params).astype(bool)
 

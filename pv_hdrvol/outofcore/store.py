@@ -418,6 +418,7 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     reduce = downsample_mean if downsample == "mean" else downsample_mode
     arrays, ranges = [], []
     workers = (os.cpu_count() or 1) if threads is None else as_int("threads", threads, low=1)
+    finite_lo, finite_hi = np.inf, -np.inf
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pv_hdrvol-writer")
     try:
         for level, (shp, edge) in enumerate(zip(shapes, edges)):
@@ -454,7 +455,12 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                 arr[_box_slices(box)] = block
                 if level == 0:  # the shard's own region of the groups array: no other thread writes it
                     groups[tuple(slice(a // GROUP, -(-b // GROUP)) for a, b in box)] = group_ranges(block)
-                return box, _chunk_ranges(block, chunk), errors
+                r = _chunk_ranges(block, chunk)
+                finite = (float(r[..., 0].min()), float(r[..., 1].max()))
+                if level == 0 and not np.isfinite(finite).all():  # the rare shard holding +-inf
+                    kept = block[np.isfinite(block)]
+                    finite = (float(kept.min()), float(kept.max())) if kept.size else (np.inf, -np.inf)
+                return box, r, errors, finite
 
             # shards on ``threads`` threads (compression and numpy release the GIL), at most
             # two per thread in flight: memory stays a few shards whatever the volume
@@ -469,7 +475,9 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
                     break
                 done, pending = concurrent.futures.wait(pending, return_when=concurrent.futures.FIRST_COMPLETED)
                 for future in done:
-                    box, r, errors = future.result()
+                    box, r, errors, finite = future.result()
+                    if level == 0:
+                        finite_lo, finite_hi = min(finite_lo, finite[0]), max(finite_hi, finite[1])
                     c = [a // chunk for a, _ in box]
                     rng[c[0]:c[0] + r.shape[0], c[1]:c[1] + r.shape[1], c[2]:c[2] + r.shape[2], :2] = r
                     for index, err in errors:
@@ -490,7 +498,8 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
             group.create_array(name=f"pv_hdrvol/ranges/{level}", data=rng, chunks=rng.shape,
                                attributes={"fields": list(_RANGE_FIELDS)})
         group.attrs.update({"ome": _ome_metadata(src, len(shapes), downsample),
-                            "pv_hdrvol": dict(meta, complete=True)})
+                            "pv_hdrvol": dict(meta, complete=True, finite_range=[float(finite_lo), float(finite_hi)]
+                                              if finite_lo <= finite_hi else None)})
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
         if bar is not None:
@@ -584,6 +593,7 @@ class MultiscaleStore:
             raise ValueError(f"{self.path} is incomplete: it is being written or its writing was interrupted "
                              f"(write it again)")
         self._group = group
+        self._attrs = ours
         self.chunk = int(ours["chunk"])
         self.spacing = np.array(ours["spacing"], dtype=np.float64)
         self.origin = np.array(ours["origin"], dtype=np.float64)
@@ -620,10 +630,14 @@ class MultiscaleStore:
 
     @property
     def value_range(self):
-        """Minimum and maximum of the level-0 points (NaN ignored)."""
-        r = self.levels[0].ranges
-        lo, hi = float(r[..., 0].min()), float(r[..., 1].max())
-        return (lo, hi) if lo <= hi else (0.0, 0.0)
+        """Minimum and maximum of the finite level-0 points (NaN and +-inf ignored; ``(0, 0)``
+        when there is none), as a GridVolume's: the renderer reads +-inf as these."""
+        finite = self._attrs.get("finite_range", "absent")
+        if finite == "absent":  # a store written before the finite range was recorded
+            r = self.levels[0].ranges
+            lo, hi = float(r[..., 0].min()), float(r[..., 1].max())
+            return (lo, hi) if lo <= hi else (0.0, 0.0)
+        return (0.0, 0.0) if finite is None else (float(finite[0]), float(finite[1]))
 
     def chunk_path(self, level, index):
         """The file that holds chunk ``index`` (z, y, x) of ``level`` (its shard)."""

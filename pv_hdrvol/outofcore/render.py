@@ -24,10 +24,11 @@ Per frame (:meth:`MultiscalePlan.execute`):
    its chunks arrive shows coarser data, never a hole. ``wait=True`` (the default)
    waits for every chunk first: the converged image.
 6. **Rays.** The plain ray caster (``raycast/_kernels.render_tiles``) samples the
-   pages (``_kernels.stencil``) with one step for the frame: ``step`` voxels of the
-   finest level any visible block samples. With every block at level 0 the samples,
-   values and arithmetic are those of the in-core render: the images are equal bit for
-   bit.
+   pages (``_kernels.stencil``) on one lattice for the frame, ``step`` voxels of the
+   finest level ``F`` any visible block samples; a block of level ``L`` takes one sample
+   per ``2**(L - F)`` segments (``_kernels.span_of``), so a frame costs what its blocks'
+   own levels ask for. With every block at level 0 the samples, values and arithmetic
+   are those of the in-core render: the images are equal bit for bit.
 """
 from __future__ import annotations
 
@@ -546,7 +547,10 @@ class MultiscalePlan:
         samples = np.zeros(height * width, dtype=np.int64)
         marker = _MARKERS[prec]
         lanes = _lanes()
-        offs = (page_level, page_base, dims_of, place)
+        # a block of level L samples once per 2**(L - finest) segments of the frame's lattice
+        segments = np.ones(vol.block_shape, dtype=np.int64)
+        segments[active] = 1 << (level[active] - finest)
+        offs = (page_level, page_base, dims_of, place, np.ascontiguousarray(segments.reshape(-1)))
         flat = min(vol.dims) < 2
 
         def cast(tile_rows):

@@ -987,7 +987,7 @@ def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, z
     ``offs`` picks the storage at compile time. An array: the volume in memory,
     ``bricks`` bricked by ``make_bricks``, point ``(i, j, k)`` at ``offs[i] +
     offs[oy_off + j] + offs[oz_off + k]`` (``brick_offsets``). A tuple ``(level, base,
-    dims, place)``: an out-of-core volume whose resident chunks sit in the pool
+    dims, place, span)``: an out-of-core volume whose resident chunks sit in the pool
     ``bricks``, each in a slot of ``SLOT_EDGE**3`` values (z, y, x) holding its level's
     points ``2**PAGE_SHIFT c - 1`` to ``2**PAGE_SHIFT (c + 1) + 1`` on each axis (the
     chunk and an apron from its neighbours: ``outofcore/cache.py``), so that every sample
@@ -1034,7 +1034,10 @@ def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi,
         return in_memory
 
     def paged(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
-        level_of, base_of, dims, place = offs
+        level_of = offs[0]
+        base_of = offs[1]
+        dims = offs[2]
+        place = offs[3]
         b = np.uint64((kb * by + jb) * bx + ib)
         level = np.int64(level_of[b])
         base = base_of[b]
@@ -1072,6 +1075,23 @@ def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi,
         c0 = c00 + fy * (c10 - c00)
         c1 = c01 + fy * (c11 - c01)
         return c0 + fz * (c1 - c0)
+    return paged
+
+
+def span_of(offs, ib, jb, kb, by, bx):
+    """Segments a sample in block ``(ib, jb, kb)`` stands for (compiled only): 1 for a
+    volume in memory (``offs`` an array); an out-of-core volume's ``offs`` tuple carries
+    a fifth array, per block the ``uint8`` count ``2**(L - F)`` (``_march_plain``)."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(span_of, jit_options=_FUSED_JIT, inline="always")
+def _span_of_impl(offs, ib, jb, kb, by, bx):
+    if isinstance(offs, numba.types.Array):
+        return lambda offs, ib, jb, kb, by, bx: 1
+
+    def paged(offs, ib, jb, kb, by, bx):
+        return np.int64(offs[4][np.uint64((kb * by + jb) * bx + ib)])
     return paged
 
 
@@ -1118,8 +1138,16 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
     shaded composite label gives the same bits too.
 
     ``offs`` holds the x, then y, then z offsets (``nx + ny + nz`` entries);
-    ``scratch`` is float64 with ``2 * SCRATCH`` entries (values, then their ``k``),
-    one per lane of ``render_tiles`` (a lane runs on one thread at a time). Segments
+    ``scratch`` is float64 with ``3 * SCRATCH`` entries (values, then their ``k``, then
+    the segments each stands for), one per lane of ``render_tiles`` (a lane runs on one
+    thread at a time).
+
+    ``span_of(offs, ...)`` is the number of segments a sample of a block stands for: 1
+    for a volume in memory (compiled away), ``2**(L - F)`` in an out-of-core block of
+    level ``L`` when the frame steps at level ``F``'s: the block is sampled once per
+    ``2**(L - F)`` segments, at their centre (if that lies in a block to sample), with
+    the opacity of their length from the extinction column; the segments' count and
+    the lattice are unchanged, so a frame at one level samples as before. Segments
     ``k0 <= k < k1`` and, if ``last``, the last one are sampled (``piece_segments``).
 
     ``warp`` (``warp_at``): 0 samples a uniform grid; a rectilinear grid's warp moves each
@@ -1153,7 +1181,7 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
     k = k0
     kf = float(k0)  # k as a float, counted (no conversion per sample)
     n_full = n_seg - 1
-    cap = scratch.shape[0] // 2
+    cap = SCRATCH
     chunk = 2
     while k < k1:
         # phase 1: the next `chunk` values that are not NaN, with their segment indices
@@ -1174,15 +1202,34 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
                 k = leap_past(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
                 kf = float(k)
                 continue
+            # segments this sample stands for: 1, or a coarse out-of-core block's 2**(L - F)
+            m = span_of(offs, ib, jb, kb, by, bx)
+            kc = kf
+            if m > 1:  # one sample at the centre of m segments (of this piece), in a block to sample
+                m = min(m, k1 - k)
+                kc = kf + 0.5 * (m - 1)
+                xc = warp_at(warp, 0, 0, nx, min(max(bx0 + kc * sx, 0.0), u_max))
+                yc = warp_at(warp, y_base, 1, ny, min(max(by0 + kc * sy, 0.0), v_max))
+                zc = warp_at(warp, z_base, 2, nz, min(max(bz0 + kc * sz, 0.0), w_max))
+                ic = min(int(xc), nx - 2) >> shift
+                jc = min(int(yc), ny - 2) >> shift
+                kcb = min(int(zc), nz - 2) >> shift
+                if leap[_u((kcb * by + jc) * bx + ic)] == 0:
+                    x, y, z = xc, yc, zc
+                    xi, yi, zi = int(xc), int(yc), int(zc)
+                    ib, jb, kb = ic, jc, kcb
+                else:
+                    kc = kf
             # trilinear in the bricks (the stencil of _sample's plain sampler: the labelled
             # loop samples through _sample), or in the pages of an out-of-core volume
             v = stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi)
-            k += 1
-            kf += 1.0
+            k += m
+            kf += m
             if v != v:  # NaN in the stencil: empty
                 continue
             scratch[_u(j)] = v
-            scratch[_u(cap + j)] = kf
+            scratch[_u(cap + j)] = kc + 1.0
+            scratch[_u(2 * cap + j)] = m
             j += 1
         # phase 2: classify and composite them in order; at termination the rest of the
         # chunk is dropped, so every count and bit is that of one sample at a time
@@ -1190,6 +1237,9 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
             samples += 1
             v = scratch[_u(jj)]
             r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
+            span = scratch[_u(2 * cap + jj)]
+            if span > 1.0 and a_i > 0.0:  # m segments of a coarse block: from the extinction
+                a_i = -math.expm1(-sigma_at(sigma, i, f) * span * step)
             if a_i > 0.0:  # as skipped samples: skipping then changes no bit
                 kk = scratch[_u(cap + jj)] - 1.0  # the sample's k, as phase 1 placed it
                 r, gg, b = lit(light, eye, bricks, offs, g, warp_at(warp, 0, 0, nx, bx0 + kk * sx),
@@ -1287,7 +1337,7 @@ def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids
 
     ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
     ``offs``: ``_march_plain``, which batches samples in the float64 array ``scratch``
-    of ``2 * SCRATCH`` entries, one per lane) or a ``mip_sampler`` tuple: a ray with
+    of ``3 * SCRATCH`` entries, one per lane) or a ``mip_sampler`` tuple: a ray with
     a level of detail samples the mip-map, passed as ``bricks`` (see ``_sample``;
     ``offs`` and ``scratch`` unused).
 
@@ -1371,7 +1421,7 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
     from_camera = cam.shape[0] > 0
     has_span = span.shape[0] > 0
     for lane in numba.prange(lanes):
-        scratch = np.empty(2 * SCRATCH)
+        scratch = np.empty(3 * SCRATCH)
         for t in range(lane, n_tiles, lanes):
             row0 = tile_rows[t // tiles_x] * tile
             col0 = (t % tiles_x) * tile

@@ -515,7 +515,7 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
     tiles_x = (width + tile - 1) // tile
     n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
-        scratch = np.empty(2 * SCRATCH)
+        scratch = np.empty(3 * SCRATCH)
         for t in range(lane, n_tiles, lanes):
             row0 = tile_rows[t // tiles_x] * tile
             col0 = (t % tiles_x) * tile

@@ -138,8 +138,16 @@ class ChunkCache:
         for key in keys:
             if key in self._slot_of:
                 continue
-            with self._lock:
-                slot = self._take_slot(pinned)
+            while True:
+                with self._lock:
+                    slot = self._take_slot(pinned)
+                    loading = list(self._loading.values())
+                if slot is not None or not loading:
+                    break
+                # the slots are held by reads still under way (an earlier frame's): once one
+                # is done its chunk may be evicted
+                concurrent.futures.wait(loading, return_when=concurrent.futures.FIRST_COMPLETED)
+                self.raise_errors()
             if slot is None:
                 refused += 1
                 continue

@@ -299,14 +299,14 @@ class MultiscalePlan:
         read at ``level``, in the blocks' order, without repeats."""
         (z0, z1), (y0, y1), (x0, x1) = self._volume_required(level)
         kz, ky, kx = blocks
-        keys = []
-        for zz in (z0, z1):
-            for yy in (y0, y1):
-                for xx in (x0, x1):
-                    keys.append(np.stack([zz[kz], yy[ky], xx[kx]], axis=1))
-        stacked = np.stack(keys, axis=1).reshape(-1, 3)  # block by block
-        _, first = np.unique(stacked, axis=0, return_index=True)
-        return [(level,) + tuple(int(v) for v in stacked[i]) for i in np.sort(first)]
+        _, cy, cx = self.volume.store.levels[level].chunks
+        flat = np.stack([(zz[kz] * cy + yy[ky]) * cx + xx[kx] for zz in (z0, z1) for yy in (y0, y1)
+                         for xx in (x0, x1)], axis=1).reshape(-1)  # block by block
+        _, first = np.unique(flat, return_index=True)
+        chunks = flat[np.sort(first)]
+        cz_, rest = np.divmod(chunks, cy * cx)
+        cy_, cx_ = np.divmod(rest, cx)
+        return [(level, int(a), int(b), int(c)) for a, b, c in zip(cz_.tolist(), cy_.tolist(), cx_.tolist())]
 
     def _block_boxes(self):
         """Per axis (x, y, z): the world coordinates where each block starts and ends."""
@@ -407,7 +407,7 @@ class MultiscalePlan:
 
     def execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
                 progress_bar=None, chunk_seconds=None, window=None, far=None, lens=None, block_mask=None, cull=None,
-                piece=None):
+                piece=None, _pass=False):
         """Render one frame; returns an :class:`~pv_hdrvol.HDRImage`.
 
         ``screen_error``: the largest projected voxel, in pixels, a block may show
@@ -485,6 +485,11 @@ class MultiscalePlan:
                             keys.append(key)
             if len(keys) + len(cache.permanent) <= cache.n_slots or coarsened >= n_levels:
                 break
+            if wait and piece is None and window is None and not _pass:
+                # a converged frame that does not fit: render it in boxes that do, one after
+                # another, and composite them (the same image to rounding; reads each once)
+                return self._in_passes(camera, lens_camera, lens, (width, height), rays, screen_error, timeout,
+                                       shown, want, keys, far, t_start)
             coarsened += 1
         refused = cache.request(keys, pinned=keys)
         cache.touch(keys)
@@ -514,7 +519,9 @@ class MultiscalePlan:
         lv = level[active]
         central = np.stack([lv, kz >> lv, ky >> lv, kx >> lv], axis=1)
         cache.fill_aprons({tuple(int(v) for v in row) for row in np.unique(central, axis=0)})
-        slot = np.array([cache.slots[cache.index(tuple(int(v) for v in row))] for row in central], dtype=np.int64)
+        chunk_shape = np.array([lv_.chunks for lv_ in vol.store.levels], dtype=np.int64)[central[:, 0]]
+        slot = cache.slots[cache.bases[central[:, 0]] + (central[:, 1] * chunk_shape[:, 1] + central[:, 2])
+                           * chunk_shape[:, 2] + central[:, 3]]
         e = SLOT_EDGE
         first = CHUNK * central[:, 1:] - 1  # the slot's first point (z, y, x) in its level
         base = np.zeros(vol.block_shape, dtype=np.int64)
@@ -589,6 +596,7 @@ class MultiscalePlan:
             "pending": cache.pending,
             "not_requested": int(refused),
             "coarsened": coarsened,
+            "passes": 1,
             "bytes_read": int(sum(cache.bytes_read)),
             "bytes_read_per_level": [int(b) for b in cache.bytes_read],
             "chunks_read_per_level": [int(c) for c in cache.chunks_read],
@@ -601,6 +609,62 @@ class MultiscalePlan:
             meta["piece"] = {"offset": [0, 0, 0], "owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi),
                              "whole_dims": list(piece.whole_dims)}
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
+
+    def _in_passes(self, camera, lens_camera, lens, size, rays, screen_error, timeout, shown, want, keys, far,
+                   t_start):
+        """The converged frame in passes: boxes of whole blocks (``split_boxes`` of the
+        block grid, more until each box's chunks fit the cache), each rendered as a piece
+        (the whole frame's lattice and step, samples whose midpoints it owns), composited
+        per pixel in the order the ray enters the boxes, as a distributed render's."""
+        from ..parallel.pieces import box_entries, split_boxes
+        from ..raycast.blocks import composite_in_order
+
+        vol = self.volume
+        cache = vol.cache(self.dtype)
+        room = cache.n_slots - len(cache.permanent)
+        bz, by, bx = vol.block_shape
+        n = max(2, -(-len(keys) * 5 // (4 * max(room, 1))))
+        blocks = np.nonzero(shown)
+        while True:
+            if n > bx * by * bz:
+                raise ValueError(f"cache_bytes={cache.cache_bytes} cannot hold the chunks of one block of this "
+                                 f"frame; open the store with a larger cache")
+            boxes = split_boxes((bx + 1, by + 1, bz + 1), n)
+            fits = True
+            for lo, hi in boxes:
+                inside = ((blocks[0] >= lo[2]) & (blocks[0] < hi[2]) & (blocks[1] >= lo[1]) & (blocks[1] < hi[1])
+                          & (blocks[2] >= lo[0]) & (blocks[2] < hi[0]))
+                count = sum(len(self._keys(L, tuple(b[inside & (want[blocks] == L)] for b in blocks)))
+                            for L in range(vol.n_levels))
+                if count > room:
+                    fits = False
+                    break
+            if fits:
+                break
+            n *= 2
+        dims = np.array(vol.dims)
+        pieces = [VolumePiece(tuple(vol.origin.tolist()), tuple(int(d) for d in dims), (0, 0, 0),
+                              tuple(int(v) for v in np.minimum(BLOCK * np.array(lo), dims - 1)),
+                              tuple(int(v) for v in np.minimum(BLOCK * np.array(hi), dims - 1))) for lo, hi in boxes]
+        frame = rays if rays is not None else camera
+        far = far.reshape(size[1], size[0]) if far.size else None
+        images = [self.execute(frame, size, screen_error=screen_error, wait=True, timeout=timeout, far=far,
+                               piece=p, progress_bar=False, _pass=True) for p in pieces]
+        rays = rays if rays is not None else camera.rays(size)
+        image = composite_in_order(images, box_entries(rays, [p.world_box(vol.spacing) for p in pieces]))
+        meta = image.metadata
+        meta.pop("piece", None)
+        meta["levels"] = [int(v) for v in np.sum([im.metadata["levels"] for im in images], axis=0)]
+        meta["desired_levels"] = [int(v) for v in np.bincount(want[shown], minlength=vol.n_levels)]
+        meta["converged"] = all(im.metadata["converged"] for im in images)
+        meta["passes"] = len(pieces)
+        meta["camera"] = repr(camera) if isinstance(camera, Camera) else repr(lens_camera) if lens else "rays"
+        for key in ("bytes_read", "bytes_read_per_level", "chunks_read_per_level", "pending", "resident_bytes"):
+            meta[key] = images[-1].metadata[key]
+        meta["render_seconds"] = time.perf_counter() - t_start
+        if lens is not None:
+            meta["lens"] = repr(lens)
+        return image
 
     def _check_piece(self, piece):
         """The blocks (bool, z, y, x) whose cells meet ``piece``'s owned box, after checking

@@ -579,8 +579,12 @@ class HDRViewer(QtWidgets.QMainWindow):
         from vtkmodules.vtkInteractionStyle import vtkInteractorStyleUser
 
         on = not self.lens_mode if on is None else bool(on)
-        if on and (self.actor.renderer.tets or self.multiscale):
-            self.statusBar().showMessage("the magnifier lens works on in-core image volumes only", 8000)
+        if on and self.actor.renderer.tets:
+            self.statusBar().showMessage("the magnifier lens works on image volumes only", 8000)
+            on = False
+        elif on and self.multiscale:
+            self.statusBar().showMessage("the magnifier lens works on in-core image volumes only (not yet out of "
+                                         "core)", 8000)
             on = False
         self.lens_mode = on
         self.actions_by_name["Magnifier lens"].setChecked(on)

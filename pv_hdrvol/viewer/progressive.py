@@ -48,6 +48,7 @@ from .._validate import as_real, as_size
 from ..data.tets import is_unstructured
 from ..image.hdr import HDRImage
 from ..image.upsample import upsample
+from ..outofcore.render import MultiscaleVolume
 from ..params import RenderOptions
 from ..raycast.grid import EmptyRenderWarning, GridPlan, collected_warnings
 from ..data.kinds import as_renderable
@@ -151,8 +152,6 @@ class ProgressiveRenderer:
 
     def __init__(self, data, tf=None, options=None, *, coarse_seconds=COARSE_SECONDS, factor=4, on_frame=None,
                  on_error=None, scalars=None, preference="point", screen_error=None, **option_kwargs):
-        from ..outofcore.render import MultiscaleVolume  # a later stage, known by its type
-
         #: whether the data is a MultiscaleVolume (rendered out of core, refined by level)
         self.multiscale = isinstance(data, MultiscaleVolume)
         if self.multiscale:

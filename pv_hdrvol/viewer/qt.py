@@ -462,7 +462,9 @@ class HDRViewer(QtWidgets.QMainWindow):
         self.plotter.view_isometric()
         self.editor = TransferFunctionEditorWidget(self.model)
         self.panel = ToneMapPanel(self)
-        for name, widget, area in (("Transfer function", self.editor, QtCore.Qt.BottomDockWidgetArea),
+        # out of core the histogram is the coarsest level's (all that is read without reading the volume)
+        editor_title = "Transfer function (histogram of the coarsest level)" if self.multiscale else "Transfer function"
+        for name, widget, area in ((editor_title, self.editor, QtCore.Qt.BottomDockWidgetArea),
                                    ("Display", self.panel, QtCore.Qt.RightDockWidgetArea)):
             dock = QtWidgets.QDockWidget(name, self)
             dock.setWidget(widget)

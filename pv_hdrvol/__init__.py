@@ -106,6 +106,11 @@ def view(data, tf=None, **kwargs):
     ``pv-hdrvol view --tf``, the path of the editor's JSON, a transfer function's JSON or
     a ParaView preset file.
 
+    The path of a multiresolution store (a folder with a ``zarr.json``:
+    :func:`write_multiscale`, ``pv-hdrvol convert``) opens it out of core
+    (:func:`open_multiscale`): coarse levels while the camera moves, finer ones as
+    chunks arrive; so does a :class:`MultiscaleVolume`.
+
     A :class:`ProxySet` or the path of a proxy folder opens the proxy viewer instead
     (:func:`pv_hdrvol.proxy.qt.view`: opacity per interval, turning, relighting,
     layers, enhancement; no volume needed).
@@ -116,13 +121,21 @@ def view(data, tf=None, **kwargs):
         ``data`` (or ``tf``) names no file or folder.
     ValueError
         The file's extension is not one of those, or the file cannot be read (the
-        message names it); a folder is not a proxy folder.
+        message names it); a folder is not a proxy folder or a store pv_hdrvol wrote.
     """
     import os
 
     if isinstance(data, (str, os.PathLike)):
         path = os.fspath(data)
-        if os.path.isdir(path):
+        from .integrations.files import is_store
+
+        if is_store(path):
+            if kwargs.pop("scalars", None) is not None:
+                raise ValueError("scalars= picks an array of a dataset; a multiresolution store holds one")
+            kwargs.pop("preference", None)
+            data = open_multiscale(path)  # a ValueError names what a zarr.json pv_hdrvol did not write lacks
+            kwargs.setdefault("title", f"pv_hdrvol: {os.path.basename(os.path.abspath(path))}")
+        elif os.path.isdir(path):
             data = load_proxies(path)  # names what a folder that is not a proxy folder lacks
             kwargs.setdefault("title", f"pv_hdrvol proxies: {path}")
         else:
@@ -139,12 +152,15 @@ def view(data, tf=None, **kwargs):
         return _view_proxies(data, **kwargs)
     if isinstance(tf, (str, os.PathLike)):  # as pv-hdrvol view --tf: a ParaView preset lands on the data's range
         from .data.tets import as_tetmesh, is_unstructured
-        from .editor.model import TransferFunctionModel
+        from .editor.model import TransferFunctionModel, coarsest_values
         from .raycast.grid import as_volume
 
-        convert = as_tetmesh if is_unstructured(data) else as_volume
-        volume = convert(data, scalars=kwargs.get("scalars"), preference=kwargs.get("preference", "point"))
-        tf = TransferFunctionModel.load(tf, volume.values).transfer_function()
+        if isinstance(data, MultiscaleVolume):
+            values = coarsest_values(data)  # the range of a volume larger than memory: its coarsest level's
+        else:
+            convert = as_tetmesh if is_unstructured(data) else as_volume
+            values = convert(data, scalars=kwargs.get("scalars"), preference=kwargs.get("preference", "point")).values
+        tf = TransferFunctionModel.load(tf, values).transfer_function()
     from .viewer.qt import view as _view
 
     return _view(data, tf, **kwargs)

@@ -216,6 +216,64 @@ def test_view_names_a_file_it_cannot_open(tmp_path, opened):
     assert opened == []
 
 
+def test_view_opens_a_store_out_of_core_as_the_cli_does(tmp_path, opened, capsys):
+    """A folder with a zarr.json is a multiresolution store: hv.view and pv-hdrvol view
+    open it with open_multiscale (not as a proxy folder); --tf lands on its coarsest
+    level's range in both; what does not apply, or a Zarr store pv_hdrvol did not write,
+    is named."""
+    pytest.importorskip("zarr")
+    import zarr
+
+    from pv_hdrvol.editor.model import TransferFunctionModel
+    from stores import write_store
+
+    path = write_store(tmp_path / "smooth.ome.zarr", n=40)
+    hv.view(str(path))
+    main(["view", str(path)])
+    hv.view(path, tf=str(_saved_tf(tmp_path)))
+    main(["view", str(path) + "/", "--tf", str(tmp_path / "tf.json"), "--precision", "float64"])
+    for which, data, tf, kw in opened:
+        assert which == "volume" and isinstance(data, hv.MultiscaleVolume)
+        assert data.store.path == hv.MultiscaleStore(path).path and kw["title"] == "pv_hdrvol: smooth.ome.zarr"
+        data.close()
+    assert opened[0][2] is opened[1][2] is None and opened[3][3]["precision"] == "float64"
+    expected = TransferFunctionModel.load(tmp_path / "tf.json", _path_values(path)).transfer_function().to_dict()
+    assert opened[2][2].to_dict() == opened[3][2].to_dict() == expected
+    del opened[:]
+    with pytest.raises(SystemExit) as exit_info:
+        main(["view", str(path), "--scalars", "v"])
+    assert exit_info.value.code == 2
+    assert f"pv-hdrvol view: error: --scalars picks an array of a dataset; the store '{path}' holds one" in \
+        capsys.readouterr().err
+    with pytest.raises(ValueError, match="scalars= picks an array of a dataset; a multiresolution store holds one"):
+        hv.view(str(path), scalars="v")
+    zarr.open_group(str(tmp_path / "plain.zarr"), mode="w").create_array("a", shape=(4, 4, 4), dtype="f4")
+    message = "plain.zarr is not a pv_hdrvol multiresolution store"
+    with pytest.raises(ValueError, match=message):
+        hv.view(tmp_path / "plain.zarr")
+    with pytest.raises(SystemExit):
+        main(["view", str(tmp_path / "plain.zarr")])
+    err = capsys.readouterr().err
+    assert "pv-hdrvol view: error: " in err and message in err and "Traceback" not in err
+    assert opened == []
+
+
+def _saved_tf(tmp_path):
+    from pv_hdrvol.editor.model import TransferFunctionModel
+
+    TransferFunctionModel(hv.TransferFunction.ramp(0.0, 1.0, cmap="gray", opacity=(0.0, 0.3))).save(
+        tmp_path / "tf.json")
+    return tmp_path / "tf.json"
+
+
+def _path_values(path):
+    """The coarsest level of the store at ``path`` (what the editor and --tf see of it)."""
+    from pv_hdrvol.editor.model import coarsest_values
+
+    with hv.open_multiscale(path) as volume:
+        return coarsest_values(volume)
+
+
 def test_add_hdr_volume_names_a_plotter_that_is_not_one(grid):
     with pytest.raises(TypeError, match=re.escape("plotter must be a pyvista.Plotter (or a pyvistaqt BackgroundPlotter "
                                                   "or QtInteractor); got 'not a plotter': pass the plotter first, "

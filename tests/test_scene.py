@@ -385,3 +385,46 @@ def test_a_clip_plane_widget_cuts_the_volume_as_it_is_dragged():
     pl.screenshot(return_img=True)
     np.testing.assert_array_equal(actor.hdr.rgba, whole.rgba)
     pl.close()
+
+
+def test_a_store_larger_than_memory_renders_converged_off_screen_and_refines_progressively(tmp_path):
+    """A MultiscaleVolume in a scene: off screen, the converged render at once (wait=True,
+    bit for bit hv.render's); progressive, coarse and refining frames (a slow loader)
+    until the converged one, the status line saying which levels each frame drew."""
+    pytest.importorskip("zarr")
+    import time
+
+    from stores import slow_loader, write_store
+
+    path = write_store(tmp_path / "smooth.ome.zarr", n=80)
+    with hv.open_multiscale(path, cache_bytes=2 ** 28) as volume:
+        pl = _plotter()
+        actor = pl.hdrvol.add_volume(volume, precision="float32", screen_error=0.5)
+        pl.screenshot(return_img=True)
+        assert actor.level == "full" and actor.hdr.metadata["converged"] and actor.status.endswith("converged")
+        assert actor.scalar_bar is not None
+        camera = hv.Camera.from_pyvista(pl.camera)
+        tf = actor.renderer.tf
+        np.testing.assert_array_equal(actor.hdr.rgba, hv.render(volume, tf, camera, SIZE, screen_error=0.5,
+                                                                 precision="float32").rgba)
+        with pytest.raises(ValueError, match="lenses are not supported for out-of-core volumes"):
+            actor.set_lens(hv.Magnifier(center=(40, 30), radius=10, factor=2))
+        pl.close()
+    with hv.open_multiscale(path, cache_bytes=2 ** 28) as volume:
+        slow_loader(volume, 0.02)
+        pl = _plotter()
+        actor = pl.hdrvol.add_volume(volume, tf, precision="float32", screen_error=0.5, progressive=True)
+        pl.screenshot(return_img=True)
+        seen, end = [], time.monotonic() + 120
+        while time.monotonic() < end and not actor.up_to_date:
+            actor._poll()
+            assert actor.error is None, actor.error
+            if actor.level is not None and (not seen or seen[-1][0] != actor.level):
+                seen.append((actor.level, actor.status))
+            time.sleep(0.005)
+        assert actor.up_to_date and actor.hdr.metadata["converged"]
+        assert seen[0][0] == "coarse" and "refining" in [level for level, _ in seen], seen
+        assert any("loading" in status for _, status in seen), seen
+        np.testing.assert_array_equal(actor.hdr.rgba, hv.render(volume, tf, camera, SIZE, screen_error=0.5,
+                                                                 precision="float32").rgba)
+        pl.close()

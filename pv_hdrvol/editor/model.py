@@ -93,6 +93,13 @@ def read_json(path, fix):
             raise ValueError(f"{name!r} is not valid JSON ({fix}): {exc}") from None
 
 
+def coarsest_values(volume):
+    """The values of a :class:`~pv_hdrvol.MultiscaleVolume`'s coarsest level, (z, y, x):
+    what the editor's histogram and a preset's rescaling see of a volume larger than
+    memory (the default transfer function is chosen from them too)."""
+    return np.asarray(volume.store.read_level(volume.n_levels - 1))
+
+
 class TransferFunctionModel:
     """The edited transfer function, its display axes and its undo history.
 
@@ -170,10 +177,17 @@ class TransferFunctionModel:
     def for_data(cls, data, tf=None, **kwargs):
         """A model for an image volume or tetrahedral mesh (anything
         :func:`pv_hdrvol.render` takes): ``tf`` or the renderer's default transfer function
-        for it, and the histogram of its values."""
+        for it, and the histogram of its values. A volume larger than memory
+        (:class:`~pv_hdrvol.MultiscaleVolume`) gives the values of its coarsest level,
+        the only ones read without reading the volume: the histogram's shape, not its
+        counts."""
         from ..data.kinds import as_renderable
+        from ..outofcore.render import MultiscaleVolume
         from ..raycast.grid import resolve_transfer_function
 
+        if isinstance(data, MultiscaleVolume):
+            tf = data.default_transfer_function() if tf is None else tf
+            return cls(tf, coarsest_values(data), **kwargs)
         volume = as_renderable(data)
         return cls(resolve_transfer_function(volume, tf), np.asarray(volume.values), **kwargs)
 

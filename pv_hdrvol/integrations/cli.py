@@ -143,7 +143,9 @@ def build_parser():
                                    "transfer function, tone-map, probe HDR values, a magnifier lens, save EXR/PNG. "
                                    "Needs Qt (pip install 'pv_hdrvol[gui]') and a display.")
     p.add_argument("file", metavar="FILE", help=f"image volume, rectilinear or curvilinear grid, tetrahedral mesh or "
-                                                f"blocks of those, one of {', '.join(READABLE)}")
+                                                f"blocks of those, one of {', '.join(READABLE)}; or a "
+                                                f"multiresolution store (a folder, 'pv-hdrvol convert'), rendered "
+                                                f"out of core: coarse levels while the view moves, finer as they load")
     p.add_argument("--scalars", default=None, metavar="NAME", help="array to render (default: active scalars)")
     p.add_argument("--tf", default=None, metavar="FILE.json",
                    help="transfer function to start from: the editor's JSON, a TransferFunction's JSON or a "
@@ -353,17 +355,34 @@ def _read_volume(path, args):
     return volume
 
 
+def _open_store(path, args):
+    """The multiresolution store at folder ``path``, opened out of core."""
+    from ..outofcore.render import open_multiscale
+
+    if args.scalars is not None:
+        raise UserError(f"--scalars picks an array of a dataset; the store {str(path)!r} holds one")
+    try:
+        return open_multiscale(path)
+    except (OSError, ValueError) as exc:  # names what a zarr.json pv_hdrvol did not write lacks
+        raise UserError(str(exc)) from None
+
+
 def _cmd_view(args):
-    path = _readable_file(args.file)
+    from .files import is_store
+
+    store = is_store(args.file)
+    path = pathlib.Path(os.path.abspath(args.file)) if store else _readable_file(args.file)
     tf = None
     tf_path = None if args.tf is None else _existing_file(args.tf)
-    volume = _read_volume(path, args)
+    volume = _open_store(path, args) if store else _read_volume(path, args)
     if tf_path is not None:
-        from ..editor.model import TransferFunctionModel
+        from ..editor.model import TransferFunctionModel, coarsest_values
 
         try:
-            # a ParaView preset (stored on 0-1) lands on the data's range, as ParaView's ApplyPreset
-            model = TransferFunctionModel.load(tf_path, volume.values)
+            # a ParaView preset (stored on 0-1) lands on the data's range, as ParaView's ApplyPreset (out of
+            # core: the coarsest level's, which the default function and the editor's histogram use too)
+            values = coarsest_values(volume) if store else volume.values
+            model = TransferFunctionModel.load(tf_path, values)
         except (ValueError, TypeError, KeyError, IndexError, AttributeError) as exc:
             raise UserError(f"cannot read the transfer function {str(tf_path)!r}: {exc}") from None
         tf = model.transfer_function()

@@ -40,6 +40,13 @@ def readable_path(path, formats=READABLE):
     return p
 
 
+def is_store(path):
+    """Whether ``path`` is a folder with a ``zarr.json``: a multiresolution store to open
+    with :func:`~pv_hdrvol.open_multiscale` (which says so if it is a Zarr store that
+    pv_hdrvol did not write), not a proxy folder."""
+    return os.path.isdir(path) and os.path.isfile(os.path.join(path, "zarr.json"))
+
+
 def read_dataset(path, formats=READABLE):
     """The dataset in file ``path``: image data, a rectilinear, curvilinear or
     unstructured grid, or several blocks of those (:mod:`pv_hdrvol.data.kinds`)."""

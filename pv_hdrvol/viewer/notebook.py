@@ -13,6 +13,11 @@
 - tone mapping: operator and exposure (the HDR render is kept: re-mapping renders
   nothing), and the global opacity on a log slider.
 
+A :class:`~pv_hdrvol.MultiscaleVolume` (a store larger than memory) renders out of core:
+live, coarse levels first and finer ones as their chunks arrive (the status says which
+levels the frame drew, and whether it has converged); the histogram is its coarsest
+level's.
+
 Everything the widgets do goes through :class:`~pv_hdrvol.editor.model.TransferFunctionModel`
 (:attr:`TransferFunctionEditor.model`) and
 :class:`~pv_hdrvol.viewer.progressive.ProgressiveRenderer`: the same model the Qt
@@ -32,7 +37,7 @@ from ..editor.model import PRESETS, TransferFunctionModel
 from ..image.tonemap import EXPOSURE_PARAMETERS
 from ..image.tonemap import tonemap as _tonemap
 from ..rays.camera import Camera
-from .progressive import ProgressiveRenderer
+from .progressive import ProgressiveRenderer, level_text
 
 TONEMAPS = {name: EXPOSURE_PARAMETERS[name] for name in ("reinhard", "drago", "linear")}
 
@@ -210,9 +215,9 @@ class TransferFunctionEditor:
             self.refresh()
 
     def refresh(self, coarse=False):
-        """Render here, now: the full frame (and the coarse one first if ``coarse``);
-        returns the full frame's HDRImage."""
-        frames = self.renderer.frames(self.camera(), self.size, coarse=coarse)
+        """Render here, now: the full frame (and the coarse one first if ``coarse``, and
+        out of core the refining ones); returns the full frame's HDRImage."""
+        frames = self.renderer.frames(self.camera(), self.size, coarse=coarse, refine=coarse)
         for frame in frames:
             self._show(frame)
         return self.hdr
@@ -238,6 +243,7 @@ class TransferFunctionEditor:
         a = hdr.rgba[..., 3]
         self.status.value = (f"{self.level} frame, {hdr.metadata.get('render_seconds', 0.0):.2f} s; "
                              f"opacity max {float(a.max()):.3g}"
+                             + (f"<br>{html.escape(level_text(hdr, self.level))}" if "levels" in hdr.metadata else "")
                              + "".join(f"<br>warning: {html.escape(message, quote=False)}" for message in self.said))
 
     # -- the model ---------------------------------------------------------------------------

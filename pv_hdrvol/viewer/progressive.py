@@ -17,6 +17,20 @@ predicted time (pixels scale as ``1 / factor**2``) fits ``coarse_seconds``.
 the GIL, so a GUI stays responsive) and hands each :class:`Frame` to ``on_frame`` on
 that thread; :meth:`ProgressiveRenderer.frames` is the same sequence, synchronous, for
 scripts and tests.
+
+A volume larger than memory (:class:`~pv_hdrvol.MultiscaleVolume`, a multiresolution
+store) refines by level of detail as well as by pixels (HDR VolVis, section 6.3: a coarse
+level while the user interacts, finer levels when the camera rests). Every frame renders
+with ``wait=False`` (:meth:`MultiscalePlan.execute
+<pv_hdrvol.outofcore.render.MultiscalePlan.execute>`): what is resident, coarser
+ancestors where chunks have not arrived, never a hole. The coarse frame is rendered at
+``1 / factor`` of the size, so its ``screen_error`` in full-size pixels is ``factor``
+times the renderer's: the time budget that picks the factor picks the coarser level too.
+When the camera rests, ``"refining"`` frames at full size follow as chunks arrive (a new
+one when the loader's ``pending`` count drops, but not more often than the last frame
+took to render, and at least every :data:`REFINE_SECONDS` while reads are pending),
+until one is ``converged``: that last frame is ``"full"`` and equals, bit for bit,
+:func:`pv_hdrvol.render` with ``wait=True``. A newer request cancels the refinement.
 """
 from __future__ import annotations
 
@@ -34,6 +48,7 @@ from .._validate import as_real, as_size
 from ..data.tets import is_unstructured
 from ..image.hdr import HDRImage
 from ..image.upsample import upsample
+from ..outofcore.render import MultiscaleVolume
 from ..params import RenderOptions
 from ..raycast.grid import EmptyRenderWarning, GridPlan, collected_warnings
 from ..data.kinds import as_renderable
@@ -48,6 +63,8 @@ COARSE_SECONDS = 0.08
 #: A render checks for a newer request after chunks of rows of tiles of about this
 #: long (at least one row of 8-pixel tiles): the latency of cancellation.
 CHUNK_SECONDS = 0.03
+#: Out of core: while chunks are pending, a refining frame at least this often (seconds).
+REFINE_SECONDS = 0.2
 
 
 class Cancelled(Exception):
@@ -62,7 +79,10 @@ class Frame:
     ----------
     image : HDRImage
         At the requested size: a coarse frame upsampled, or the full render.
-    level : {"coarse", "full"}
+    level : {"coarse", "refining", "full"}
+        ``"refining"``: out of core only, a full-size frame rendered before every chunk it
+        asks for has arrived (coarser levels there); ``image.metadata["levels"]`` says
+        how many blocks each level drew.
     factor : int
         Full-size pixels per rendered pixel, per axis (1 for the full frame).
     generation : int
@@ -98,8 +118,9 @@ class ProgressiveRenderer:
 
     Parameters
     ----------
-    data : pyvista.ImageData, vtkImageData, ndarray, GridVolume, or a tetrahedral mesh
-        As :func:`pv_hdrvol.render`; converted once.
+    data : pyvista.ImageData, vtkImageData, ndarray, GridVolume, MultiscaleVolume, or a tetrahedral mesh
+        As :func:`pv_hdrvol.render`; converted once. A :class:`~pv_hdrvol.MultiscaleVolume`
+        refines by level of detail too (see the module).
     tf : TransferFunction, optional
         The default is the renderer's default for the data.
     options : RenderOptions, optional
@@ -115,6 +136,10 @@ class ProgressiveRenderer:
     on_error : callable, optional
         ``on_error(exception)`` on the worker thread when a render fails (default: the
         traceback is printed); the worker goes on with the next request.
+    screen_error : float, optional
+        Out of core only: the largest projected voxel, in pixels, of the converged frame
+        (default 1; as :meth:`MultiscalePlan.execute
+        <pv_hdrvol.outofcore.render.MultiscalePlan.execute>`).
 
     Examples
     --------
@@ -126,9 +151,22 @@ class ProgressiveRenderer:
     """
 
     def __init__(self, data, tf=None, options=None, *, coarse_seconds=COARSE_SECONDS, factor=4, on_frame=None,
-                 on_error=None, scalars=None, preference="point", **option_kwargs):
-        self.data = as_renderable(data, scalars=scalars, preference=preference)
-        self.tets = is_unstructured(self.data)
+                 on_error=None, scalars=None, preference="point", screen_error=None, **option_kwargs):
+        #: whether the data is a MultiscaleVolume (rendered out of core, refined by level)
+        self.multiscale = isinstance(data, MultiscaleVolume)
+        if self.multiscale:
+            if scalars is not None:
+                raise ValueError("scalars= picks an array of a dataset; a multiresolution store holds one: "
+                                 f"got {scalars!r}")
+            self.data = data
+        else:
+            if screen_error is not None:
+                raise ValueError("screen_error= is the level of detail of an out-of-core volume (MultiscaleVolume); "
+                                 f"this is a {type(data).__name__}")
+            self.data = as_renderable(data, scalars=scalars, preference=preference)
+        self.screen_error = 1.0 if screen_error is None else as_real("screen_error", screen_error, low=0.0,
+                                                                        low_open=True)
+        self.tets = not self.multiscale and is_unstructured(self.data)
         self.options = RenderOptions.from_kwargs(options, **option_kwargs)
         self.coarse_seconds = as_real("coarse_seconds", coarse_seconds, low=0.0, low_open=True)
         if factor not in FACTORS:
@@ -168,23 +206,58 @@ class ProgressiveRenderer:
             self.options, self._plan = options, plan
 
     # -- synchronous ------------------------------------------------------------------
-    def frames(self, camera, size, *, lens=None, coarse=True, far=None, unoccluded=False):
+    def frames(self, camera, size, *, lens=None, coarse=True, far=None, unoccluded=False, refine=True):
         """The frames of one request, rendered here: the coarse frame (unless
         ``coarse=False``), then the full one. A list of :class:`Frame`. ``far``: where
         opaque geometry stops each ray (as :meth:`GridPlan.execute
         <pv_hdrvol.raycast.grid.GridPlan.execute>`; the coarse frame takes the value
         of the full-size pixel at each coarse pixel's centre). ``unoccluded=True``:
-        each frame also carries the render without ``far`` (:attr:`Frame.unoccluded`)."""
+        each frame also carries the render without ``far`` (:attr:`Frame.unoccluded`).
+        Out of core, ``"refining"`` frames come before the full one as chunks arrive
+        (see the module); ``refine=False`` renders the full frame waiting for its chunks
+        instead (one frame)."""
         size = as_size(size)
+        self._check_lens(lens)
         with self._lock:
             plan = self._plan
-        out = []
-        if coarse and _coarse_lens(lens, 0.5) is not _NO_COARSE:
-            out.append(_collecting(self._coarse, plan, camera, size, lens, 0, lambda: False, far, unoccluded))
-        out.append(_collecting(self._full, plan, camera, size, lens, 0, lambda: False, far, unoccluded))
+        out = list(self._sequence(plan, camera, size, lens, 0, lambda: False, far, unoccluded, coarse, refine))
         for message in dict.fromkeys(w for frame in out for w in map(str, frame.warnings)):
             warnings.warn(message, EmptyRenderWarning, stacklevel=2)  # rendered here: the caller's warnings
         return out
+
+    def _check_lens(self, lens):
+        if lens is not None and self.multiscale:
+            raise ValueError("lenses are not supported for out-of-core volumes (MultiscaleVolume) yet")
+
+    def _sequence(self, plan, camera, size, lens, generation, stale, far, unoccluded, coarse=True, refine=True):
+        """The frames of one request, one by one (each rendered when the caller asks for
+        it, so a consumer that stops early renders no more)."""
+        if coarse and _coarse_lens(lens, 0.5) is not _NO_COARSE:
+            yield _collecting(self._coarse, plan, camera, size, lens, generation, stale, far, unoccluded)
+        if self.multiscale and refine:
+            yield from self._refine(plan, camera, size, lens, generation, stale, far, unoccluded)
+        else:
+            yield _collecting(self._full, plan, camera, size, lens, generation, stale, far, unoccluded)
+
+    def _refine(self, plan, camera, size, lens, generation, stale, far, unoccluded):
+        """Out of core: full-size frames of what is resident, a new one as chunks arrive,
+        until one is converged (``"full"``)."""
+        cache = plan.volume.cache(plan.dtype)
+        idle = 0
+        while True:
+            frame = _collecting(self._full, plan, camera, size, lens, generation, stale, far, unoccluded, False)
+            meta = frame.image.metadata
+            # pending 0 twice without converging: nothing more will arrive (reads the cache
+            # refused); the frame stands as the full one rather than polling for ever
+            done = meta["converged"] or (meta["pending"] == 0 and idle >= 1)
+            if done:
+                yield frame
+                return
+            yield dataclasses.replace(frame, level="refining")
+            idle = idle + 1 if meta["pending"] == 0 else 0
+            _await_chunks(cache, meta["pending"], frame.seconds, stale)
+            if stale():
+                return
 
     def _coarse(self, plan, camera, size, lens, generation, stale, far=None, unoccluded=False):
         width, height = size
@@ -197,22 +270,22 @@ class ProgressiveRenderer:
             far = far[rows[:, None], cols[None, :]]
         t0 = time.perf_counter()
         small_lens = _coarse_lens(lens, small[0] / width)
-        image = self._execute(plan, camera, small, small_lens, stale, far)
+        image = self._execute(plan, camera, small, small_lens, stale, far, wait=False)
         rendered = time.perf_counter() - t0
-        opened = self._unoccluded(plan, camera, small, small_lens, stale, far, image) if unoccluded else None
+        opened = self._unoccluded(plan, camera, small, small_lens, stale, far, image, False) if unoccluded else None
         image = _resize(image, size)
         opened = None if opened is None else _resize(opened, size)
         seconds = time.perf_counter() - t0
         self.factor = _next_factor(f, rendered, self.coarse_seconds)
         return Frame(image, "coarse", f, generation, seconds, opened)
 
-    def _full(self, plan, camera, size, lens, generation, stale, far=None, unoccluded=False):
+    def _full(self, plan, camera, size, lens, generation, stale, far=None, unoccluded=False, wait=True):
         t0 = time.perf_counter()
-        image = self._execute(plan, camera, size, lens, stale, far)
-        opened = self._unoccluded(plan, camera, size, lens, stale, far, image) if unoccluded else None
+        image = self._execute(plan, camera, size, lens, stale, far, wait=wait)
+        opened = self._unoccluded(plan, camera, size, lens, stale, far, image, wait) if unoccluded else None
         return Frame(image, "full", 1, generation, time.perf_counter() - t0, opened)
 
-    def _unoccluded(self, plan, camera, size, lens, stale, far, image):
+    def _unoccluded(self, plan, camera, size, lens, stale, far, image, wait=True):
         """``image`` (rendered with ``far``) as it would be without ``far``, or None
         when ``far`` stopped no ray: the smallest window holding every stopped ray is
         rendered again without it (a window is pixel for pixel the full render's;
@@ -227,12 +300,12 @@ class ProgressiveRenderer:
         rows = np.nonzero(stopped.any(axis=1))[0]
         cols = np.nonzero(stopped.any(axis=0))[0]
         window = (int(cols[0]), int(rows[0]), int(cols[-1] - cols[0] + 1), int(rows[-1] - rows[0] + 1))
-        part = self._execute(plan, camera, size, lens, stale, window=window)
+        part = self._execute(plan, camera, size, lens, stale, window=window, wait=wait)
         rgba = np.array(image.rgba)
         rgba[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1] = part.rgba
         return HDRImage(rgba, image.depth)  # depth is not the point: statistics read the colour
 
-    def _execute(self, plan, camera, size, lens, stale, far=None, window=None):
+    def _execute(self, plan, camera, size, lens, stale, far=None, window=None, wait=True):
         seen = []
 
         def progress(_fraction):
@@ -247,6 +320,11 @@ class ProgressiveRenderer:
                     raise ValueError("lenses are not supported for tetrahedral meshes")
                 return plan.execute(camera, size, progress=progress, progress_bar=False,
                                     chunk_seconds=CHUNK_SECONDS, far=far)
+            if self.multiscale:
+                # wait=False: what is resident (never a hole); wait=True only where a caller
+                # asked for the converged frame at once (refine=False)
+                return plan.execute(camera, size, screen_error=self.screen_error, wait=wait, progress=progress,
+                                    progress_bar=False, chunk_seconds=CHUNK_SECONDS, far=far, window=window)
             return plan.execute(camera, size, lens=lens, progress=progress, progress_bar=False,
                                 chunk_seconds=CHUNK_SECONDS, far=far, window=window)
         except RuntimeError as error:
@@ -263,6 +341,7 @@ class ProgressiveRenderer:
         if self.on_frame is None:
             raise ValueError("request() needs on_frame= (the frames go there); frames() renders synchronously")
         size = as_size(size)
+        self._check_lens(lens)
         camera = as_camera(camera, self.data.bounds)
         with self._lock:
             if self._closed:
@@ -289,9 +368,7 @@ class ProgressiveRenderer:
                 return self._closed or self._generation != generation
 
             try:
-                renders = (self._coarse, self._full) if _coarse_lens(lens, 0.5) is not _NO_COARSE else (self._full,)
-                for render in renders:
-                    frame = _collecting(render, plan, camera, size, lens, generation, stale, far, unoccluded)
+                for frame in self._sequence(plan, camera, size, lens, generation, stale, far, unoccluded):
                     if stale():
                         break
                     self.last_frame = frame
@@ -328,6 +405,42 @@ def _collecting(render, *args):
     with collected_warnings() as said:
         frame = render(*args)
     return dataclasses.replace(frame, warnings=tuple(said)) if said else frame
+
+
+def level_text(image, level=None):
+    """What an out-of-core frame drew, in a line for a status bar: the blocks per level of
+    detail (0 the finest) and whether the frame is converged or how many chunks are still
+    loading; ``level`` (a :attr:`Frame.level`) leads it. ``""`` for an image without
+    levels (an in-core render).
+
+    Examples
+    --------
+    >>> from pv_hdrvol import HDRImage
+    >>> import numpy as np
+    >>> image = HDRImage(np.zeros((1, 1, 4)), metadata={"levels": [3, 0, 5], "converged": False, "pending": 7})
+    >>> level_text(image, "refining")
+    'refining: level 0: 3 blocks, level 2: 5 blocks; loading 7 chunks'
+    """
+    meta = getattr(image, "metadata", None) or {}
+    if "levels" not in meta:
+        return ""
+    drawn = ", ".join(f"level {L}: {n} block{'s' if n != 1 else ''}" for L, n in enumerate(meta["levels"]) if n)
+    state = "converged" if meta.get("converged") else f"loading {meta.get('pending', 0)} chunks"
+    if level == "coarse":  # converged at the coarse frame's own (coarser) level of detail only
+        state = "moving" if meta.get("converged") else state
+    return f"{level + ': ' if level else ''}{drawn or 'nothing visible'}; {state}"
+
+
+def _await_chunks(cache, pending, seconds, stale):
+    """Wait until fewer than ``pending`` chunks are loading in ``cache`` (and at least
+    ``seconds``, the last frame's render time, so that refining frames take at most about
+    half the time), or :data:`REFINE_SECONDS` have passed, or the request is stale."""
+    start = time.monotonic()
+    while not stale():
+        waited = time.monotonic() - start
+        if waited >= REFINE_SECONDS or (waited >= seconds and cache.pending < pending):
+            return
+        time.sleep(0.005)
 
 
 def _coarse_lens(lens, scale):

@@ -12,6 +12,14 @@ EXR and PNG. Every action is in a menu with its shortcut; Help > Shortcuts lists
 
 The widgets only draw the model and send it events; everything they do is a method
 of the model or of the scene's actor, tested without a display.
+
+A volume larger than memory (:class:`~pv_hdrvol.MultiscaleVolume`, ``pv-hdrvol view
+store.ome.zarr``) renders out of core: coarse levels of detail while the camera moves,
+finer ones as their chunks arrive when it rests, until converged; the status bar says
+which levels the frame drew and how many chunks are loading. What the out-of-core path
+cannot do yet is off, and says so: the magnifier lens (disabled), the probe's data value
+(the HDR values and depth are shown), and the editor's histogram is that of the
+coarsest level (the only values read without reading the volume).
 """
 from __future__ import annotations
 
@@ -433,9 +441,17 @@ class HDRViewer(QtWidgets.QMainWindow):
         super().__init__()
         self.setWindowTitle(title)
         from ..data.kinds import BLOCKS, data_kind
+        from ..outofcore.render import MultiscaleVolume
 
-        if scalars is not None or data_kind(data) == BLOCKS:  # blocks: gathered or merged once, here
+        #: whether the data is a MultiscaleVolume (rendered out of core: see the module)
+        self.multiscale = isinstance(data, MultiscaleVolume)
+        if self.multiscale:
+            if scalars is not None:
+                raise ValueError(f"scalars= picks an array of a dataset; a multiresolution store holds one: got "
+                                 f"{scalars!r}")
+        elif scalars is not None or data_kind(data) == BLOCKS:  # blocks: gathered or merged once, here
             data, scalars = _select(data, scalars, preference), None
+        self.data = data
         self.model = TransferFunctionModel.for_data(data, tf)
         self.plotter = QtInteractor(self)
         self.setCentralWidget(self.plotter)
@@ -446,13 +462,22 @@ class HDRViewer(QtWidgets.QMainWindow):
         self.plotter.view_isometric()
         self.editor = TransferFunctionEditorWidget(self.model)
         self.panel = ToneMapPanel(self)
-        for name, widget, area in (("Transfer function", self.editor, QtCore.Qt.BottomDockWidgetArea),
+        # out of core the histogram is the coarsest level's (all that is read without reading the volume)
+        editor_title = "Transfer function (histogram of the coarsest level)" if self.multiscale else "Transfer function"
+        for name, widget, area in ((editor_title, self.editor, QtCore.Qt.BottomDockWidgetArea),
                                    ("Display", self.panel, QtCore.Qt.RightDockWidgetArea)):
             dock = QtWidgets.QDockWidget(name, self)
             dock.setWidget(widget)
             self.addDockWidget(area, dock)
         self.probe_label = QtWidgets.QLabel("")
         self.statusBar().addWidget(self.probe_label, 1)
+        #: the frame's levels of detail and loading state (out of core; empty in core)
+        self.level_label = QtWidgets.QLabel("")
+        self.statusBar().addPermanentWidget(self.level_label)
+        self._level_timer = QtCore.QTimer(self)
+        self._level_timer.timeout.connect(self._show_levels)
+        if self.multiscale:
+            self._level_timer.start(100)
         self.model.observe(self._model_changed)
         self.lens_mode = False
         self._lens_drag = False
@@ -493,6 +518,10 @@ class HDRViewer(QtWidgets.QMainWindow):
             self.actions_by_name[text] = action
         for name in ("Magnifier lens", "Clip plane", "Crop box"):
             self.actions_by_name[name].setCheckable(True)
+        if self.multiscale:
+            lens = self.actions_by_name["Magnifier lens"]
+            lens.setEnabled(False)
+            lens.setText("Magnifier lens (in-core volumes only)")
         self._shortcut_text = "\n".join(f"{keys:14s} {text}" for _, text, keys, _ in spec) + (
             "\n\nEditor: drag points; click to add; right-click removes; double-click a colour point to pick its"
             " colour;\ndrag a colour's orange diamond up or down for its intensity (HDR above 1);\nShift+click"
@@ -533,9 +562,18 @@ class HDRViewer(QtWidgets.QMainWindow):
             text += f"  depth {found['depth']:.4g}"
         if found["value"] is not None:
             text += f"  value {found['value']:.6g}"
-        if found["level"] == "coarse":
-            text += "  (coarse)"
+        elif self.multiscale:
+            text += "  (no data value out of core)"
+        if found["level"] in ("coarse", "refining"):
+            text += f"  ({found['level']})"
         self.probe_label.setText(text)
+
+    def _show_levels(self):
+        text = self.actor.status
+        if self.actor.error is not None:
+            text = f"render failed: {self.actor.error}"
+        if self.level_label.text() != text:
+            self.level_label.setText(text)
 
     # -- lens -------------------------------------------------------------------------------
     def toggle_lens(self, on=None):
@@ -545,6 +583,10 @@ class HDRViewer(QtWidgets.QMainWindow):
         on = not self.lens_mode if on is None else bool(on)
         if on and self.actor.renderer.tets:
             self.statusBar().showMessage("the magnifier lens works on image volumes only", 8000)
+            on = False
+        elif on and self.multiscale:
+            self.statusBar().showMessage("the magnifier lens works on in-core image volumes only (not yet out of "
+                                         "core)", 8000)
             on = False
         self.lens_mode = on
         self.actions_by_name["Magnifier lens"].setChecked(on)
@@ -634,7 +676,10 @@ class HDRViewer(QtWidgets.QMainWindow):
             self.model.set_function(TransferFunctionModel.load(path, self.model._values).transfer_function())
 
     def closeEvent(self, event):
+        self._level_timer.stop()
         self.actor.close()
+        if self.multiscale:
+            self.data.close()  # the loader threads and the chunk cache (made again if it is used again)
         self.plotter.close()
         super().closeEvent(event)
 

@@ -51,7 +51,7 @@ from ..image.tonemap import OPERATORS, fit
 from ..image.tonemap import tonemap as _tonemap
 from ..raycast.grid import EmptyRenderWarning
 from ..rays.camera import Camera
-from .progressive import COARSE_SECONDS, ProgressiveRenderer
+from .progressive import COARSE_SECONDS, ProgressiveRenderer, level_text
 
 #: Interval of the timer that shows frames finished on the worker thread (ms).
 POLL_MS = 30
@@ -126,9 +126,10 @@ class HDRVolumeActor:
     Attributes
     ----------
     hdr : HDRImage or None
-        The last volume render shown (coarse or full), at the renderer's size.
-    level : {"coarse", "full", None}
-        Which it was.
+        The last volume render shown (coarse, refining or full), at the renderer's size.
+    level : {"coarse", "refining", "full", None}
+        Which it was (``"refining"``: an out-of-core volume's frame before all its chunks
+        arrived; see :mod:`pv_hdrvol.viewer.progressive`).
     renderer : ProgressiveRenderer
         The scene's renderer (transfer function, options).
     scalar_bar : vtkScalarBarActor or None
@@ -220,6 +221,7 @@ class HDRVolumeActor:
         not stopped by the scene's depth: use lenses on volumes without meshes in front."""
         if lens is not None and self.renderer.tets:
             raise ValueError("lenses are not supported for tetrahedral meshes")
+        self.renderer._check_lens(lens)  # nor, yet, out of core
         self.lens = lens
         self._key = None
         self._render_window()
@@ -409,6 +411,12 @@ class HDRVolumeActor:
         return False
 
     @property
+    def status(self):
+        """A line on the frame shown: out of core, its levels of detail and whether it is
+        converged (:func:`~pv_hdrvol.viewer.progressive.level_text`); in core, ``""``."""
+        return "" if self.hdr is None else level_text(self.hdr, self.level)
+
+    @property
     def up_to_date(self):
         """Whether the full render of the present view and function is shown."""
         return self._key is not None and self.level == "full" and self._shown == self._requested
@@ -483,8 +491,8 @@ class HDRVolumeActor:
                 self._requested = self.renderer.request(camera, (cols, rows), far=far, lens=self.lens,
                                                         unoccluded=True)
             else:
-                (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, far=far, lens=self.lens,
-                                                unoccluded=True)
+                (frame,) = self.renderer.frames(camera, (cols, rows), coarse=False, refine=False, far=far,
+                                                lens=self.lens, unoccluded=True)
                 self.hdr, self.level, self._unoccluded = frame.image, frame.level, frame.unoccluded
                 self.warnings = frame.warnings  # frames() warned them already, here
                 self._display = self._mapped(frame.image, frame.unoccluded)
@@ -525,6 +533,10 @@ def _scalars_name(data, scalars):
     """The scalar bar's title: the rendered array's name, as PyVista's add_volume's."""
     if isinstance(scalars, str):
         return scalars
+    from ..outofcore.render import MultiscaleVolume
+
+    if isinstance(data, MultiscaleVolume):  # a store: its array's name
+        return data.name or "hdrvol"
     try:
         name = data.active_scalars_name
     except AttributeError:
@@ -647,7 +659,11 @@ def add_hdr_volume(plotter, data, tf=None, *, tonemap="reinhard", tonemap_params
     ----------
     plotter : pyvista.Plotter or pyvistaqt.BackgroundPlotter
     data, tf, scalars, preference, **render_kwargs
-        As :func:`pv_hdrvol.render` (``precision=``, ``global_alpha=``, ``step=``...).
+        As :func:`pv_hdrvol.render` (``precision=``, ``global_alpha=``, ``step=``...). A
+        :class:`~pv_hdrvol.MultiscaleVolume` (a store larger than memory) renders out of
+        core: with a window, coarse levels while the camera moves and finer ones as
+        chunks arrive; off screen, converged at once (``screen_error=`` sets its level
+        of detail).
     tonemap : str or callable
         The operator that maps the HDR render to the screen (:func:`pv_hdrvol.tonemap`),
         with ``tonemap_params``.

@@ -131,9 +131,17 @@ class ChunkCache:
     def request(self, keys, pinned=()):
         """Queue reads of the ``keys`` not yet requested, in order, while slots last:
         a free slot, else the least recently used ready chunk not in ``pinned`` (nor
-        permanent). Returns the number of keys that got no slot (the budget is spent)."""
+        permanent). Reads still queued (not started) for chunks not in ``keys`` are
+        dropped first, their slots freed: a view the user has left does not delay the
+        one at rest. Returns the number of keys that got no slot (the budget is spent)."""
         self.raise_errors()
         pinned = set(pinned)
+        wanted = set(keys)
+        with self._lock:
+            for key, future in list(self._loading.items()):
+                if key not in wanted and future.cancel():
+                    del self._loading[key]
+                    self._free.append(self._slot_of.pop(key))
         refused = 0
         for key in keys:
             if key in self._slot_of:
@@ -232,7 +240,12 @@ class ChunkCache:
         self.raise_errors()
 
     def close(self):
+        """Stop the loader threads (queued reads are dropped); the cache is not used after."""
         self._pool.shutdown(wait=True, cancel_futures=True)
+        with self._lock:
+            for key in list(self._loading):
+                self._free.append(self._slot_of.pop(key))
+            self._loading.clear()
 
 
 __all__ = ["CHUNK", "ChunkCache", "SLOT_EDGE", "SLOT_VALUES"]

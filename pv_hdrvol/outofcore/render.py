@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 
 import numpy as np
@@ -91,6 +92,8 @@ class MultiscaleVolume:
         if self.threads < 1:
             raise ValueError(f"threads must be >= 1; got {threads}")
         self._caches = {}
+        # one frame at a time per volume: frames evict chunks another frame would read
+        self.lock = threading.RLock()
         s = self.store
         self.block_shape = tuple(max(1, -(-(n - 1) // BLOCK)) for n in s.levels[0].shape)  # z, y, x
         # per level and axis (z, y, x): the chunks each block's samples read
@@ -422,6 +425,17 @@ class MultiscalePlan:
         ``bytes_read`` and ``chunks_read`` (per level, by this volume's cache so far),
         ``coarsened``.
         """
+        # frames of one volume from several threads (viewers, scenes) take turns: a frame
+        # evicts chunks another would read
+        with self.volume.lock:
+            return self._execute(camera, size, screen_error=screen_error, wait=wait, timeout=timeout,
+                                 progress=progress, progress_bar=progress_bar, chunk_seconds=chunk_seconds,
+                                 window=window, far=far, lens=lens, block_mask=block_mask, cull=cull, piece=piece,
+                                 _pass=_pass)
+
+    def _execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
+                 progress_bar=None, chunk_seconds=None, window=None, far=None, lens=None, block_mask=None, cull=None,
+                 piece=None, _pass=False):
         vol, opts = self.volume, self.options
         for name, value in (("block_mask", block_mask), ("cull", cull)):
             if value is not None:

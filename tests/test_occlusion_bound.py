@@ -291,3 +291,34 @@ def test_bad_arguments():
         occluded_blocks(lo, hi, sigma, axis, precision="uint8", **kw)
     with pytest.raises(ValueError, match=r"values must be a 3-D array with at least 2 points per axis; got shape"):
         group_ranges(np.zeros((1, 4, 4)), 2)
+
+
+# -- block-wise (MPI) rendering ----------------------------------------------------------------
+def test_render_parallel_with_the_bound():
+    """Serial block-wise render: fewer blocks, and the image within what the culled
+    blocks emit behind the threshold (blocks composite without termination across
+    them); the tiles of 3 ranks (threads) cull the same blocks as one whole image."""
+    from thread_comm import run_spmd
+
+    from pv_hdrvol.parallel.render import render_parallel
+
+    values = _ball()
+    camera = hv.Camera((90.0, 60.0, 45.0), (19.5, 19.5, 19.5), (0, 0, 1), view_angle=30.0)  # perspective
+    kw = dict(comm=None, block_size=8, termination=TERMINATION)
+    plain = render_parallel(values, RAMP, camera, (40, 40), **kw)
+    culled = render_parallel(values, RAMP, camera, (40, 40), bound=OcclusionBound(2), **kw)
+    assert culled.metadata["parallel"]["culled_by_bound"]
+    assert culled.metadata["parallel"]["visible"] < plain.metadata["parallel"]["visible"]
+    assert float(np.abs(culled.rgba.astype(np.float64) - plain.rgba).max()) <= TERMINATION + 1e-6  # colours <= 1
+
+    def one(comm):
+        return render_parallel(values, RAMP, camera, (40, 40), bound=OcclusionBound(2), comm=comm, root=None,
+                               block_size=8, termination=TERMINATION, threads=1).metadata["parallel"]["visible"]
+
+    results, errors = run_spmd(3, one)
+    assert errors == [None] * 3
+    assert results == [culled.metadata["parallel"]["visible"]] * 3
+    with pytest.raises(ValueError, match="pof= or bound=, not both"):
+        render_parallel(values, RAMP, _ortho(values), (8, 8), bound=OcclusionBound(), pof=object(), comm=None)
+    with pytest.raises(TypeError, match="bound must be an OcclusionBound; got str"):
+        render_parallel(values, RAMP, camera, (8, 8), bound="yes", comm=None)

@@ -394,10 +394,12 @@ class OcclusionBound:
         out[over] = np.nextafter(out[over], np.float32(0))
         return out
 
-    def blocks(self, volume, tf, camera, size, options, block_size):
+    def blocks(self, volume, tf, camera, size, options, block_size, window=None):
         """``(needed, met, statistics)``: bool (bz, by, bx) over blocks of
         ``block_size`` cells: sampled before the bound reaches the threshold on some
-        pixel, and sampled at all."""
+        pixel, and sampled at all. ``window=(col, row, width, height)``: by that
+        rectangle's pixels only (a tile of a parallel render: a block is culled where
+        the union over tiles of ``met`` holds and that of ``needed`` does not)."""
         from .._validate import as_size
         from ..raycast.grid import _grid_shape
 
@@ -416,12 +418,17 @@ class OcclusionBound:
         ext = self.extinction(volume, tf, options)
         t_ext = time.perf_counter() - start
         spacing = np.asarray(volume.spacing, dtype=np.float64)
-        cam = np.concatenate([camera.kernel_array((width, height)), np.asarray(volume.origin, dtype=np.float64),
-                              1.0 / spacing])
+        origin = np.asarray(volume.origin, dtype=np.float64)
+        if window is None:  # the kernel makes the render's rays (camera_ray), bit for bit
+            rays = (np.concatenate([camera.kernel_array((width, height)), origin, 1.0 / spacing]), width, height)
+        else:  # Camera.rays is camera_ray's arithmetic; into voxels as raycast/grid.py does
+            r = camera.rays((width, height), window)
+            rays = Rays(np.ascontiguousarray((r.origins - origin) * (1.0 / spacing)),
+                        np.ascontiguousarray(r.directions * (1.0 / spacing)), r.width, r.height)
         shape = _grid_shape(volume.dims, block_size)
         hi = np.array(volume.dims, dtype=np.float64) - 1.0
         step = options.step * volume.min_cell_width
-        needed, met, t_march = _march(ext, (cam, width, height), np.zeros(3), hi, float(self.group), float(block_size),
+        needed, met, t_march = _march(ext, rays, np.zeros(3), hi, float(self.group), float(block_size),
                                       shape, step, self.threshold, options.precision)
         stats = {"blocks": int(np.prod(shape)), "met": int(met.sum()), "needed": int(needed.sum()),
                  "culled": int((met & ~needed).sum()), "threshold": self.threshold, "group": self.group,

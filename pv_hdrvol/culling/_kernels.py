@@ -268,6 +268,18 @@ def _cell_span(x, lo, hi, width, n, eps):
     return min(max(a, 0), n - 1), min(max(b, 0), n - 1)
 
 
+@inline_kernel
+def _block_exit(x, o, d, lo, width, n):
+    """Ray parameter at which ``o + t d`` leaves the block of ``width`` holding ``x``
+    along one axis (``inf`` for a ray parallel to it)."""
+    if d == 0.0:
+        return math.inf
+    b = min(max(int(math.floor((x - lo) / width)), 0), n - 1)
+    if d > 0.0:
+        return (lo + (b + 1) * width - o) / d
+    return (lo + b * width - o) / d
+
+
 @fused_parallel_kernel
 def march_bound(extinction, cam, origins, directions, width, height, lo, hi, group_width, block_width, step, target,
                 slack, cap, lanes, needed, met):
@@ -315,7 +327,8 @@ def march_bound(extinction, cam, origins, directions, width, height, lo, hi, gro
                 n_full = n_seg - 1
                 depth = 0.0
                 occluded = False
-                for k in range(n_seg):
+                k = 0
+                while k < n_seg:
                     if k < n_full:
                         tm = t0 + (k + 0.5) * step
                         length = step
@@ -337,8 +350,16 @@ def march_bound(extinction, cam, origins, directions, width, height, lo, hi, gro
                                 met[lane, kk, jj, ii] = 1
                                 if not occluded:
                                     needed[lane, kk, jj, ii] = 1
-                    if occluded:
+                    if occluded:  # only met blocks are left to mark: on to the first sample past this block
+                        te = min(_block_exit(x, ox, dx, lo[0], block_width, bx),
+                                 min(_block_exit(y, oy, dy, lo[1], block_width, by),
+                                     _block_exit(z, oz, dz, lo[2], block_width, bz)))
+                        if k >= n_full or not te < t1:
+                            break
+                        kn = int(math.ceil((te - t0) / step - 0.5))
+                        k = min(max(kn, k + 1), n_full)
                         continue
+                    k += 1
                     ia, ib = _cell_span(x, lo[0], hi[0], group_width, gx, eps)
                     ja, jb = _cell_span(y, lo[1], hi[1], group_width, gy, eps)
                     ka, kb = _cell_span(z, lo[2], hi[2], group_width, gz, eps)

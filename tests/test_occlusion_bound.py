@@ -184,9 +184,9 @@ def test_family_changes_of_weights_reuse_the_per_basis_minima():
     volume = as_volume(_ball())
     opts = RenderOptions.from_kwargs(None)
     bound = OcclusionBound(2)
-    a = bound.extinction(volume, hv.TransferFunction.family([skin, bone], [1.0, 1.0]), opts)
+    a, _ = bound.extinction(volume, hv.TransferFunction.family([skin, bone], [1.0, 1.0]), opts)
     entries = len(volume.cache["occlusion_minima"])
-    b = bound.extinction(volume, hv.TransferFunction.family([skin, bone], [0.5, 2.0]), opts)
+    b, _ = bound.extinction(volume, hv.TransferFunction.family([skin, bone], [0.5, 2.0]), opts)
     assert len(volume.cache["occlusion_minima"]) == entries
     assert not np.array_equal(a, b)
 
@@ -322,3 +322,19 @@ def test_render_parallel_with_the_bound():
         render_parallel(values, RAMP, _ortho(values), (8, 8), bound=OcclusionBound(), pof=object(), comm=None)
     with pytest.raises(TypeError, match="bound must be an OcclusionBound; got str"):
         render_parallel(values, RAMP, camera, (8, 8), bound="yes", comm=None)
+
+
+def test_a_window_culls_for_the_whole_image_rays():
+    """A window (tile) of a culled render is that window of the whole culled render:
+    the culling is computed for the whole image's rays, which include the window's
+    (a window-sized image's rays would be other rays)."""
+    values = _ball()
+    camera = _ortho(values)
+    kw = dict(termination=TERMINATION, cull=OcclusionBound(1), progress_bar=False)
+    whole = hv.render(values, RAMP, camera, (40, 30), **kw)
+    from pv_hdrvol.raycast.grid import GridPlan
+
+    plan = GridPlan(values, RAMP, termination=TERMINATION)
+    part = plan.execute(camera, (40, 30), window=(7, 5, 20, 12), cull=OcclusionBound(1), progress_bar=False)
+    assert np.array_equal(part.rgba, whole.rgba[5:17, 7:27])
+    assert part.metadata["culling"]["culled"] == whole.metadata["culling"]["culled"] > 0

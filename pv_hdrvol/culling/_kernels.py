@@ -281,8 +281,8 @@ def _block_exit(x, o, d, lo, width, n):
 
 
 @fused_parallel_kernel
-def march_bound(extinction, cam, origins, directions, width, height, lo, hi, group_width, block_width, step, target,
-                slack, cap, lanes, needed, met):
+def march_bound(extinction, empty, cam, origins, directions, width, height, lo, hi, group_width, block_width, step,
+                target, slack, cap, lanes, needed, met):
     """March every pixel ray through the groups at the ray caster's sample positions.
 
     ``extinction`` (gz, gy, gx) float32: a lower bound on the extinction (per world unit)
@@ -300,6 +300,10 @@ def march_bound(extinction, cam, origins, directions, width, height, lo, hi, gro
     (lane ``l`` takes rows ``l, l + lanes, ...``: no two threads write one array). A
     sample within 1e-7 lattice units of a face counts in both cells: the ray caster
     rounds its positions in its own order.
+
+    ``empty`` (bz, by, bx) uint8: blocks where no value of any group can have
+    extinction (the ray caster skips them): neither met nor needed, and leapt over to
+    the first sample past them, as a ray is once occluded.
     """
     gz, gy, gx = extinction.shape
     bz, by, bx = needed.shape[1], needed.shape[2], needed.shape[3]
@@ -344,19 +348,25 @@ def march_bound(extinction, cam, origins, directions, width, height, lo, hi, gro
                     ia, ib = _cell_span(x, lo[0], hi[0], block_width, bx, eps)
                     ja, jb = _cell_span(y, lo[1], hi[1], block_width, by, eps)
                     ka, kb = _cell_span(z, lo[2], hi[2], block_width, bz, eps)
+                    all_empty = True
                     for kk in range(ka, kb + 1):
                         for jj in range(ja, jb + 1):
                             for ii in range(ia, ib + 1):
-                                met[lane, kk, jj, ii] = 1
-                                if not occluded:
-                                    needed[lane, kk, jj, ii] = 1
-                    if occluded:  # only met blocks are left to mark: on to the first sample past this block
+                                if empty[kk, jj, ii] == 0:
+                                    all_empty = False
+                                    met[lane, kk, jj, ii] = 1
+                                    if not occluded:
+                                        needed[lane, kk, jj, ii] = 1
+                    if occluded or all_empty:
+                        # nothing adds to the bound here (occluded: nothing counts any more; an empty block:
+                        # no extinction): on to the first sample past this block, or one just before its exit
+                        # (which the ray caster may round into the next block)
                         te = min(_block_exit(x, ox, dx, lo[0], block_width, bx),
                                  min(_block_exit(y, oy, dy, lo[1], block_width, by),
                                      _block_exit(z, oz, dz, lo[2], block_width, bz)))
                         if k >= n_full or not te < t1:
                             break
-                        kn = int(math.ceil((te - t0) / step - 0.5))
+                        kn = int(math.ceil((te - t0) / step - 0.5 - 1e-6))
                         k = min(max(kn, k + 1), n_full)
                         continue
                     k += 1

@@ -103,6 +103,26 @@ def group_extinction(minimum, maximum, sigma, axis, weights=None):
     ``x``), widened by one entry on each side: a float32 trilinear sample may round an
     ulp outside its corners' range.
     """
+    total, finite = _span_reduce(minimum, maximum, sigma, axis, weights, largest=False)
+    total[~finite] = 0.0
+    out = total.astype(np.float32)
+    over = out.astype(np.float64) > total
+    out[over] = np.nextafter(out[over], np.float32(0))
+    return out.reshape(np.shape(minimum))
+
+
+def group_empty(minimum, maximum, sigma, axis, weights=None):
+    """(gz, gy, gx) bool: no value of the group's range has extinction (the largest
+    over its entries, widened as :func:`group_extinction`'s, is 0); a NaN or infinite
+    bound is not empty. Arguments as :func:`group_extinction`. The march leaps over
+    blocks whose groups are all empty, as the ray caster leaps over empty space."""
+    total, finite = _span_reduce(minimum, maximum, sigma, axis, weights, largest=True)
+    return ((total == 0) & finite).reshape(np.shape(minimum))
+
+
+def _span_reduce(minimum, maximum, sigma, axis, weights, largest):
+    """``(sum_i k_i reduce_i, finite)`` flat over the groups: each row's minimum (or
+    largest value) over the entries the group's range can read, widened by one."""
     minimum = np.asarray(minimum, dtype=np.float64)
     maximum = np.asarray(maximum, dtype=np.float64)
     if minimum.shape != maximum.shape:
@@ -131,16 +151,14 @@ def group_extinction(minimum, maximum, sigma, axis, weights=None):
     i1 = np.ascontiguousarray(np.minimum(i1 + 1, n - 1).reshape(-1))
     total = np.zeros(i0.size)
     part = np.empty(i0.size)
+    sign = -1.0 if largest else 1.0  # the largest value is minus the minimum of the negated row
     for row, w in zip(sigma, k):
         if w == 0:
             continue
+        row = np.ascontiguousarray(sign * row)
         K.span_minimum(row, _sparse_table(row), _CHUNK, i0, i1, part)
-        total += w * part
-    total[~finite.reshape(-1)] = 0.0
-    out = total.astype(np.float32)
-    over = out.astype(np.float64) > total
-    out[over] = np.nextafter(out[over], np.float32(0))
-    return out.reshape(minimum.shape)
+        total += w * (sign * part)
+    return total, finite.reshape(-1)
 
 
 def _sparse_table(row):
@@ -170,9 +188,10 @@ def march_slack(threshold, precision):
     return -math.log1p(-threshold), _EPS[precision] / (1.0 - threshold)
 
 
-def _march(extinction, rays, lo, hi, group_width, block_width, block_shape, step, threshold, precision):
+def _march(extinction, empty, rays, lo, hi, group_width, block_width, block_shape, step, threshold, precision):
     """``(needed, met, seconds)`` (bool, ``block_shape``) of :func:`K.march_bound`.
-    ``rays``: ``(cam, width, height)`` or a :class:`Rays` in lattice coordinates."""
+    ``empty``: :func:`group_empty` (or None); ``rays``: ``(cam, width, height)`` or a
+    :class:`Rays` in lattice coordinates."""
     import numba
 
     lanes = numba.get_num_threads()
@@ -186,8 +205,16 @@ def _march(extinction, rays, lo, hi, group_width, block_width, block_shape, step
     else:
         cam, width, height = rays
         origins = directions = np.empty((0, 3))
+    blocks_empty = np.zeros(block_shape, dtype=np.uint8)
+    r = block_width / group_width
+    if empty is not None and r >= 1 and r == int(r):  # a block is empty when all its groups are
+        r = int(r)
+        e = np.pad(np.asarray(empty, dtype=bool), [(0, n * r - m) for n, m in zip(block_shape, np.shape(empty))],
+                   constant_values=True)
+        blocks_empty = np.ascontiguousarray(
+            e.reshape(block_shape[0], r, block_shape[1], r, block_shape[2], r).all(axis=(1, 3, 5)), dtype=np.uint8)
     start = time.perf_counter()
-    K.march_bound(np.ascontiguousarray(extinction, dtype=np.float32), cam, np.ascontiguousarray(origins),
+    K.march_bound(np.ascontiguousarray(extinction, dtype=np.float32), blocks_empty, cam, np.ascontiguousarray(origins),
                   np.ascontiguousarray(directions), int(width), int(height), np.ascontiguousarray(lo, dtype=np.float64),
                   np.ascontiguousarray(hi, dtype=np.float64), float(group_width), float(block_width), float(step),
                   target, slack, cap, lanes, needed, met)
@@ -247,6 +274,7 @@ def occluded_blocks(minimum, maximum, sigma, axis, *, origin, group_size, rays, 
     from .._validate import as_choice
 
     ext = group_extinction(minimum, maximum, sigma, axis, weights)
+    empty = group_empty(minimum, maximum, sigma, axis, weights)
     origin = _vector("origin", origin)
     size = _vector("group_size", group_size)
     if np.any(size <= 0):
@@ -273,7 +301,7 @@ def occluded_blocks(minimum, maximum, sigma, axis, *, origin, group_size, rays, 
     lattice = Rays(np.ascontiguousarray((rays.origins - origin) / size), np.ascontiguousarray(rays.directions / size),
                    rays.width, rays.height)
     bshape = tuple(-(-n // block_groups) for n in ext.shape)
-    needed, met, _ = _march(ext, lattice, (lo_w - origin) / size, (hi_w - origin) / size, 1.0, float(block_groups),
+    needed, met, _ = _march(ext, empty, lattice, (lo_w - origin) / size, (hi_w - origin) / size, 1.0, float(block_groups),
                             bshape, step, threshold, precision)
     return met & ~needed
 
@@ -355,8 +383,9 @@ class OcclusionBound:
             object.__setattr__(self, "block_size", b)
 
     def extinction(self, volume, tf, options):
-        """(gz, gy, gx) float32 ``sigma_min`` of the render of ``volume`` with ``tf`` and
-        ``options`` (a :class:`~pv_hdrvol.RenderOptions`); cached on the volume (the
+        """``(sigma_min, empty)``, (gz, gy, gx) float32 and bool, of the render of
+        ``volume`` with ``tf`` and ``options`` (a :class:`~pv_hdrvol.RenderOptions`):
+        :func:`group_extinction` and :func:`group_empty`, cached on the volume (the
         group ranges per group size and precision, the per-basis minima per table)."""
         from ..data.grid import content_digest
         from ..raycast.grid import cached
@@ -383,16 +412,18 @@ class OcclusionBound:
         key = (self.group, values_key, axis, content_digest(sigma))
 
         def per_basis():  # one row per basis: any weights reuse them
-            return np.stack([group_extinction(lo, hi, row, axis) for row in sigma])
+            return (np.stack([group_extinction(lo, hi, row, axis) for row in sigma]),
+                    np.stack([group_empty(lo, hi, row, axis) for row in sigma]))
 
-        minima = cached(volume.cache, "occlusion_minima", key, per_basis, 4)
+        minima, empties = cached(volume.cache, "occlusion_minima", key, per_basis, 4)
+        empty = empties[k > 0].all(axis=0) if np.any(k > 0) else np.ones(minima.shape[1:], dtype=bool)
         if minima.shape[0] == 1:  # a plain function (k = 1)
-            return minima[0]
+            return minima[0], empty
         total = np.einsum("p,p...->...", k, minima.astype(np.float64))
         out = total.astype(np.float32)
         over = out.astype(np.float64) > total
         out[over] = np.nextafter(out[over], np.float32(0))
-        return out
+        return out, empty
 
     def blocks(self, volume, tf, camera, size, options, block_size, window=None):
         """``(needed, met, statistics)``: bool (bz, by, bx) over blocks of
@@ -415,7 +446,7 @@ class OcclusionBound:
             raise ValueError(f"the volume must have at least 2 points per axis; got {tuple(volume.dims)}")
         width, height = as_size(size)
         start = time.perf_counter()
-        ext = self.extinction(volume, tf, options)
+        ext, empty = self.extinction(volume, tf, options)
         t_ext = time.perf_counter() - start
         spacing = np.asarray(volume.spacing, dtype=np.float64)
         origin = np.asarray(volume.origin, dtype=np.float64)
@@ -428,7 +459,7 @@ class OcclusionBound:
         shape = _grid_shape(volume.dims, block_size)
         hi = np.array(volume.dims, dtype=np.float64) - 1.0
         step = options.step * volume.min_cell_width
-        needed, met, t_march = _march(ext, rays, np.zeros(3), hi, float(self.group), float(block_size),
+        needed, met, t_march = _march(ext, empty, rays, np.zeros(3), hi, float(self.group), float(block_size),
                                       shape, step, self.threshold, options.precision)
         stats = {"blocks": int(np.prod(shape)), "met": int(met.sum()), "needed": int(needed.sum()),
                  "culled": int((met & ~needed).sum()), "threshold": self.threshold, "group": self.group,
@@ -457,4 +488,4 @@ class OcclusionBound:
         return mask, stats
 
 
-__all__ = ["OcclusionBound", "occluded_blocks", "group_extinction", "group_ranges", "table_axis", "march_slack"]
+__all__ = ["OcclusionBound", "occluded_blocks", "group_extinction", "group_empty", "group_ranges", "table_axis", "march_slack"]

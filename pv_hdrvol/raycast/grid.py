@@ -759,6 +759,7 @@ class GridPlan:
         else:
             rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
         width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+        image_size = (width, height)  # a window's render culls for the whole image's rays (its own among them)
         far = _check_far(far, width, height)
         if window is not None:
             if far.size:
@@ -811,7 +812,7 @@ class GridPlan:
                 raise TypeError(f"cull must be a PlenopticOpacity, Culling or OcclusionBound; got {type(cull).__name__}")
             if not isinstance(camera, Camera) or lens is not None or styles is not None:
                 raise ValueError("cull= needs a Camera (no Rays, no lens) and no label styles")
-            culled, culling = cull.mask_for(volume, tf, camera, (width, height), opts, blocks.shape)
+            culled, culling = cull.mask_for(volume, tf, camera, image_size, opts, blocks.shape)
             mask = culled.astype(np.uint8) if mask is None else mask & culled
         active, leap = _skip_structure(volume, blocks, opts, styles, table, params, mask)
 

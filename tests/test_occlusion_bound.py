@@ -338,3 +338,22 @@ def test_a_window_culls_for_the_whole_image_rays():
     part = plan.execute(camera, (40, 30), window=(7, 5, 20, 12), cull=OcclusionBound(1), progress_bar=False)
     assert np.array_equal(part.rgba, whole.rgba[5:17, 7:27])
     assert part.metadata["culling"]["culled"] == whole.metadata["culling"]["culled"] > 0
+
+
+def test_a_ray_box_integral_would_not_be_a_bound():
+    """Why the march follows the samples: points x = 0, 1 are opaque (opacity 0.99 per
+    voxel: sigma 4.6, over the target 3.0 in one voxel), the rest 0 but an opaque back
+    wall at x >= 11; step 3 voxels. The exact ray-box integral of sigma_min counts cell
+    [0, 1] (range {1}) at 4.6 and would cull the wall; the ray caster's first segment
+    [0, 3] takes its extinction at its midpoint x = 1.5, value 0.5, opacity 0: the wall
+    shows. The bound (at the samples) culls none of it, and the images are equal."""
+    values = np.zeros((16, 16, 16))
+    values[:, :, :2] = 1.0
+    values[:, :, 11:] = 1.0
+    tf = hv.TransferFunction([0.0, 0.9, 1.0], WHITE + [[1, 1, 1]], [0.0, 0.0, 0.99])
+    camera = hv.Camera((-50, 7.5, 7.5), (7.5, 7.5, 7.5), (0, 0, 1), parallel_projection=True, parallel_scale=12)
+    sigma = tf.table(np.float64, 1.0, 1.0)[1]
+    assert sigma[-2] > -math.log(TERMINATION)  # one voxel of cell [0, 1] would pass the target
+    full = hv.render(values, tf, camera, (32, 32), termination=TERMINATION, step=3.0, progress_bar=False)
+    assert full.rgba[16, 16, 3] > 0.9  # the wall, seen through the first segment
+    assert _check(values, tf, camera, (32, 32), 1, block=4, step=3.0) == 0

@@ -27,7 +27,17 @@ For each scene, the POFs are computed once; then for 100 random view directions
   (blocks composite without termination across them: a culled block changes a pixel by
   at most 1 - threshold of what it emits there).
 
+With ``--bound 1,2,4`` (groups of the view-independent occlusion bound,
+``hv.OcclusionBound``, methods.md A.7), per group size: blocks culled among the
+non-empty, false culls against R1 over all views, the share of the exact sequential
+algorithm R2's culls it reaches (R2 renders every non-empty block once per view: on
+the first ``--r2-views`` views only), views whose render culled by the bound equals
+the unculled one bit for bit (termination 0.05), and the march's time per view
+(median; the per-group extinction is computed once per scene and cached).
+``--no-pof`` skips the POF measurements (their precomputation takes minutes).
+
 Run: ``python benchmarks/bench_cull_views.py [--scenes head-dense,engine,ball] [--size 256] [--views 100]``
+``[--bound 1,2,4 [--r2-views 10] [--no-pof]]``
 """
 from __future__ import annotations
 
@@ -40,9 +50,12 @@ import time
 import numpy as np
 
 import pv_hdrvol as hv
+from pv_hdrvol.culling.bound import OcclusionBound
 from pv_hdrvol.culling.cull import Culling, visible_blocks
-from pv_hdrvol.culling.pof import PlenopticOpacity
-from pv_hdrvol.culling.reference import ert_oracle
+from pv_hdrvol.culling.pof import PlenopticOpacity, _nonempty
+from pv_hdrvol.culling.reference import ert_oracle, exact_sequential
+from pv_hdrvol.params import RenderOptions
+from pv_hdrvol.raycast.grid import _grid_shape
 from pv_hdrvol.parallel.render import render_parallel
 from pv_hdrvol.raycast.grid import as_volume
 
@@ -118,12 +131,20 @@ def main():
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--views", type=int, default=100, help="random views (plus 18 of a y turn)")
     parser.add_argument("--block-size", type=int, default=16)
+    parser.add_argument("--bound", default="", help="group sizes of the occlusion bound to measure, e.g. 1,2,4")
+    parser.add_argument("--r2-views", type=int, default=10, help="views on which R2 is computed (--bound)")
+    parser.add_argument("--no-pof", action="store_true", help="skip the POF measurements")
     args = parser.parse_args()
     size = (args.size, args.size)
     print(f"# bench_cull_views: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"load {os.getloadavg()[0]:.2f}, size {args.size}, blocks {args.block_size}^3, "
           f"{args.views} random views + 18 turn views")
     for name, volume, bases, k in scenes(args.scenes.split(",")):
+        if args.bound:
+            measure_bound(name, volume, bases, k, directions(args.views), size, args.block_size,
+                          [int(g) for g in args.bound.split(",")], args.r2_views)
+        if args.no_pof:
+            continue
         t = time.perf_counter()
         pof = PlenopticOpacity.compute(volume, bases, block_size=args.block_size, sets=len(bases) > 1)
         print(f"{name}: POF {time.perf_counter() - t:.0f} s")
@@ -197,6 +218,66 @@ def main():
         print(f"  block-wise (one rank): {blocks[0]} blocks {times[0]:.2f} s unculled, {blocks[1]} blocks "
               f"{times[1]:.2f} s culled ({times[0] / times[1]:.2f}x; cull/render/composite {split[0]} and "
               f"{split[1]} s, last run); max |diff| {diff:.3g}")
+
+
+def measure_bound(name, volume, bases, k, views, size, block_size, groups, r2_views):
+    """The occlusion bound's columns: culled, false culls vs R1, share of R2's culls,
+    bit-for-bit views, march time."""
+    tf = hv.TransferFunction.family(bases, k)
+    family = hv.TransferFunctionFamily(bases, k)
+    shape = _grid_shape(volume.dims, block_size)
+    sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
+    ne = _nonempty(np.asarray(volume.values, dtype=np.float64), shape, block_size, sigma, family).any(axis=-1)
+    opts = RenderOptions.from_kwargs(None, termination=TERMINATION)
+    rows = {g: dict(culled=0, false=0, false_views=0, exact=0, r2_hit=0, r2_in=0, march=[], first=None)
+            for g in groups}
+    n_r1 = n_r2 = r2_culled = 0
+    t_r2 = 0.0
+    for v, d in enumerate(views):
+        camera = camera_along(volume, d)
+        r1 = ert_oracle(volume, tf, camera, size, block_size=block_size, nonempty=ne)
+        n_r1 += int(r1.sum())
+        r2 = None
+        if v < r2_views:
+            t = time.perf_counter()
+            r2, _ = exact_sequential(volume, tf, camera, size, block_size=block_size, nonempty=ne)
+            t_r2 += time.perf_counter() - t
+            r2_culled += int((ne & ~r2).sum())
+            n_r2 += 1
+        full = hv.render(volume, tf, camera, size, termination=TERMINATION, progress_bar=False)
+        for g in groups:
+            row = rows[g]
+            t = time.perf_counter()
+            needed, met, stats = OcclusionBound(g, block_size=block_size).blocks(volume, tf, camera, size, opts,
+                                                                                  block_size)
+            if row["first"] is None:
+                row["first"] = (time.perf_counter() - t, stats["extinction_seconds"])
+            else:
+                row["march"].append(stats["march_seconds"])
+            culled = met & ~needed & ne
+            row["culled"] += int(culled.sum())
+            false = int((culled & r1).sum())
+            row["false"] += false
+            row["false_views"] += false > 0
+            if r2 is not None:
+                row["r2_hit"] += int((culled & ~r2).sum())
+                row["r2_in"] += int(culled.sum())
+            image = hv.render(volume, tf, camera, size, termination=TERMINATION, cull=OcclusionBound(g),
+                              progress_bar=False)
+            row["exact"] += bool(np.array_equal(image.rgba, full.rgba))
+    n = len(views)
+    print(f"{name}: occlusion bound, {n} views at {size[0]}x{size[1]}, blocks {block_size}^3, non-empty "
+          f"{int(ne.sum())}; R1 {n_r1 / n:.0f} blocks/view; R2 on {n_r2} views culls {r2_culled / max(n_r2, 1):.0f}"
+          f"/view ({t_r2 / max(n_r2, 1):.1f} s/view)")
+    print("  | group | culled/view (of non-empty) | share of R2's culls | false culls vs R1 | bit for bit "
+          "| march ms/view (median) | first call s (extinction s) |")
+    for g in groups:
+        row = rows[g]
+        share = row["r2_hit"] / r2_culled if r2_culled else float("nan")
+        print(f"  | {g} | {row['culled'] / n:.0f} ({row['culled'] / (n * ne.sum()):.1%}) | {share:.0%} "
+              f"({row['r2_in'] - row['r2_hit']} outside R2's) | {row['false']} ({row['false_views']} views) "
+              f"| {row['exact']}/{n} | {np.median(row['march']) * 1e3:.1f} | {row['first'][0]:.2f} "
+              f"({row['first'][1]:.2f}) |")
 
 
 if __name__ == "__main__":

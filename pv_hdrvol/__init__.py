@@ -6,6 +6,7 @@ Public names only; the pipeline is ``data`` -> ``rays`` -> ``render`` -> ``image
 import numpy as np
 
 from . import datasets
+from .culling.bound import OcclusionBound
 from .culling.cull import Culling
 from .culling.pof import PlenopticOpacity
 from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_dataset, volume_from_rectilinear
@@ -191,7 +192,7 @@ def __getattr__(name):
 
 __all__ = [
     "datasets", "BlockGrid", "Camera", "Culling", "DepthLayers", "EmptyRenderWarning", "FeatureLens", "Fisheye",
-    "ClipPlane", "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "PRECISIONS", "PlenopticOpacity", "Rays",
+    "ClipPlane", "GridVolume", "HDRImage", "Lens", "Light", "Magnifier", "OcclusionBound", "PRECISIONS", "PlenopticOpacity", "Rays",
     "RenderOptions", "RenderSettings", "SamplingRateLens", "ScalarsError", "TetMesh", "ToneMapped",
     "TransferFunction", "TransferFunctionFamily", "TransferFunctionModel", "depth_layers", "load", "render", "render_blocks", "render_parallel",
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",

@@ -10,6 +10,7 @@ MODULES = [
     "pv_hdrvol.rays.lenses",
     "pv_hdrvol.raycast.grid",
     "pv_hdrvol.raycast.blocks",
+    "pv_hdrvol.culling.bound",
     "pv_hdrvol.data.grid",
     "pv_hdrvol.image.hdr",
     "pv_hdrvol.image.tonemap",

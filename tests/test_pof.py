@@ -221,7 +221,7 @@ def test_cull_refuses_what_it_cannot_bound():
         hv.render(volume, tf, camera, (8, 8), cull=pof, blending="maximum", progress_bar=False)
     with pytest.raises(ValueError, match="POF culling needs an orthographic camera"):
         hv.render(volume, tf, hv.Camera.fit(volume.bounds, "iso"), (8, 8), cull=pof, progress_bar=False)
-    with pytest.raises(TypeError, match="cull must be a PlenopticOpacity or Culling; got str"):
+    with pytest.raises(TypeError, match="cull must be a PlenopticOpacity, Culling or OcclusionBound; got str"):
         hv.render(volume, tf, camera, (8, 8), cull="pof", progress_bar=False)
 
 

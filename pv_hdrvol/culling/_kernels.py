@@ -3,9 +3,11 @@ block's screen footprint for many orthographic views, and the front-to-back cull
 pass over an opacity buffer. Arrays in, arrays out; validation is in ``pof.py``."""
 import math
 
+import numba
 import numpy as np
 
-from .._jit import kernel
+from .._jit import fused_parallel_kernel, inline_kernel, kernel, parallel_kernel
+from ..raycast._kernels import _ray_box, voxel_ray
 from ..raycast._kernels_ext import _position  # (v, scale code, axis low, 1 / axis range, linthresh)
 
 
@@ -223,3 +225,157 @@ def cull_blocks(order, lo_world, hi_world, alpha, camera, width, height, window,
                                 lo, hi)
                 if t1 - t0 >= chord_min:
                     opacity[row, col] = 1.0 - (1.0 - opacity[row, col]) * keep
+
+
+# -- the view-independent occlusion bound (bound.py) ----------------------------------------
+@parallel_kernel
+def span_minimum(sigma, sparse, chunk, i0, i1, out):
+    """``out[q] = min(sigma[i0[q]:i1[q] + 1])`` for every query ``q`` (flat arrays).
+
+    ``sparse[l, c]`` is the minimum of the ``2**l`` chunks of ``chunk`` entries from
+    chunk ``c`` (a sparse table over the chunk minima): a query costs at most
+    ``2 chunk`` reads plus two table reads, whatever its length."""
+    for q in numba.prange(i0.shape[0]):
+        a = i0[q]
+        b = i1[q]
+        m = math.inf
+        if b - a < 2 * chunk:
+            for i in range(a, b + 1):
+                m = min(m, sigma[i])
+        else:
+            ca = (a + chunk - 1) // chunk  # first whole chunk
+            cb = (b + 1) // chunk - 1  # last whole chunk
+            for i in range(a, ca * chunk):
+                m = min(m, sigma[i])
+            for i in range((cb + 1) * chunk, b + 1):
+                m = min(m, sigma[i])
+            n = cb - ca + 1
+            level = 0
+            while (2 << level) <= n:
+                level += 1
+            m = min(m, min(sparse[level, ca], sparse[level, cb - (1 << level) + 1]))
+        out[q] = m
+
+
+@inline_kernel
+def _cell_span(x, lo, hi, width, n, eps):
+    """First and last index of the cells of ``width`` (``n`` of them, from ``lo``) that a
+    point within ``eps`` of ``x`` (clamped to ``[lo, hi]``) may fall in, as the ray
+    caster's ``int`` of the clamped position does up to rounding."""
+    x = min(max(x, lo), hi)
+    a = int(math.floor((max(x - eps, lo) - lo) / width))
+    b = int(math.floor((min(x + eps, hi) - lo) / width))
+    return min(max(a, 0), n - 1), min(max(b, 0), n - 1)
+
+
+@inline_kernel
+def _block_exit(x, o, d, lo, width, n):
+    """Ray parameter at which ``o + t d`` leaves the block of ``width`` holding ``x``
+    along one axis (``inf`` for a ray parallel to it)."""
+    if d == 0.0:
+        return math.inf
+    b = min(max(int(math.floor((x - lo) / width)), 0), n - 1)
+    if d > 0.0:
+        return (lo + (b + 1) * width - o) / d
+    return (lo + b * width - o) / d
+
+
+@fused_parallel_kernel
+def march_bound(extinction, empty, cam, origins, directions, width, height, lo, hi, group_width, block_width, step,
+                target, slack, cap, lanes, needed, met):
+    """March every pixel ray through the groups at the ray caster's sample positions.
+
+    ``extinction`` (gz, gy, gx) float32: a lower bound on the extinction (per world unit)
+    of every sample whose cell lies in the group. Rays come from ``cam``
+    (``Camera.kernel_array``, then the lattice origin and 1 / lattice spacing, as
+    ``raycast._kernels.voxel_ray``) or, when ``cam`` is empty, from ``origins`` and
+    ``directions`` (one row per pixel, lattice coordinates, ``t`` in world units).
+
+    Each ray samples the box ``[lo, hi]`` (lattice coordinates) as the ray caster does:
+    from its entry ``t0``, segments of ``step`` with a sample at each midpoint, the last
+    one shorter, ending at the exit. A group spans ``group_width`` lattice units from
+    ``lo``, a block ``block_width``. Sample ``k`` adds ``min(extinction * length, cap)``
+    to the ray's bound ``D`` after it is taken; while ``D < target + (k + 32) slack``
+    the sample's block is marked ``needed[lane]``, and every sample's block ``met[lane]``
+    (lane ``l`` takes rows ``l, l + lanes, ...``: no two threads write one array). A
+    sample within 1e-7 lattice units of a face counts in both cells: the ray caster
+    rounds its positions in its own order.
+
+    ``empty`` (bz, by, bx) uint8: blocks where no value of any group can have
+    extinction (the ray caster skips them): neither met nor needed, and leapt over to
+    the first sample past them, as a ray is once occluded.
+    """
+    gz, gy, gx = extinction.shape
+    bz, by, bx = needed.shape[1], needed.shape[2], needed.shape[3]
+    from_camera = cam.shape[0] > 0
+    eps = 1e-7
+    for lane in numba.prange(lanes):
+        for row in range(lane, height, lanes):
+            for col in range(width):
+                pix = row * width + col
+                if from_camera:
+                    ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
+                else:
+                    ox = origins[pix, 0]
+                    oy = origins[pix, 1]
+                    oz = origins[pix, 2]
+                    dx = directions[pix, 0]
+                    dy = directions[pix, 1]
+                    dz = directions[pix, 2]
+                t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, math.inf)
+                if not t1 > t0:
+                    continue
+                n_seg = int(math.ceil((t1 - t0) / step))
+                if n_seg < 1:
+                    n_seg = 1
+                n_full = n_seg - 1
+                depth = 0.0
+                occluded = False
+                k = 0
+                while k < n_seg:
+                    if k < n_full:
+                        tm = t0 + (k + 0.5) * step
+                        length = step
+                    else:
+                        ta = t0 + n_full * step
+                        tm = 0.5 * (ta + t1)
+                        length = t1 - ta
+                    x = ox + tm * dx
+                    y = oy + tm * dy
+                    z = oz + tm * dz
+                    if not occluded and depth >= target + (k + 32) * slack:
+                        occluded = True  # the ray caster has stopped: no later sample is taken either
+                    ia, ib = _cell_span(x, lo[0], hi[0], block_width, bx, eps)
+                    ja, jb = _cell_span(y, lo[1], hi[1], block_width, by, eps)
+                    ka, kb = _cell_span(z, lo[2], hi[2], block_width, bz, eps)
+                    all_empty = True
+                    for kk in range(ka, kb + 1):
+                        for jj in range(ja, jb + 1):
+                            for ii in range(ia, ib + 1):
+                                if empty[kk, jj, ii] == 0:
+                                    all_empty = False
+                                    met[lane, kk, jj, ii] = 1
+                                    if not occluded:
+                                        needed[lane, kk, jj, ii] = 1
+                    if occluded or all_empty:
+                        # nothing adds to the bound here (occluded: nothing counts any more; an empty block:
+                        # no extinction): on to the first sample past this block, or one just before its exit
+                        # (which the ray caster may round into the next block)
+                        te = min(_block_exit(x, ox, dx, lo[0], block_width, bx),
+                                 min(_block_exit(y, oy, dy, lo[1], block_width, by),
+                                     _block_exit(z, oz, dz, lo[2], block_width, bz)))
+                        if k >= n_full or not te < t1:
+                            break
+                        kn = int(math.ceil((te - t0) / step - 0.5 - 1e-6))
+                        k = min(max(kn, k + 1), n_full)
+                        continue
+                    k += 1
+                    ia, ib = _cell_span(x, lo[0], hi[0], group_width, gx, eps)
+                    ja, jb = _cell_span(y, lo[1], hi[1], group_width, gy, eps)
+                    ka, kb = _cell_span(z, lo[2], hi[2], group_width, gz, eps)
+                    s = math.inf
+                    for kk in range(ka, kb + 1):
+                        for jj in range(ja, jb + 1):
+                            for ii in range(ia, ib + 1):
+                                s = min(s, np.float64(extinction[kk, jj, ii]))
+                    depth += min(s * length, cap)

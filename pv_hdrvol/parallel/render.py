@@ -124,8 +124,8 @@ def block_partials(plan, volume, camera, size, block_size, blocks):
         yield int(b), rect, plan.execute(camera, size, block_mask=mask, window=rect, progress_bar=False)
 
 
-def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD, curve="hilbert", block_size=None,
-                    threshold=DEFAULT_THRESHOLD, root=0, threads=None, **options):
+def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, bound=None, comm=WORLD, curve="hilbert",
+                    block_size=None, threshold=DEFAULT_THRESHOLD, root=0, threads=None, **options):
     """Render ``volume`` with the blocks spread over the ranks of ``comm``.
 
     Parameters
@@ -137,6 +137,11 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
     pof : PlenopticOpacity, optional
         Cull hidden blocks (per tile, then shared). Without it every non-empty block is
         rendered. POF culling assumes parallel rays: an orthographic camera only.
+    bound : OcclusionBound, optional
+        Cull with the view-independent occlusion bound instead (any camera, any
+        transfer function; its own ``threshold``): each rank marches its tile's rays,
+        and a block is culled when some tile's rays sample it and none before the
+        bound reaches the threshold (one ``allgather`` of two byte vectors).
     comm : mpi4py communicator, ``"world"`` (default: ``MPI.COMM_WORLD``) or None (serial)
     curve : {"hilbert", "z", "contiguous", "random"}
         How blocks are dealt to ranks.
@@ -179,14 +184,15 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, comm=WORLD
     comm = _communicator(comm)
     threads, reason, previous = use_rank_threads(comm, threads)
     try:
-        return _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, root, reason, options)
+        return _render(volume, tf, camera, size, pof, bound, comm, curve, block_size, threshold, root, reason,
+                       options)
     finally:
         import numba
 
         numba.set_num_threads(previous)
 
 
-def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, root, threads_reason, options):
+def _render(volume, tf, camera, size, pof, bound, comm, curve, block_size, threshold, root, threads_reason, options):
     import numba
 
     rank, n_ranks = comm.rank, comm.size
@@ -207,6 +213,16 @@ def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, r
     if opts.blending != "composite":
         raise ValueError(f"render_parallel composites blocks front to back: blending='composite' only; got "
                          f"{opts.blending!r}")
+    if bound is not None:
+        from ..culling.bound import OcclusionBound
+
+        if pof is not None:
+            raise ValueError("render_parallel takes pof= or bound=, not both")
+        if not isinstance(bound, OcclusionBound):
+            raise TypeError(f"bound must be an OcclusionBound; got {type(bound).__name__}")
+        if has_clip(opts):
+            raise ValueError("bound= culls blocks hidden behind the whole volume, which clip_planes= and crop_box= "
+                             "may cut away (the hidden blocks would show): render a clipped volume without bound=")
     if pof is not None:
         if not isinstance(pof, PlenopticOpacity):
             raise TypeError(f"pof must be a PlenopticOpacity; got {type(pof).__name__}")
@@ -236,7 +252,13 @@ def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, r
         family = TransferFunctionFamily(bases, None if not isinstance(plan.tf, TransferFunctionFamily) else plan.tf.k)
         sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
         mine = _nonempty(np.asarray(volume.values, dtype=np.float64), shape, bs, sigma, family).any(axis=-1)
-    visible = np.logical_or.reduce(comm.allgather(mine.reshape(-1)))
+    if bound is not None:  # union over tiles of what rays sample, and of what they need
+        needed, met, _ = bound.blocks(volume, plan.tf, camera, size, opts, bs, window=tile)
+        votes = comm.allgather(np.stack([mine.reshape(-1), needed.reshape(-1), met.reshape(-1)]))
+        mine_any, needed_any, met_any = np.logical_or.reduce(votes)
+        visible = mine_any & ~(met_any & ~needed_any)
+    else:
+        visible = np.logical_or.reduce(comm.allgather(mine.reshape(-1)))
     t_cull = time.perf_counter() - t
 
     # -- render this rank's visible blocks, each over its own rectangle
@@ -286,10 +308,11 @@ def _render(volume, tf, camera, size, pof, comm, curve, block_size, threshold, r
                 "global_alpha": opts.global_alpha, "opacity_unit_distance": plan.unit,
                 "termination": opts.termination, "depth_threshold": opts.depth_threshold,
                 "transfer_function": repr(plan.tf), "camera": repr(camera),
-                "settings": settings_metadata(plan.tf, camera, size, opts, cull=pof),
+                "settings": settings_metadata(plan.tf, camera, size, opts, cull=pof if bound is None else bound),
                 "samples": int(sum(s["samples"] for s in per_rank)),
                 "parallel": {"ranks": n_ranks, "curve": curve, "block_size": bs, "blocks": int(np.prod(shape)),
                              "visible": int(visible.sum()), "culled_by_pof": pof is not None,
+                             "culled_by_bound": bound is not None,
                              "threshold": threshold, "per_rank": per_rank,
                              "seconds": time.perf_counter() - t_start}}
         image = HDRImage(rgba, np.full((size[1], size[0]), np.inf), metadata=meta)

@@ -520,11 +520,12 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
     block_mask : ndarray of bool, shape ``BlockGrid(volume, block_size).shape``, optional
         Render only these blocks (visibility culling, parallel rendering). Blocks
         outside the mask are treated as empty.
-    cull : PlenopticOpacity or Culling, optional
+    cull : PlenopticOpacity, Culling or OcclusionBound, optional
         Visibility culling (:mod:`pv_hdrvol.culling`): blocks hidden behind accumulated
         opacity >= the threshold (0.95) on every pixel they cover are not sampled.
-        Orthographic cameras, ``blending="composite"``, a ``tf`` of the POFs' bases.
-        The image's ``metadata["culling"]`` holds the counts and the culling's time.
+        POFs: orthographic cameras, ``blending="composite"``, a ``tf`` of the POFs'
+        bases; :class:`~pv_hdrvol.OcclusionBound`: any camera and ``tf``, float32 or
+        float64. The image's ``metadata["culling"]`` holds the counts and the culling's time.
     labels : ndarray of int, shape (z, y, x) as the volume, optional
         A segmentation: two-level rendering (Hauser et al. 2001). Each sample takes the
         label of its nearest grid point; ``label_styles`` gives a label its own
@@ -758,6 +759,7 @@ class GridPlan:
         else:
             rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
         width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+        image_size = (width, height)  # a window's render culls for the whole image's rays (its own among them)
         far = _check_far(far, width, height)
         if window is not None:
             if far.size:
@@ -807,10 +809,10 @@ class GridPlan:
                 raise ValueError("cull= hides blocks behind the whole volume, which clip_planes= and crop_box= may cut "
                                  "away (the hidden blocks would show): render a clipped volume without cull=")
             if not callable(getattr(cull, "mask_for", None)):
-                raise TypeError(f"cull must be a PlenopticOpacity or Culling; got {type(cull).__name__}")
+                raise TypeError(f"cull must be a PlenopticOpacity, Culling or OcclusionBound; got {type(cull).__name__}")
             if not isinstance(camera, Camera) or lens is not None or styles is not None:
                 raise ValueError("cull= needs a Camera (no Rays, no lens) and no label styles")
-            culled, culling = cull.mask_for(volume, tf, camera, (width, height), opts, blocks.shape)
+            culled, culling = cull.mask_for(volume, tf, camera, image_size, opts, blocks.shape)
             mask = culled.astype(np.uint8) if mask is None else mask & culled
         active, leap = _skip_structure(volume, blocks, opts, styles, table, params, mask)
 

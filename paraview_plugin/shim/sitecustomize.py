@@ -10,10 +10,11 @@ pvpython, pvbatch and every MPI rank). It only adds the missing name: on ParaVie
 and later, or Python 3.10 and earlier, it changes nothing.
 
 zarr 3 (multiresolution stores, ``*.ome.zarr``) reads ``numpy.dtypes``, new in numpy
-1.25; bookworm's ParaView runs on numpy 1.24. When zarr is first imported, and only if
-numpy lacks it, the module is added as numpy 1.25 makes it: the dtype classes numpy
-1.24 has already (``type(np.dtype("f4"))`` is 1.25's ``numpy.dtypes.Float32DType``),
-under 1.25's names. It can go with numpy 1.24 (Debian trixie has 2.2).
+1.25; bookworm's ParaView runs on numpy 1.24. When numpy is imported, and only if it
+lacks it, the module is added as numpy 1.25 makes it: the dtype classes numpy 1.24 has
+already (``type(np.dtype("f4"))`` is 1.25's ``numpy.dtypes.Float32DType``), under 1.25's
+names. (Done at numpy's import, not zarr's: zarr is a pytest plugin, which pytest
+imports through its own import hook.) It can go with numpy 1.24 (Debian trixie has 2.2).
 
 ``pv-hdrvol paraview`` prints the environment that puts this folder on PYTHONPATH.
 """
@@ -32,10 +33,8 @@ _NUMPY_DTYPES = (("Bool", "?"), ("Int8", "b"), ("UInt8", "B"), ("Int16", "h"), (
                  ("Void", "V"), ("DateTime64", "M8"), ("TimeDelta64", "m8"))
 
 
-def _add_numpy_dtypes():
+def _add_numpy_dtypes(numpy):
     import types
-
-    import numpy
 
     if hasattr(numpy, "dtypes"):
         return
@@ -46,20 +45,33 @@ def _add_numpy_dtypes():
     sys.modules["numpy.dtypes"] = module
 
 
-class _BeforeZarr:
-    """A meta-path finder that finds nothing: it adds ``numpy.dtypes`` when zarr is
-    first imported (so a process that never reads a store never imports numpy here),
-    then leaves ``sys.meta_path``."""
+class _AfterNumpy:
+    """A meta-path finder for numpy only: it finds numpy as Python would
+    (``PathFinder``) and adds ``numpy.dtypes`` once numpy has run; then it leaves
+    ``sys.meta_path``. It imports nothing itself."""
 
     @classmethod
     def find_spec(cls, name, path=None, target=None):
-        if name == "zarr":
-            sys.meta_path.remove(cls)
+        if name != "numpy":
+            return None
+        sys.meta_path.remove(cls)
+        from importlib.machinery import PathFinder
+
+        spec = PathFinder.find_spec(name, path)
+        if spec is None or spec.loader is None or not hasattr(spec.loader, "exec_module"):
+            return spec
+        exec_module = spec.loader.exec_module
+
+        def exec_then_add(module):
+            exec_module(module)
             try:
-                _add_numpy_dtypes()
-            except ImportError:  # no numpy: zarr's own import says so
+                _add_numpy_dtypes(module)
+            except Exception:  # noqa: BLE001 - never break numpy's import; zarr's says what is missing
                 pass
-        return None
+
+        spec.loader.exec_module = exec_then_add
+        return spec
 
 
-sys.meta_path.insert(0, _BeforeZarr)
+if "numpy" not in sys.modules:
+    sys.meta_path.insert(0, _AfterNumpy)

@@ -1093,7 +1093,9 @@ if HDRVolumeRenderer is not None:
                 super().SetFileName(name)
 
     # A store is a directory: is_directory lets ParaView (5.10 and later) open a directory
-    # named *.ome.zarr as one file (File > Open, OpenDataFile, the command line). The
+    # named *.ome.zarr as one file (File > Open: select it and press OK, as Return
+    # navigates into it; OpenDataFile). No UseDirectoryName hint: that would pass the
+    # folder above the selection. The
     # reader's FileName may also name the store's zarr.json (it reads the folder), but
     # File > Open of a zarr.json does not offer this reader (a factory entry is either
     # for directories or for files).
@@ -1108,7 +1110,6 @@ if HDRVolumeRenderer is not None:
           <StringVectorProperty name="FileName" command="SetFileName" number_of_elements="1"
                                 panel_visibility="never">
             <FileListDomain name="files"/>
-            <Hints><UseDirectoryName/></Hints>
             <Documentation>The store: a directory *.ome.zarr (or its zarr.json).</Documentation>
           </StringVectorProperty>""")
         def SetFileName(self, name):

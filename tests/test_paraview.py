@@ -476,6 +476,73 @@ def test_gui_clip_checkbox_shows_the_plane_widget_and_cuts(shared_data, tmp_path
         _keep_screenshots(gui, tmp_path, ())
 
 
+def test_gui_opens_a_store_and_renders_it_out_of_core(shared_data, tmp_path):
+    """A multiresolution store in the GUI: File > Open, the store's path typed and OK
+    (a directory the store reader takes; Return would navigate into it), Apply (one
+    level loaded), Filters > pv_hdrvol > HDR Volume Render, Apply: the filter renders
+    the store out of core, ``open_multiscale(store).render`` for the view's camera and
+    size and the array's colour map (to float32 rounding across numba versions), and
+    the view shows it pixel for pixel; ParaView exits 0 with nothing in its log."""
+    pytest.importorskip("zarr")
+    import pv_hdrvol as hv
+
+    store = tmp_path / "engine.ome.zarr"
+    hv.write_multiscale(shared_data / "structured" / "engine_256x256x128_uint8.vti", store, progress_bar=False)
+    gui = _start_gui([], tmp_path)
+    try:
+        time.sleep(5)
+        gui.menu(20, ["Down", "Return"])  # File > Open...
+        time.sleep(3)
+        gui.xdotool("type", "--delay", 10, str(store))
+        time.sleep(1)
+        gui.click(856, 487)  # the dialog's OK
+        gui.press_apply(timeout=120)  # the store reader
+        time.sleep(2)
+        gui.menu(215, ["Up", "Right", "Up", "Return"])  # Filters > pv_hdrvol (last) > HDR Volume Render (last)
+        gui.press_apply()
+        time.sleep(2)
+        _open_python_shell(gui)
+        rgba, shown, state = _export(gui, tmp_path, 1)
+        assert state["connections"] == 1
+        assert state["lut"] == state["array_lut"], "HDR Volume Render does not use the array's colour map"
+        assert state["filter_camera_fields"] == state["view_camera"]
+        reference = _store_reference(store, state)
+        print(f"store: levels of the filter's render {reference.metadata['levels']}")
+        _on_screen(gui, reference, rgba, "store.png")
+        _quit_cleanly(gui)
+    finally:
+        _keep_screenshots(gui, tmp_path, ("store.png",))
+
+
+def _store_reference(store, state):
+    """What the GUI should show for a store: ``open_multiscale(store).render`` with the
+    view's camera and size and the array's colour map and opacity (as :func:`_reference`
+    rebuilds them)."""
+    from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
+    from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
+
+    import pv_hdrvol as hv
+    from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+    assert state["settings"] == _DEFAULT_SETTINGS, state["settings"]
+    assert state["scalars"] == ["POINTS", "ImageFile"], state["scalars"]
+    ctf = vtkColorTransferFunction()
+    for x, r, g, b in np.reshape(state["rgb_points"], (-1, 4)):
+        ctf.AddRGBPoint(x, r, g, b)
+    getattr(ctf, f"SetColorSpaceTo{state['color_space']}")()
+    ctf.SetScale(int(state["lut_log"]))
+    pwf = vtkPiecewiseFunction()
+    for x, a, midpoint, sharpness in np.reshape(state["opacity_points"], (-1, 4)):
+        pwf.AddPoint(x, a, midpoint, sharpness)
+    pwf.SetUseLogScale(int(state["opacity_log"]))
+    position, focal_point, view_up, angle, parallel, scale = state["view_camera"]
+    camera = hv.Camera(position, focal_point, view_up, view_angle=angle, parallel_projection=bool(parallel),
+                       parallel_scale=scale)
+    with hv.open_multiscale(store) as volume:
+        return volume.render(transfer_function_from_vtk(ctf, pwf), camera, tuple(state["view_size"]),
+                             precision="float32")
+
+
 def test_gui_loads_a_state_saved_in_pvbatch(shared_data, tmp_path):
     """File > Load State's path (``paraview --state``) for a state saved in pvbatch with HDR
     Volume Render shown: no traceback, the view shows the render, a drag re-renders it."""

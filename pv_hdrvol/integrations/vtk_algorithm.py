@@ -163,6 +163,14 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     (the whole extent of an image, piece 0 of 1 of a mesh) and renders it alone; no
     process renders its piece as if it were the whole.
 
+    Multiresolution stores: the output of
+    :class:`~pv_hdrvol.integrations.vtk_multiscale.MultiscaleReader` (one level of a
+    ``*.ome.zarr`` store, naming the store in field data) renders as the whole store
+    out of core (:func:`pv_hdrvol.open_multiscale`, one per path kept between
+    executions; :meth:`SetScreenError`, :meth:`SetCacheBytes`; :meth:`SetOutOfCore`
+    ``(False)`` renders the level in memory), with the transfer function and camera
+    any input gets; view names frame the store's bounds.
+
     Scalars: ``SetScalars(name)``, or the standard
     ``SetInputArrayToProcess(0, 0, 0, association, name)``; by default the active
     scalars. Progress is reported through ``UpdateProgress`` (``ProgressEvent``).

@@ -7,7 +7,8 @@ the getargspec shim and this source tree on PYTHONPATH, nothing else of this
 interpreter's. Without pvbatch the test is skipped, except under CI, where it fails.
 
 ``PV_HDRVOL_PARAVIEW_SITE``: a folder of extra packages for ParaView's Python (OpenEXR,
-installed with ``/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR``).
+installed with ``/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR``, and
+zarr 3 with the dependencies Debian lacks, for multiresolution stores: .ci/run).
 ``PV_HDRVOL_PARAVIEW_NUMBA_CACHE``: numba's cache folder there (default: the plugin's,
 one per numba version); never the folder of this interpreter's numba.
 """

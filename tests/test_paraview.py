@@ -85,7 +85,9 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     without a colour map rank 0 renders the whole dataset alone (hv.render's bit for
     bit); the others output empty images. A curvilinear grid is read by pieces and
     rendered as tetrahedra where it lives (hv.render's to 1e-10), a graded rectilinear
-    grid on the whole grid's lattice (to 2e-6, the early termination)."""
+    grid on the whole grid's lattice (to 2e-6, the early termination). A multiresolution
+    store's level renders as the whole store out of core on rank 0
+    (``open_multiscale(...).render``'s bit for bit)."""
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     # Debian's mpiexec (Open MPI, which ParaView is built with), not the MPICH one of the
@@ -99,7 +101,8 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     _graded_grid().save(rectilinear)
     env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
                PV_HDRVOL_DATA=str(shared_data), PV_HDRVOL_MPI_OUT=str(tmp_path),
-               PV_HDRVOL_MPI_CURVI=str(curvilinear), PV_HDRVOL_MPI_RECT=str(rectilinear))
+               PV_HDRVOL_MPI_CURVI=str(curvilinear), PV_HDRVOL_MPI_RECT=str(rectilinear),
+               PV_HDRVOL_MPI_STORE=str(inputs / "blob.ome.zarr"))
     command = [xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", mpiexec, "-n", str(ranks), pvbatch, "--mpi",
                "--symmetric",
                str(REPO_ROOT / "tests" / "paraview" / "mpi_render.py")]
@@ -117,6 +120,8 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
               for how in ("the reader", "RedistributeDataSet")]
     lines += [f"the whole image of {ranks} boxes, within"]
+    lines += ["rank 0: a store's level in: the store out of core, open_multiscale's render bit for bit"]
+    lines += [f"rank {r}: a store's level in: no image" for r in range(1, ranks)]
     lines += [f"rank {r}: {kind} piece (" for r in range(ranks) for kind in ("curvilinear", "rectilinear")]
     for line in lines:
         assert line in done.stdout, line

@@ -819,7 +819,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         # makes of them, through the mesh path (_execute_mesh_piece)
         mesh = not structured and data is not None and data.GetClassName() in ("vtkUnstructuredGrid",
                                                                                 "vtkStructuredGrid")
-        if self._out_of_core and data is not None and data.GetFieldData().GetAbstractArray("pv_hdrvol_store"):
+        if self._out_of_core and data is not None \
+                and data.GetFieldData().GetAbstractArray("pv_hdrvol_store") is not None:
             return None  # a store's level: piece 0 renders the store out of core
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
                 or self._labels is not None or self._cull is not None or self._options.tolerance is not None:

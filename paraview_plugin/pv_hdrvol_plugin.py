@@ -10,7 +10,9 @@ Filters: **HDR Volume Render** (image data or a tetrahedral unstructured grid ->
 image with the HDR ``rgba``, ``depth`` and a tone-mapped ``tonemapped`` array, and the
 'In View' surface that the render view shows: the image facing the camera at the
 volume's depth, docs/paraview.md),
-**HDR Tone Map**, **HDR Upsample**; a reader and writers for ``.exr`` and ``.hdr``.
+**HDR Tone Map**, **HDR Upsample**; a reader and writers for ``.exr`` and ``.hdr``; a
+reader of multiresolution stores (``*.ome.zarr`` directories: one level, which HDR
+Volume Render turns back into the whole store, rendered out of core).
 
 This file is only the ParaView layer: decorated classes that call the VTK algorithms of
 ``pv_hdrvol.integrations``; every property means what the same name means in
@@ -51,7 +53,7 @@ from paraview.util.vtkAlgorithm import smdomain, smhint, smproperty, smproxy  # 
 
 try:
     import pv_hdrvol  # noqa: F401  (numba, numpy)
-    from pv_hdrvol.integrations import vtk_image
+    from pv_hdrvol.integrations import vtk_image, vtk_multiscale
     from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
 except ImportError as exc:  # never break ParaView: say what is missing, register nothing
     from vtkmodules.vtkCommonCore import vtkOutputWindow
@@ -645,6 +647,28 @@ if HDRVolumeRenderer is not None:
                 box = (x, x + lx, y, y + ly, z, z + lz)
             HDRVolumeRenderer.SetCropBox(self, box)
 
+        # -- multiresolution stores (the store reader's output) -------------------------
+        @smproperty.intvector(name="OutOfCore", label="Out Of Core", default_values=1)
+        @smdomain.xml('<BooleanDomain name="bool"/>' + _documentation(
+            "For a level of a multiresolution store (*.ome.zarr, opened with pv_hdrvol's store reader): render "
+            "the whole store out of core (pv_hdrvol.open_multiscale), with finer levels where the camera needs "
+            "them and chunks read on demand, instead of the level in memory. Other inputs are not affected."))
+        def SetOutOfCore(self, value):
+            super().SetOutOfCore(bool(value))
+
+        @smproperty.doublevector(name="ScreenError", label="Screen Error", default_values=1.0)
+        @smdomain.doublerange(min=0.25, max=16.0)
+        @smdomain.xml(_documentation("Out of core: the largest projected voxel, in pixels, a block of the "
+                                     "store may show (smaller: finer levels, more reading)."))
+        def SetScreenError(self, value):
+            _setting(self, "Screen Error", lambda: HDRVolumeRenderer.SetScreenError(self, value))
+
+        @smproperty.intvector(name="CacheSize", label="Cache Size", default_values=2048)
+        @smdomain.intrange(min=64, max=262144)
+        @smdomain.xml(_documentation("Out of core: the most memory, in MiB, for the store's chunks."))
+        def SetCacheSize(self, mib):
+            _setting(self, "Cache Size", lambda: HDRVolumeRenderer.SetCacheBytes(self, int(mib) * 2 ** 20))
+
         # -- display ----------------------------------------------------------------
         @smproperty.stringvector(name="DisplayToneMap", label="Display Tone Map", default_values="reinhard",
                                  number_of_elements=1)
@@ -1067,6 +1091,50 @@ if HDRVolumeRenderer is not None:
         def SetFileName(self, name):
             if name and name != "None":  # ParaView 5.11 pushes "None" while it makes the proxy
                 super().SetFileName(name)
+
+    # A store is a directory: is_directory lets ParaView (5.10 and later) open a directory
+    # named *.ome.zarr as one file (File > Open: select it and press OK, as Return
+    # navigates into it; OpenDataFile). No UseDirectoryName hint: that would pass the
+    # folder above the selection. The
+    # reader's FileName may also name the store's zarr.json (it reads the folder), but
+    # File > Open of a zarr.json does not offer this reader (a factory entry is either
+    # for directories or for files).
+    @smproxy.reader(name="MultiscaleStoreReader", label="pv_hdrvol multiresolution store reader",
+                    extensions="ome.zarr", is_directory=True,
+                    file_description="Multiresolution volumes (pv_hdrvol OME-Zarr)", support_reload=False)
+    class MultiscaleStoreReader(vtk_multiscale.MultiscaleReader):
+        """One level of a multiresolution store (*.ome.zarr) as image data; HDR Volume
+        Render renders the whole store from it, out of core."""
+
+        @smproperty.xml("""
+          <StringVectorProperty name="FileName" command="SetFileName" number_of_elements="1"
+                                panel_visibility="never">
+            <FileListDomain name="files"/>
+            <Documentation>The store: a directory *.ome.zarr (or its zarr.json).</Documentation>
+          </StringVectorProperty>""")
+        def SetFileName(self, name):
+            if name and name != "None":  # ParaView 5.11 pushes "None" while it makes the proxy
+                super().SetFileName(name)
+
+        @smproperty.intvector(name="Level", default_values=-1)
+        @smdomain.intrange(min=-1, max=30)
+        @smdomain.xml(_documentation(
+            "The level to load, 0 the finest (each next one halves every axis). -1 (default): the finest level "
+            "with at most Max Points, so that opening never loads the whole volume. HDR Volume Render renders "
+            "the whole store out of core whatever level is loaded."))
+        def SetLevelNumber(self, level):
+            _setting(self, "Level", lambda: vtk_multiscale.MultiscaleReader.SetLevel(self, None if level < 0 else level))
+
+        @smproperty.intvector(name="MaxPoints", label="Max Points", default_values=64)
+        @smdomain.intrange(min=1, max=4096)
+        @smdomain.xml(_documentation("With Level -1: the most points, in Mi (2^20), of the level loaded."))
+        def SetMaxMegaPoints(self, mega):
+            _setting(self, "Max Points",
+                     lambda: vtk_multiscale.MultiscaleReader.SetMaxPoints(self, int(mega) * 2 ** 20))
+
+        def _execute(self, inInfo, outInfo):
+            _raise_refused(self)
+            return super()._execute(inInfo, outInfo)
 
     # supports_parallel: ParaView offers only such writers under MPI; rank 0 writes the
     # image (the others hold none)

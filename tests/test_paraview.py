@@ -7,7 +7,8 @@ the getargspec shim and this source tree on PYTHONPATH, nothing else of this
 interpreter's. Without pvbatch the test is skipped, except under CI, where it fails.
 
 ``PV_HDRVOL_PARAVIEW_SITE``: a folder of extra packages for ParaView's Python (OpenEXR,
-installed with ``/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR``).
+installed with ``/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR``, and
+zarr 3 with the dependencies Debian lacks, for multiresolution stores: .ci/run).
 ``PV_HDRVOL_PARAVIEW_NUMBA_CACHE``: numba's cache folder there (default: the plugin's,
 one per numba version); never the folder of this interpreter's numba.
 """
@@ -84,7 +85,9 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     without a colour map rank 0 renders the whole dataset alone (hv.render's bit for
     bit); the others output empty images. A curvilinear grid is read by pieces and
     rendered as tetrahedra where it lives (hv.render's to 1e-10), a graded rectilinear
-    grid on the whole grid's lattice (to 2e-6, the early termination)."""
+    grid on the whole grid's lattice (to 2e-6, the early termination). A multiresolution
+    store's level renders as the whole store out of core on rank 0
+    (``open_multiscale(...).render``'s bit for bit)."""
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     # Debian's mpiexec (Open MPI, which ParaView is built with), not the MPICH one of the
@@ -98,7 +101,8 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     _graded_grid().save(rectilinear)
     env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
                PV_HDRVOL_DATA=str(shared_data), PV_HDRVOL_MPI_OUT=str(tmp_path),
-               PV_HDRVOL_MPI_CURVI=str(curvilinear), PV_HDRVOL_MPI_RECT=str(rectilinear))
+               PV_HDRVOL_MPI_CURVI=str(curvilinear), PV_HDRVOL_MPI_RECT=str(rectilinear),
+               PV_HDRVOL_MPI_STORE=str(inputs / "blob.ome.zarr"))
     command = [xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", mpiexec, "-n", str(ranks), pvbatch, "--mpi",
                "--symmetric",
                str(REPO_ROOT / "tests" / "paraview" / "mpi_render.py")]
@@ -116,6 +120,8 @@ def test_ranks_render_their_pieces_under_mpi(shared_data, tmp_path, tmp_path_fac
     lines += [f"rank {r}: unstructured/bluntfin_187395tets.vtu from {how}: given" for r in range(ranks)
               for how in ("the reader", "RedistributeDataSet")]
     lines += [f"the whole image of {ranks} boxes, within"]
+    lines += ["rank 0: a store's level in: the store out of core, open_multiscale's render bit for bit"]
+    lines += [f"rank {r}: a store's level in: no image" for r in range(1, ranks)]
     lines += [f"rank {r}: {kind} piece (" for r in range(ranks) for kind in ("curvilinear", "rectilinear")]
     for line in lines:
         assert line in done.stdout, line
@@ -474,6 +480,73 @@ def test_gui_clip_checkbox_shows_the_plane_widget_and_cuts(shared_data, tmp_path
         assert "Warning" not in log and "warning" not in log, f"a warning in ParaView's output:\n{log[-3000:]}"
     finally:
         _keep_screenshots(gui, tmp_path, ())
+
+
+def test_gui_opens_a_store_and_renders_it_out_of_core(shared_data, tmp_path):
+    """A multiresolution store in the GUI: File > Open, the store's path typed and OK
+    (a directory the store reader takes; Return would navigate into it), Apply (one
+    level loaded), Filters > pv_hdrvol > HDR Volume Render, Apply: the filter renders
+    the store out of core, ``open_multiscale(store).render`` for the view's camera and
+    size and the array's colour map (to float32 rounding across numba versions), and
+    the view shows it pixel for pixel; ParaView exits 0 with nothing in its log."""
+    pytest.importorskip("zarr")
+    import pv_hdrvol as hv
+
+    store = tmp_path / "engine.ome.zarr"
+    hv.write_multiscale(shared_data / "structured" / "engine_256x256x128_uint8.vti", store, progress_bar=False)
+    gui = _start_gui([], tmp_path)
+    try:
+        time.sleep(5)
+        gui.menu(20, ["Down", "Return"])  # File > Open...
+        time.sleep(3)
+        gui.xdotool("type", "--delay", 10, str(store))
+        time.sleep(1)
+        gui.click(856, 487)  # the dialog's OK
+        gui.press_apply(timeout=120)  # the store reader
+        time.sleep(2)
+        gui.menu(215, ["Up", "Right", "Up", "Return"])  # Filters > pv_hdrvol (last) > HDR Volume Render (last)
+        gui.press_apply()
+        time.sleep(2)
+        _open_python_shell(gui)
+        rgba, shown, state = _export(gui, tmp_path, 1)
+        assert state["connections"] == 1
+        assert state["lut"] == state["array_lut"], "HDR Volume Render does not use the array's colour map"
+        assert state["filter_camera_fields"] == state["view_camera"]
+        reference = _store_reference(store, state)
+        print(f"store: levels of the filter's render {reference.metadata['levels']}")
+        _on_screen(gui, reference, rgba, "store.png")
+        _quit_cleanly(gui)
+    finally:
+        _keep_screenshots(gui, tmp_path, ("store.png",))
+
+
+def _store_reference(store, state):
+    """What the GUI should show for a store: ``open_multiscale(store).render`` with the
+    view's camera and size and the array's colour map and opacity (as :func:`_reference`
+    rebuilds them)."""
+    from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
+    from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
+
+    import pv_hdrvol as hv
+    from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+    assert state["settings"] == _DEFAULT_SETTINGS, state["settings"]
+    assert state["scalars"] == ["POINTS", "ImageFile"], state["scalars"]
+    ctf = vtkColorTransferFunction()
+    for x, r, g, b in np.reshape(state["rgb_points"], (-1, 4)):
+        ctf.AddRGBPoint(x, r, g, b)
+    getattr(ctf, f"SetColorSpaceTo{state['color_space']}")()
+    ctf.SetScale(int(state["lut_log"]))
+    pwf = vtkPiecewiseFunction()
+    for x, a, midpoint, sharpness in np.reshape(state["opacity_points"], (-1, 4)):
+        pwf.AddPoint(x, a, midpoint, sharpness)
+    pwf.SetUseLogScale(int(state["opacity_log"]))
+    position, focal_point, view_up, angle, parallel, scale = state["view_camera"]
+    camera = hv.Camera(position, focal_point, view_up, view_angle=angle, parallel_projection=bool(parallel),
+                       parallel_scale=scale)
+    with hv.open_multiscale(store) as volume:
+        return volume.render(transfer_function_from_vtk(ctf, pwf), camera, tuple(state["view_size"]),
+                             precision="float32")
 
 
 def test_gui_loads_a_state_saved_in_pvbatch(shared_data, tmp_path):

@@ -7,6 +7,9 @@
 - :mod:`~pv_hdrvol.integrations.vtk_image`: VTK algorithms on those 2-D HDR images:
   ``HDRToneMapper``, ``HDRImageReader``, ``HDRImageWriter`` (.exr, .hdr, .npy) and
   ``HDRUpsampler`` (joint bilateral upsampling guided by the rendered dataset).
+- :mod:`~pv_hdrvol.integrations.vtk_multiscale`: ``MultiscaleReader``, one level of a
+  multiresolution store (``*.ome.zarr``) as vtkImageData naming its store, which
+  ``HDRVolumeRenderer`` then renders out of core.
 - :mod:`~pv_hdrvol.integrations.cli`: the ``pv-hdrvol`` command.
 
 Submodules are imported on demand: importing this package loads neither PyVista nor VTK.

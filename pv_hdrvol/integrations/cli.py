@@ -261,7 +261,8 @@ def build_parser():
                    help="syntax of the lines (default sh: bash, zsh)")
     p.add_argument("--site", default=None, metavar="DIR",
                    help="also put DIR on PYTHONPATH: extra packages for ParaView's Python, such as OpenEXR for "
-                        ".exr files (/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR)")
+                        ".exr files (/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR) and zarr for "
+                        "*.ome.zarr stores (docs/paraview.md lists the pinned versions)")
     p.set_defaults(handler=_cmd_paraview, subparser=p)
     return parser
 

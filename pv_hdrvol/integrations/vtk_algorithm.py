@@ -163,6 +163,14 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
     (the whole extent of an image, piece 0 of 1 of a mesh) and renders it alone; no
     process renders its piece as if it were the whole.
 
+    Multiresolution stores: the output of
+    :class:`~pv_hdrvol.integrations.vtk_multiscale.MultiscaleReader` (one level of a
+    ``*.ome.zarr`` store, naming the store in field data) renders as the whole store
+    out of core (:func:`pv_hdrvol.open_multiscale`, one per path kept between
+    executions; :meth:`SetScreenError`, :meth:`SetCacheBytes`; :meth:`SetOutOfCore`
+    ``(False)`` renders the level in memory), with the transfer function and camera
+    any input gets; view names frame the store's bounds.
+
     Scalars: ``SetScalars(name)``, or the standard
     ``SetInputArrayToProcess(0, 0, 0, association, name)``; by default the active
     scalars. Progress is reported through ``UpdateProgress`` (``ProgressEvent``).
@@ -224,6 +232,12 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
         # by the input object, which ParaView hands over as a new shallow copy each time
         self._volumes = VolumeCache(dataset_mtime=False)
+        # a level of a multiresolution store (MultiscaleReader): the store, out of core
+        self._out_of_core = True
+        self._screen_error = 1.0
+        self._cache_bytes = None  # None: open_multiscale's default
+        self._multiscale = {}  # store path -> MultiscaleVolume (its chunk cache stays between renders)
+        self._multiscale_plan = None  # (key, MultiscalePlan)
 
     # -- render options: one RenderOptions, replaced by every setter ------------------
     def _set_options(self, **changes):
@@ -608,6 +622,127 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         """``(array name, styles)`` set last."""
         return self._labels, self._label_styles
 
+    # -- multiresolution stores: a MultiscaleReader's level renders its store out of core
+    def SetOutOfCore(self, on):
+        """Whether a level of a multiresolution store (the output of
+        :class:`~pv_hdrvol.integrations.vtk_multiscale.MultiscaleReader`, which names its
+        store in field data) renders the whole store out of core (default ``True``:
+        :func:`pv_hdrvol.open_multiscale`, finer levels where the camera needs them,
+        chunks read on demand) rather than the level in memory."""
+        on = bool(on)
+        if on != self._out_of_core:
+            self._out_of_core = on
+            self.Modified()
+
+    def GetOutOfCore(self):
+        return self._out_of_core
+
+    def SetScreenError(self, pixels):
+        """Out of core: the largest projected voxel, in pixels, a block may show
+        (default 1; :meth:`MultiscalePlan.execute <pv_hdrvol.outofcore.render.MultiscalePlan.execute>`)."""
+        from .._validate import as_real
+
+        pixels = as_real("screen_error", pixels, low=0.0, low_open=True)
+        if pixels != self._screen_error:
+            self._screen_error = pixels
+            self.Modified()
+
+    def GetScreenError(self):
+        return self._screen_error
+
+    def SetCacheBytes(self, n):
+        """Out of core: the most bytes of chunks kept in memory per store (``None``: the
+        default of :func:`pv_hdrvol.open_multiscale`, 2 GiB). A new size reopens the stores."""
+        from .._validate import as_int
+
+        n = None if n is None else as_int("cache_bytes", n, low=1)
+        if n != self._cache_bytes:
+            self._cache_bytes = n
+            self._close_multiscale()
+            self.Modified()
+
+    def GetCacheBytes(self):
+        return self._cache_bytes
+
+    def _close_multiscale(self):
+        self._multiscale_plan = None
+        for volume in self._multiscale.values():
+            volume.close()
+        self._multiscale.clear()
+
+    def _store_input(self, inp, scalars, preference):
+        """``(MultiscaleVolume, level)`` when ``inp`` is a MultiscaleReader's level that
+        is still that level (its array chosen, its geometry), else ``None``: data changed
+        on its way (another array, a cut) renders in memory as any other."""
+        if not self._out_of_core or inp is None or inp.GetClassName() not in IMAGE_CLASSES:
+            return None
+        from .vtk_multiscale import store_of
+
+        found = store_of(inp)
+        if found is None:
+            return None
+        path, level, name = found
+        active = inp.GetPointData().GetScalars()
+        chosen = scalars if scalars is not None else (None if active is None else active.GetName())
+        if chosen != name or (scalars is not None and preference == "cell"):
+            return None
+        volume = self._multiscale.get(path)
+        if volume is None:
+            from ..outofcore.render import open_multiscale
+
+            kwargs = {} if self._cache_bytes is None else {"cache_bytes": self._cache_bytes}
+            volume = self._multiscale[path] = open_multiscale(path, **kwargs)
+        store = volume.store
+        if not 0 <= level < store.n_levels:
+            return None
+        import numpy as np
+
+        spacing, origin = store.level_geometry(level)
+        if tuple(inp.GetDimensions()) != tuple(store.levels[level].dims) \
+                or not np.allclose(inp.GetSpacing(), spacing, rtol=1e-9, atol=0) \
+                or not np.allclose(inp.GetOrigin(), origin, rtol=1e-9, atol=1e-12 * float(np.abs(spacing).max())):
+            return None
+        return volume, level
+
+    def _execute_multiscale(self, volume, out):
+        """Render the store out of core (:class:`~pv_hdrvol.outofcore.render.MultiscalePlan`),
+        with the transfer function and options the in-memory render would use."""
+        if self._labels is not None or self._cull is not None:
+            raise ValueError("SetLabels and SetCull are not supported for a multiresolution store rendered out "
+                             "of core; SetOutOfCore(False) renders the level in memory")
+        from ..outofcore.render import MultiscalePlan
+
+        tf = self._transfer_function()
+        keywords = tuple((name, None if value is None else default_transfer_function_keyword(name, value))
+                         for name, value in self._tf_keywords.items())
+        key = (volume, tf, self._options, keywords)
+        old = None if self._multiscale_plan is None else self._multiscale_plan[0]
+        # the volume and the transfer function by identity, the rest by value
+        if old is None or old[0] is not volume or old[1] is not tf or old[2:] != key[2:]:
+            self._multiscale_plan = None
+            given = {} if tf is not None else {k: v for k, v in self._tf_keywords.items()}
+            self._multiscale_plan = (key, MultiscalePlan(volume, tf, self._options, **given))
+        plan = self._multiscale_plan[1]
+        camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
+                           volume.bounds)
+        self._last_camera = camera
+        self._last_tolerance = None
+
+        def progress(fraction):
+            self.UpdateProgress(fraction)
+            return not self._should_abort()
+
+        try:
+            image = plan.execute(camera, self._size, screen_error=self._screen_error, wait=True, lens=self._lens,
+                                 progress=progress, progress_bar=False)
+        except RuntimeError:
+            if self._should_abort():
+                out.Initialize()
+                return 1
+            raise
+        out.ShallowCopy(image.to_vtk())
+        return 1
+
     def GetOutput(self, port=0):
         """The output ``vtkImageData`` (``GetOutputDataObject(port)``, as image algorithms have)."""
         return self.GetOutputDataObject(port)
@@ -684,6 +819,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         # makes of them, through the mesh path (_execute_mesh_piece)
         mesh = not structured and data is not None and data.GetClassName() in ("vtkUnstructuredGrid",
                                                                                 "vtkStructuredGrid")
+        if self._out_of_core and data is not None \
+                and data.GetFieldData().GetAbstractArray("pv_hdrvol_store") is not None:
+            return None  # a store's level: piece 0 renders the store out of core
         if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
                 or self._labels is not None or self._cull is not None or self._options.tolerance is not None:
             return None  # a tolerance's knobs are chosen on a pilot of the whole image
@@ -728,6 +866,9 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
                                           or self._cull is not None):
             raise ValueError(f"SetLens, SetLabels and SetCull apply to image data only, not to a {kind}")
         scalars, preference = self._scalars_to_render()
+        store = self._store_input(inp, scalars, preference)
+        if store is not None:
+            return self._execute_multiscale(store[0], out)
         camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
                            _bounds(inp))
         self._last_camera = camera

@@ -6,7 +6,9 @@ image, equal to ``pv_hdrvol.render`` of the whole dataset to 1e-5; the other ran
 empty image. A curvilinear grid (``$PV_HDRVOL_MPI_CURVI``) is read by pieces too and
 rendered as tetrahedra where it lives. Without a function given (pv_hdrvol's default reads every value) and for a
 tetrahedral mesh, rank 0 reads and renders everything, bit for bit ``pv_hdrvol.render``.
-No rank renders a piece as if it were the whole. Exits non-zero on any rank that finds
+No rank renders a piece as if it were the whole. A level of a multiresolution store
+(``$PV_HDRVOL_MPI_STORE``) renders as the whole store, out of core, on rank 0. Exits
+non-zero on any rank that finds
 otherwise. Run by tests/test_paraview.py with 2 and 3 ranks.
 """
 import os
@@ -31,6 +33,7 @@ def main():
     assert size > 1, "run under mpiexec -n 2 (or more) pvbatch --mpi --symmetric"
     simple.LoadPlugin(os.path.join(ROOT, "paraview_plugin", "pv_hdrvol_plugin.py"), ns=vars(simple))
     where_the_data_lives(rank, size)
+    store_out_of_core(controller, rank)
     for redistribute in (False, True):
         mesh_where_it_lives(rank, size, redistribute)
     for name, array, whole_reader in CASES:
@@ -244,6 +247,46 @@ def color_map_editor(rank, size):
     assert shown.GetPointData().GetArray("tonemapped") is not None
     print("rank 0: the array's colour map, within 1e-5 of hv.render with it; render.exr and render.png written",
           flush=True)
+
+
+def store_out_of_core(controller, rank):
+    """A level of a multiresolution store (``$PV_HDRVOL_MPI_STORE``, written here by rank
+    0) with the array's colour map: rank 0 renders the whole store out of core,
+    ``open_multiscale(...).render`` bit for bit; the other ranks output empty images."""
+    path = os.environ["PV_HDRVOL_MPI_STORE"]
+    if rank == 0:
+        z, y, x = np.mgrid[0:70, 0:80, 0:90].astype(np.float32)
+        values = np.exp(-((x - 45) ** 2 + (y - 40) ** 2 + (z - 35) ** 2) / 500.0).astype(np.float32)
+        hv.write_multiscale(values, path, spacing=(0.5, 0.75, 1.0), name="blob", progress_bar=False, overwrite=True)
+    controller.Barrier()
+    reader = simple.OpenDataFile(path)
+    reader.Level = 1
+    lut = simple.GetColorTransferFunction("blob")
+    pwf = simple.GetOpacityTransferFunction("blob")
+    lut.RGBPoints = [0.0, 0.0, 0.0, 0.3, 1.0, 1.0, 1.0, 1.0]
+    pwf.Points = [0.0, 0.0, 0.5, 0.0, 1.0, 0.6, 0.5, 0.0]
+    render = simple.HDRVolumeRender(Input=reader, ImageSize=[48, 40], Camera="iso", LookupTable=lut,
+                                    ScalarOpacityFunction=pwf)
+    render.Scalars = ["POINTS", "blob"]
+    for size in ((48, 40), (40, 32)):  # the second execution: the reader's field data there from the start
+        render.ImageSize = list(size)
+        render.UpdatePipeline()
+        out = render.GetClientSideObject().GetOutputDataObject(0)
+        if rank != 0:
+            assert out.GetNumberOfPoints() == 0, out.GetNumberOfPoints()
+            continue
+        from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+        tf = transfer_function_from_vtk(lut.GetClientSideObject(), pwf.GetClientSideObject())
+        with hv.open_multiscale(path) as volume:
+            expected = volume.render(tf, hv.Camera.fit(volume.bounds, "iso"), size)
+        got = hv.HDRImage.from_pyvista(out)
+        assert got.rgba[..., 3].max() > 0.2
+        np.testing.assert_array_equal(got.rgba, expected.rgba)
+    print(f"rank {rank}: a store's level in: " + ("the store out of core, open_multiscale's render bit for bit"
+                                                   if rank == 0 else "no image"), flush=True)
+    simple.Delete(render)
+    simple.Delete(reader)
 
 
 if __name__ == "__main__":

@@ -58,7 +58,7 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
                             ("label_styles", label_styles)):
             if value is not None:
                 raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
-        frame = {k: option_kwargs.pop(k) for k in ("screen_error", "wait") if k in option_kwargs}
+        frame = {k: option_kwargs.pop(k) for k in ("screen_error", "wait", "occlusion") if k in option_kwargs}
         return data.render(tf, camera, size, options=options, lens=lens, progress_bar=progress_bar, progress=progress,
                            **frame, **tf_keywords, **option_kwargs)
     from .data.blocks import is_composite

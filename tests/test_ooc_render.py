@@ -341,3 +341,36 @@ def test_infinities_render_as_the_in_core_volume_reads_them(tmp_path):
     with open_multiscale(tmp_path / "inf.ome.zarr", cache_bytes=2 ** 28) as ooc:
         image = ooc.render(tf, camera, SIZE, screen_error=1e-9)
     assert np.array_equal(image.rgba, reference.rgba)
+
+
+def test_occluded_blocks_are_never_read_and_the_image_is_unchanged(tmp_path):
+    """An opaque slab (z < 40) in front of a field seen from -z: the occlusion bound (the
+    store's ranges per cube of 8 points) shows the blocks behind it are reached only
+    after the rays stopped (termination 1e-3; at float32's default 1e-6 the bound's
+    rounding margin, eps / 1e-6 per sample, outgrows the slab); the converged frame
+    leaves them out -- not read, not sampled -- and its image equals the frame without
+    the bound bit for bit, and the in-core one."""
+    values = _field((200, 130, 140)) * 0.2
+    values[:40] = 5.0
+    write_multiscale(values, tmp_path / "slab.ome.zarr", progress_bar=False)
+    volume = volume_from_array(values)
+    tf = hv.TransferFunction([-1.0, 0.5, 4.0, 5.0], [[0.2, 0.3, 1.0]] * 4, [0.02, 0.02, 0.5, 0.5])
+    base = hv.Camera.fit(volume.bounds, "xy")
+    # parallel rays along +z: none enters behind the slab through a side face
+    camera = hv.Camera((base.position[0], base.position[1], -300.0), base.focal_point, base.view_up,
+                       parallel_projection=True, parallel_scale=60.0)
+    reference = hv.render(volume, tf, camera, SIZE, termination=1e-3, progress_bar=False)
+    with open_multiscale(tmp_path / "slab.ome.zarr", cache_bytes=2 ** 28) as ooc:
+        culled = ooc.render(tf, camera, SIZE, screen_error=1e-9, termination=1e-3)
+        read_culled = culled.metadata["chunks_read_per_level"][0]
+        default = ooc.render(tf, camera, SIZE, screen_error=1e-9)
+        assert default.metadata["occluded"] == 0  # float32 at termination 1e-6
+    with open_multiscale(tmp_path / "slab.ome.zarr", cache_bytes=2 ** 28) as ooc:
+        plain = ooc.render(tf, camera, SIZE, screen_error=1e-9, termination=1e-3, occlusion=False)
+        read_plain = plain.metadata["chunks_read_per_level"][0]
+    assert plain.metadata["occluded"] is None and culled.metadata["occluded"] > 0
+    # the 4 chunk layers along z: the first (and the plane it shares) read; the last two not
+    assert (read_plain, read_culled) == (4 * 3 * 3, 2 * 3 * 3)
+    assert np.array_equal(culled.rgba, plain.rgba) and np.array_equal(culled.depth, plain.depth)
+    assert np.array_equal(culled.rgba, reference.rgba)
+    assert culled.rgba[5:-5, 5:-5, 3].min() > 0.99  # the slab covers the middle of the view

@@ -164,11 +164,11 @@ class MultiscaleVolume:
         return MultiscalePlan(self, tf, options, **kwargs)
 
     def render(self, tf=None, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, lens=None,
-               progress_bar=None, progress=None, options=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
+               occlusion=None, progress_bar=None, progress=None, options=None, cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
         """Render (``MultiscalePlan(self, tf, ...).execute(camera, size, ...)``)."""
         plan = MultiscalePlan(self, tf, options, cmap=cmap, clim=clim, opacity=opacity, scale=scale, **option_kwargs)
-        return plan.execute(camera, size, screen_error=screen_error, wait=wait, lens=lens, progress_bar=progress_bar,
-                            progress=progress)
+        return plan.execute(camera, size, screen_error=screen_error, wait=wait, lens=lens, occlusion=occlusion,
+                            progress_bar=progress_bar, progress=progress)
 
     def __repr__(self):
         return f"MultiscaleVolume({self.store.path!r}, {self.n_levels} levels, level 0 {self.dims} points)"
@@ -410,7 +410,7 @@ class MultiscalePlan:
 
     def execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
                 progress_bar=None, chunk_seconds=None, window=None, far=None, lens=None, block_mask=None, cull=None,
-                piece=None, _pass=False):
+                piece=None, occlusion=None, _pass=False, _culled=None):
         """Render one frame; returns an :class:`~pv_hdrvol.HDRImage`.
 
         ``screen_error``: the largest projected voxel, in pixels, a block may show
@@ -421,9 +421,15 @@ class MultiscalePlan:
         ``chunk_seconds``, ``window`` and ``far``: as :meth:`GridPlan.execute
         <pv_hdrvol.raycast.grid.GridPlan.execute>` (a window's level of detail is the
         whole image's).
+        ``occlusion``: leave out blocks that the conservative occlusion bound
+        (:func:`~pv_hdrvol.culling.bound.occluded_blocks`, from the store's value ranges
+        per cube of 8 points) shows every ray reaches only after it has stopped: they are
+        neither read nor sampled, and the image does not change. Default: for frames that
+        wait (the converged ones, where reading is the cost), when the store has the
+        ranges, the precision is float32 or float64 and rays terminate.
         ``metadata``: ``levels`` (blocks per level), ``converged``, ``pending``,
         ``bytes_read`` and ``chunks_read`` (per level, by this volume's cache so far),
-        ``coarsened``.
+        ``coarsened``, ``passes``, ``occluded`` (blocks left out, or None).
         """
         # frames of one volume from several threads (viewers, scenes) take turns: a frame
         # evicts chunks another would read
@@ -431,11 +437,11 @@ class MultiscalePlan:
             return self._execute(camera, size, screen_error=screen_error, wait=wait, timeout=timeout,
                                  progress=progress, progress_bar=progress_bar, chunk_seconds=chunk_seconds,
                                  window=window, far=far, lens=lens, block_mask=block_mask, cull=cull, piece=piece,
-                                 _pass=_pass)
+                                 occlusion=occlusion, _pass=_pass, _culled=_culled)
 
     def _execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,
                  progress_bar=None, chunk_seconds=None, window=None, far=None, lens=None, block_mask=None, cull=None,
-                 piece=None, _pass=False):
+                 piece=None, occlusion=None, _pass=False, _culled=None):
         vol, opts = self.volume, self.options
         for name, value in (("block_mask", block_mask), ("cull", cull)):
             if value is not None:
@@ -480,6 +486,12 @@ class MultiscalePlan:
         # a piece steps as the whole render does: at the finest level any block of the
         # whole asks for (from metadata and the camera alone: the same on every process)
         piece_finest = int(desired[shown].min()) if shown.any() else n_levels - 1
+        occluded = _culled
+        if occluded is None and (wait if occlusion is None else occlusion) and shown.any():
+            full_rays = rays if rays is not None else camera.rays((width, height))
+            occluded = self.occluded(full_rays, shown, desired, piece_finest)
+        if occluded is not None:
+            shown &= ~occluded
         if owned is not None:
             shown &= owned
         coarsened = 0
@@ -503,7 +515,7 @@ class MultiscalePlan:
                 # a converged frame that does not fit: render it in boxes that do, one after
                 # another, and composite them (the same image to rounding; reads each once)
                 return self._in_passes(camera, lens_camera, lens, (width, height), rays, screen_error, timeout,
-                                       shown, want, keys, far, t_start)
+                                       shown, want, keys, far, t_start, occluded)
             coarsened += 1
         refused = cache.request(keys, pinned=keys)
         cache.touch(keys)
@@ -519,7 +531,7 @@ class MultiscalePlan:
             assigned |= ok
         active = shown & self._visible_at_levels(level)
         finest = int(level[active].min()) if active.any() else n_levels - 1
-        if owned is not None:
+        if owned is not None or occluded is not None:  # the lattice the pieces or the bound assumed
             finest = min(finest, piece_finest)
         table, step_world = self.table(finest)
         params = self.params._replace(step=float(step_world))
@@ -611,6 +623,7 @@ class MultiscalePlan:
             "not_requested": int(refused),
             "coarsened": coarsened,
             "passes": 1,
+            "occluded": None if occluded is None else int(occluded.sum()),
             "bytes_read": int(sum(cache.bytes_read)),
             "bytes_read_per_level": [int(b) for b in cache.bytes_read],
             "chunks_read_per_level": [int(c) for c in cache.chunks_read],
@@ -625,7 +638,7 @@ class MultiscalePlan:
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
 
     def _in_passes(self, camera, lens_camera, lens, size, rays, screen_error, timeout, shown, want, keys, far,
-                   t_start):
+                   t_start, occluded):
         """The converged frame in passes: boxes of whole blocks (``split_boxes`` of the
         block grid, more until each box's chunks fit the cache), each rendered as a piece
         (the whole frame's lattice and step, samples whose midpoints it owns), composited
@@ -662,8 +675,9 @@ class MultiscalePlan:
                               tuple(int(v) for v in np.minimum(BLOCK * np.array(hi), dims - 1))) for lo, hi in boxes]
         frame = rays if rays is not None else camera
         far = far.reshape(size[1], size[0]) if far.size else None
+        culled = np.zeros(vol.block_shape, dtype=bool) if occluded is None else occluded
         images = [self.execute(frame, size, screen_error=screen_error, wait=True, timeout=timeout, far=far,
-                               piece=p, progress_bar=False, _pass=True) for p in pieces]
+                               piece=p, progress_bar=False, _pass=True, _culled=culled) for p in pieces]
         rays = rays if rays is not None else camera.rays(size)
         image = composite_in_order(images, box_entries(rays, [p.world_box(vol.spacing) for p in pieces]))
         meta = image.metadata
@@ -672,6 +686,7 @@ class MultiscalePlan:
         meta["desired_levels"] = [int(v) for v in np.bincount(want[shown], minlength=vol.n_levels)]
         meta["converged"] = all(im.metadata["converged"] for im in images)
         meta["passes"] = len(pieces)
+        meta["occluded"] = None if occluded is None else int(occluded.sum())
         meta["camera"] = repr(camera) if isinstance(camera, Camera) else repr(lens_camera) if lens else "rays"
         for key in ("bytes_read", "bytes_read_per_level", "chunks_read_per_level", "pending", "resident_bytes"):
             meta[key] = images[-1].metadata[key]
@@ -679,6 +694,67 @@ class MultiscalePlan:
         if lens is not None:
             meta["lens"] = repr(lens)
         return image
+
+    def occluded(self, rays, shown, desired, finest):
+        """Blocks (bool, z, y, x) among ``shown`` that every ray sampling them reaches
+        only behind the render's termination opacity, by the conservative occlusion bound
+        (:func:`~pv_hdrvol.culling.bound.occluded_blocks`); ``None`` where it does not
+        apply (no group ranges in the store, float16, no termination).
+
+        The bound's value ranges are the store's per cube of 8 level-0 points, widened by
+        the reach of the coarsest level ``L`` asked for (``1.5 * 2**L`` voxels: a coarse
+        point is a mean of level-0 points that far; a coarse block's one sample for
+        several segments lies within half their length), so they hold every value any
+        sample of the frame interpolates; the march steps on the frame's lattice
+        (``finest``'s)."""
+        from ..culling.bound import occluded_blocks, table_axis
+        from .store import GROUP
+
+        opts = self.options
+        store = self.volume.store
+        groups = store.group_ranges()
+        if groups is None or opts.precision not in ("float32", "float64") or not opts.termination > 0:
+            return None
+        reach = max(1, math.ceil(1.5 * 2 ** int(desired[shown].max()) / GROUP))
+        lo, hi = self._widened_groups(groups, reach)
+        vol = self.volume
+        _, step_world = self.table(finest)
+        box = (vol.origin, vol.origin + (np.array(vol.dims) - 1) * vol.spacing)
+        per_block = BLOCK // GROUP
+        mask = occluded_blocks(lo, hi, self._sigma64, table_axis(self.tf), origin=vol.origin,
+                               group_size=GROUP * vol.spacing, rays=rays, step=step_world, box=box,
+                               block_groups=per_block, threshold=1.0 - opts.termination, precision=opts.precision)
+        # the bound's blocks start where this renderer's do; a trailing one (the last plane of
+        # points) belongs to the block before it here: occluded only if both are
+        out = mask[tuple(slice(0, n) for n in vol.block_shape)].copy()
+        for axis, n in enumerate(vol.block_shape):
+            if mask.shape[axis] > n:
+                extra = np.take(mask, [n], axis=axis)[tuple(slice(0, m) for m in vol.block_shape)]
+                last = [slice(None)] * 3
+                last[axis] = slice(n - 1, n)
+                out[tuple(last)] &= extra
+        return out & shown
+
+    def _widened_groups(self, groups, reach):
+        """The group ranges' minimum and maximum over the ``reach`` groups around each
+        (kept per reach: the ranges never change)."""
+        cache = self.volume.__dict__.setdefault("_widened", {})
+        if reach not in cache:
+            lo, hi = groups[..., 0].copy(), groups[..., 1].copy()
+            for _ in range(reach):
+                for axis in range(3):
+                    a = [slice(None)] * 3
+                    b = [slice(None)] * 3
+                    a[axis], b[axis] = slice(1, None), slice(None, -1)
+                    lo2, hi2 = lo.copy(), hi.copy()
+                    np.minimum(lo2[tuple(a)], lo[tuple(b)], out=lo2[tuple(a)])
+                    np.minimum(lo2[tuple(b)], lo[tuple(a)], out=lo2[tuple(b)])
+                    np.maximum(hi2[tuple(a)], hi[tuple(b)], out=hi2[tuple(a)])
+                    np.maximum(hi2[tuple(b)], hi[tuple(a)], out=hi2[tuple(b)])
+                    lo, hi = lo2, hi2
+            cache.clear()  # one reach at a time: each is two float64 arrays of the groups
+            cache[reach] = (lo, hi)
+        return cache[reach]
 
     def _check_piece(self, piece):
         """The blocks (bool, z, y, x) whose cells meet ``piece``'s owned box, after checking

@@ -18,11 +18,13 @@ straight into a store (never held whole), then rendered out of core in fresh pro
 
 5. **trade-off** (``--tradeoff``): ``screen_error`` against time, bytes read and error
    (against the level-0 render, which equals the in-core one bit for bit), at 512^2;
-6. **seams** (``--seams``): where a block at level 1 meets one at level 0, the jump of the
+6. **rest** (``--rest``): the rest goal view by view, frame by frame (four views after a
+   converged 512^2 iso frame);
+7. **seams** (``--seams``): where a block at level 1 meets one at level 0, the jump of the
    sampled field at their face against the differences between neighbouring samples
    (a tenth of a voxel apart) inside each level, along lines across the face.
 
-7. **proxy** (``--proxy``): issue 22's 100x goal at N = 1024 from a store: the 512^2 render
+8. **proxy** (``--proxy``): issue 22's 100x goal at N = 1024 from a store: the 512^2 render
    of the blob of ``bench_proxy.py`` resampled to 1024^3 (written into a store), from the
    store at level 0 and at 1 pixel of screen error, against a synthesised frame of
    proxies (an opacity change; a relit layer). Synthesis reads only the 512^2 proxy
@@ -274,6 +276,33 @@ def _proxy(out):
     out.put(result)
 
 
+def _rest(path, out):
+    """The rest goal, view by view: a 512^2 converged iso frame fills the cache, then for
+    each other view a coarse frame and 512^2 frames with ``wait=False`` until one shows
+    finer blocks; each frame's time, levels, reads pending and samples."""
+    _warm_up()
+    tf = _tf()
+    rows = {}
+    with hv.open_multiscale(path, cache_bytes=4 * GiB) as volume:
+        volume.render(tf, hv.Camera.fit(volume.bounds, "iso"), (512, 512), screen_error=1.0)
+        for view in ("xz", "yz", "zy", "yx"):
+            turned = hv.Camera.fit(volume.bounds, view)
+            t0 = time.perf_counter()
+            coarse = volume.render(tf, turned, (512, 512), screen_error=1.0, wait=False)
+            rest = time.perf_counter()
+            frames = [{"frame": "coarse", "seconds": rest - t0, "levels": coarse.metadata["levels"]}]
+            while time.perf_counter() - rest < 60:
+                t = time.perf_counter()
+                frame = volume.render(tf, turned, (512, 512), screen_error=1.0, wait=False)
+                frames.append({"since_rest": time.perf_counter() - rest, "seconds": time.perf_counter() - t,
+                               "levels": frame.metadata["levels"], "pending": frame.metadata["pending"],
+                               "samples": frame.metadata["samples"]})
+                if _finer(frame.metadata["levels"], coarse.metadata["levels"]) or frame.metadata["converged"]:
+                    break
+            rows[view] = frames
+    out.put(rows)
+
+
 def _finer(levels, than):
     """Whether block counts ``levels`` have more blocks at finer levels than ``than``."""
     return np.cumsum(levels).tolist() > np.cumsum(than).tolist()
@@ -295,6 +324,7 @@ def main(argv=None):
     parser.add_argument("--tradeoff", action="store_true", help="screen_error against time, bytes and error only")
     parser.add_argument("--seams", action="store_true", help="the jump at a face between levels 0 and 1 only")
     parser.add_argument("--proxy", action="store_true", help="issue 22's proxy ratio at N = 1024 from a store only")
+    parser.add_argument("--rest", action="store_true", help="the rest goal view by view, frame by frame only")
     args = parser.parse_args(argv)
     n = args.n
     path = Path(args.store or Path(tempfile.gettempdir()) / f"pv_hdrvol_bench_{n}.ome.zarr")
@@ -313,7 +343,9 @@ def main(argv=None):
             report["tradeoff"] = _child(_tradeoff, str(path))
         if args.seams:
             report["seams"] = _child(_seams, str(path))
-        if not (args.tradeoff or args.seams):
+        if args.rest:
+            report["rest"] = _child(_rest, str(path))
+        if not (args.tradeoff or args.seams or args.rest):
             report["render_4GiB"] = _child(_render, str(path), 4 * GiB)
             report["render_1GiB"] = _child(_render, str(path), 1 * GiB)
             report["converged_4GiB_termination_1e-3"] = _child(_converged, str(path), 4 * GiB, 1e-3)

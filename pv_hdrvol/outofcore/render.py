@@ -46,7 +46,8 @@ from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
 from . import _kernels as KO
 from ..raycast.grid import (
-    VolumePiece, _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, leap_radius, pixel_rows,
+    VolumePiece, _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, dilate, leap_radius,
+    pixel_rows,
     run_in_chunks,
 )
 from ..rays.camera import Camera, Rays, as_camera, check_window
@@ -396,16 +397,7 @@ class MultiscalePlan:
                             np.array(vol.block_shape, dtype=np.int64), float(vol.spacing.max()),
                             float(screen_error), n_levels, out)
         hit = out < n_levels
-        near = hit.copy()
-        for axis in range(3):  # a 26-neighbourhood dilation: three 1-D ones
-            grown = near.copy()
-            lo = [slice(None)] * 3
-            hi = [slice(None)] * 3
-            lo[axis], hi[axis] = slice(1, None), slice(None, -1)
-            grown[tuple(lo)] |= near[tuple(hi)]
-            grown[tuple(hi)] |= near[tuple(lo)]
-            near = grown
-        level = np.where(hit, out, np.where(near, n_levels - 1, -1))
+        level = np.where(hit, out, np.where(dilate(hit), n_levels - 1, -1))
         return level
 
     def execute(self, camera=None, size=(512, 512), *, screen_error=1.0, wait=True, timeout=None, progress=None,

@@ -440,6 +440,21 @@ def _box_leap_radius(active, box, cap=255):
     return np.ascontiguousarray(radius)
 
 
+def dilate(mask):
+    """``mask`` (bool, 3-D) grown by one in Chebyshev distance: each cell and its 26
+    neighbours (three 1-D dilations)."""
+    grown = np.asarray(mask, dtype=bool)
+    for axis in range(3):
+        step = grown.copy()
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[axis], hi[axis] = slice(1, None), slice(None, -1)
+        step[tuple(lo)] |= grown[tuple(hi)]
+        step[tuple(hi)] |= grown[tuple(lo)]
+        grown = step
+    return grown
+
+
 def leap_radius(active, cap=255):
     """Empty-space leaping distances over the block grid.
 
@@ -465,15 +480,7 @@ def leap_radius(active, cap=255):
     radius = np.where(reached, 0, cap).astype(np.uint8)
     r = 1
     while r < cap and not reached.all() and reached.any():
-        grown = reached.copy()
-        for axis in range(3):  # a Chebyshev dilation is three 1-D dilations
-            step = grown.copy()
-            lo = [slice(None)] * 3
-            hi = [slice(None)] * 3
-            lo[axis], hi[axis] = slice(1, None), slice(None, -1)
-            step[tuple(lo)] |= grown[tuple(hi)]
-            step[tuple(hi)] |= grown[tuple(lo)]
-            grown = step
+        grown = dilate(reached)
         radius[grown & ~reached] = r
         reached = grown
         r += 1

@@ -44,15 +44,14 @@ from ..data.transfer import SCALE_CODES, TF_KEYWORDS, TransferFunction, auto_tra
 from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
-from . import _kernels as KO
 from ..raycast.grid import (
     VolumePiece, _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, dilate, leap_radius,
-    pixel_rows,
-    run_in_chunks,
+    pixel_rows, run_in_chunks,
 )
 from ..rays.camera import Camera, Rays, as_camera, check_window
 from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
+from . import _kernels as KO
 from .cache import CHUNK, SLOT_EDGE, SLOT_VALUES, ChunkCache
 from .store import MultiscaleStore
 

@@ -103,7 +103,9 @@ def test_a_store_opens_refines_to_converged_and_refines_again_after_a_drag(qtbot
     gate.set()
     _watch(qtbot, window, seen)
     levels = [level for level, _ in seen]
-    assert levels[0] == "coarse" and levels[-1] == "full" and "refining" in levels, seen
+    # the coarse frame may be on screen for less than one poll on a loaded machine (the
+    # renderer's own sequence, coarse first, is checked frame by frame in test_ooc_viewer)
+    assert levels[0] in ("coarse", "refining") and levels[-1] == "full" and "refining" in levels, seen
     assert window.level_label.text().startswith("full: ") and "level 0" in window.level_label.text()
     np.testing.assert_array_equal(window.actor.hdr.rgba, _direct(window).rgba)
     # orbit to chunks not in memory (the cache dropped while the worker rests, the finer
@@ -118,7 +120,8 @@ def test_a_store_opens_refines_to_converged_and_refines_again_after_a_drag(qtbot
     gate.set()
     _watch(qtbot, window, seen)
     levels = [level for level, _ in seen]
-    assert window.actor.hdr is not before and levels[0] == "coarse" and levels[-2:] == ["refining", "full"], seen
+    assert window.actor.hdr is not before and levels[0] in ("coarse", "refining") and \
+        levels[-2:] == ["refining", "full"], seen
     np.testing.assert_array_equal(window.actor.hdr.rgba, _direct(window).rgba)
     window.close()
     assert window.data._caches == {}  # the loader threads and the chunk cache released

@@ -406,9 +406,13 @@ def test_sigint_mid_write_leaves_a_store_no_reader_accepts(tmp_path):
     path = tmp_path / "sig.ome.zarr"
     flag = tmp_path / "started"
     code = textwrap.dedent(f"""
-        import pathlib, time
+        import pathlib, signal, time
         import numpy as np
         from pv_hdrvol.outofcore.store import write_multiscale
+
+        # Ctrl-C as in a terminal: a job started in the background (nohup ... &, as CI
+        # scripts may be) inherits SIGINT ignored, and Python then keeps ignoring it
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
         def slow(box):  # forty shards of 128 x 8 x 8 along z, 0.2 s each (4 s on the default 2 threads)
             pathlib.Path({str(flag)!r}).touch()

@@ -45,10 +45,10 @@ from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
 from ..raycast.grid import (
-    VolumePiece, _MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, _window_rays, dilate, leap_radius,
+    VolumePiece, _MARKERS, _TILE, _check_progress_bar, _lanes, _visible, _windowed, dilate, leap_radius,
     pixel_rows, run_in_chunks,
 )
-from ..rays.camera import Camera, Rays, as_camera, check_window
+from ..rays.camera import Camera, Rays, as_camera
 from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _kernels as KO
@@ -461,13 +461,7 @@ class MultiscalePlan:
         # (a ray's level of detail, Rays.lod, is not read: the blocks' levels come from
         # the rays' footprints, which a minifying lens's sparse rays make coarser)
         desired = self.desired_levels(camera, (width, height), screen_error)
-        far = _check_far(far, width, height)
-        if window is not None:
-            if far.size:
-                col, row, w, h = check_window(window, width, height)
-                far = np.ascontiguousarray(far.reshape(height, width)[row:row + h, col:col + w]).reshape(-1)
-            rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
-            width, height = rays.width, rays.height
+        rays, far, width, height = _windowed(camera, rays, far, window, width, height)
         n_levels = vol.n_levels
         # visible where the desired level's data can show anything under the function
         shown = desired >= 0

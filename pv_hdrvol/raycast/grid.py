@@ -585,6 +585,20 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
                         progress_bar=progress_bar)
 
 
+def _windowed(camera, rays, far, window, width, height):
+    """``(rays, far, width, height)`` of a render of ``width x height`` cut to ``window``
+    (``None``: the whole image): ``far`` checked and flat, cut to the window too; the
+    window's rays (a camera makes them; given rays are cut)."""
+    far = _check_far(far, width, height)
+    if window is not None:
+        if far.size:
+            col, row, w, h = check_window(window, width, height)
+            far = np.ascontiguousarray(far.reshape(height, width)[row:row + h, col:col + w]).reshape(-1)
+        rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
+        width, height = rays.width, rays.height
+    return rays, far, width, height
+
+
 def _window_rays(rays, window):
     """The rays of ``window = (col, row, width, height)``, a rectangle of ``rays``' image."""
     col, row, w, h = check_window(window, rays.width, rays.height)
@@ -767,13 +781,7 @@ class GridPlan:
             rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
         width, height = (rays.width, rays.height) if rays is not None else as_size(size)
         image_size = (width, height)  # a window's render culls for the whole image's rays (its own among them)
-        far = _check_far(far, width, height)
-        if window is not None:
-            if far.size:
-                col, row, w, h = check_window(window, width, height)
-                far = np.ascontiguousarray(far.reshape(height, width)[row:row + h, col:col + w]).reshape(-1)
-            rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
-            width, height = rays.width, rays.height
+        rays, far, width, height = _windowed(camera, rays, far, window, width, height)
         lod = _check_lod(rays) if rays is not None else None
         # clipping planes, a crop box and far: one [near, far] per pixel (rays/clip.py)
         span = ray_spans(rays if rays is not None else camera, (width, height), opts, far)

@@ -13,6 +13,7 @@ from .data.grid import GridVolume, ScalarsError, volume_from_array, volume_from_
 from .data.tets import TetMesh, tetmesh_from_arrays, tetmesh_from_dataset
 from .data.transfer import TransferFunction, TransferFunctionFamily
 from .editor.model import TransferFunctionModel
+from .gpu import DeviceUnavailableError
 from .image.hdr import HDRImage, load
 from .image.tonemap import ToneMapped, tonemap
 from .image.upsample import upsample

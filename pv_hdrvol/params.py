@@ -33,6 +33,10 @@ BLENDING_CODES = {name: i for i, name in enumerate(BLENDINGS)}  # raycast/_kerne
 #: (``"interpolated"``, three more values per voxel in memory).
 SHADE_GRADIENTS = ("sampled", "interpolated")
 
+#: Where a render runs: the numba CPU kernels, or the same kernels on an NVIDIA GPU
+#: through numba-cuda (``pv_hdrvol.gpu``).
+DEVICES = ("cpu", "cuda")
+
 
 @dataclass(frozen=True)
 class Light:
@@ -321,6 +325,16 @@ class RenderOptions:
     crop_box : (xmin, xmax, ymin, ymax, zmin, zmax) or None
         Keep only this world box (VTK's bounds order; a ``vtkBox`` or a dataset gives
         its bounds). Default ``None``: no crop.
+    device : {"cpu", "cuda"}
+        Where an image volume renders. ``"cpu"`` (default): the numba CPU kernels.
+        ``"cuda"``: the same kernels compiled for an NVIDIA GPU by numba-cuda
+        (``pip install 'pv_hdrvol[gpu]'``), the volume and tables kept on the GPU between
+        renders; equal to the CPU render to rounding. It takes ``float32``/``float64``
+        precision, composite (shaded or not), maximum, minimum, average and additive
+        blending, clipping, ``far=`` and lenses without a level of detail, on uniform
+        grids in memory; other settings raise ``ValueError`` (docs/gpu.md). A machine
+        without a usable GPU raises :class:`~pv_hdrvol.gpu.DeviceUnavailableError`
+        naming what is missing.
     """
 
     step: float = 0.5
@@ -344,6 +358,7 @@ class RenderOptions:
     tolerance: Optional[float] = None
     clip_planes: tuple = ()
     crop_box: Optional[tuple] = None
+    device: str = "cpu"
 
     def __post_init__(self):
         object.__setattr__(self, "step", as_real("step", self.step, low=0, low_open=True))
@@ -406,6 +421,10 @@ class RenderOptions:
                                  f"drop tolerance; got {', '.join(f'{k}={v!r}' for k, v in chosen.items())}")
         object.__setattr__(self, "clip_planes", as_clip_planes(self.clip_planes))
         object.__setattr__(self, "crop_box", as_crop_box(self.crop_box))
+        as_choice("device", self.device, DEVICES)
+        if self.device == "cuda" and self.precision not in ("float32", "float64"):
+            raise ValueError(f"device='cuda' composites in float32 or float64; got precision={self.precision!r} "
+                             "(the float16 and uint8 emulations run on device='cpu')")
 
     @property
     def light_list(self):

@@ -688,6 +688,9 @@ class GridPlan:
         self.unit, self.step_world = unit, step_world
         self.labels, self.label_styles = labels, label_styles
         self._prepared = None
+        self._runner = None
+        if opts.device != "cpu":
+            _check_device(opts, volume, labels)
 
     def _prepare(self):
         """The arrays the kernels read, built on the first execution."""
@@ -856,8 +859,12 @@ class GridPlan:
         # shading alone lights the plain loop (render_tiles); the rest takes the extended kernels
         extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
             or lod is not None
-        if extended and rays is None:
-            # the extended kernels take rays as arrays
+        on_device = opts.device != "cpu"
+        if on_device and lod is not None:
+            raise ValueError(f"device={opts.device!r} renders lenses without a level of detail; a sampling-rate "
+                             "lens (Rays.lod) renders on device='cpu'")
+        if extended and rays is None and not on_device:
+            # the extended kernels take rays as arrays (the device kernels make a camera's own)
             rays = camera.rays((width, height))
             origins = np.ascontiguousarray((rays.origins - ray_origin) * inv_spacing)
             directions = np.ascontiguousarray(rays.directions * inv_spacing)
@@ -902,9 +909,16 @@ class GridPlan:
                               depth, samples)
             return pixel_rows(tile_rows, height)
 
+        finish = None
+        if on_device and not flat:
+            cast, finish = self._device_frame(cam, origins, directions, span, width, height, lo, hi, piece_box,
+                                              params, bricks, leap, grids, dims, light, value, rgba, depth, samples,
+                                              kernel_args if value is not None else None)
         _check_progress_bar(progress_bar)
         t_start = time.perf_counter()
         run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
+        if finish is not None:
+            finish()
         elapsed = time.perf_counter() - t_start
 
         meta = {
@@ -942,9 +956,46 @@ class GridPlan:
             meta["label_styles"] = styles.describe()
         if lod is not None:
             meta["max_lod"] = float(lod.max())
+        if on_device:
+            meta["device"] = self._runner.describe() if self._runner is not None else {"name": opts.device}
         if value is not None:
             value = value.reshape(height, width)
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+
+
+    def _device_frame(self, cam, origins, directions, span, width, height, lo, hi, piece_box, params, bricks, leap,
+                      grids, dims, light, value, rgba, depth, samples, kernel_args):
+        """``(cast, finish)`` of this frame on the plan's device (``DEVICE_RUNNERS``)."""
+        if self._runner is None:
+            make = DEVICE_RUNNERS.get(self.options.device)
+            if make is None:
+                raise ValueError(f"device={self.options.device!r} has no renderer registered: import pv_hdrvol.gpu")
+            self._runner = make()
+        runner = self._runner
+        runner.begin_frame()
+        if value is None:
+            return runner.composite_frame(self.options.precision, light, bricks, self.table, self.sigma, leap, grids,
+                                          dims, cam, origins, directions, span, width, height, lo, hi, piece_box,
+                                          params, rgba, depth, samples)
+        return runner.projection_frame(bricks, self.table, leap, grids, dims, kernel_args, cam, origins, directions,
+                                       span, width, height, lo, hi, params, value, rgba, depth, samples)
+
+
+#: Renderers on other devices than the CPU, registered by later stages: device name
+#: (``RenderOptions.device``) -> a function of no arguments that returns a runner with
+#: ``begin_frame()``, ``composite_frame(...)``, ``projection_frame(...)`` and
+#: ``describe()`` (``pv_hdrvol.gpu`` registers ``"cuda"`` when imported).
+DEVICE_RUNNERS = {}
+
+
+def _check_device(opts, volume, labels):
+    """Refuse, by name, what a device render does not take (``RenderOptions.device``)."""
+    what = {"labels=": labels is not None, "gradient_opacity=": opts.gradient_opacity is not None,
+            "a rectilinear grid (axes)": volume.axes is not None}
+    refused = [name for name, given in what.items() if given]
+    if refused:
+        raise ValueError(f"device={opts.device!r} renders uniform grids without labels and gradient opacity; got "
+                         f"{', '.join(refused)}: render it with device='cpu'")
 
 
 class VolumePiece(NamedTuple):

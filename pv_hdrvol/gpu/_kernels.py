@@ -1,0 +1,177 @@
+"""CUDA kernels of the grid ray caster: one thread per pixel, the CPU loops' source.
+
+Nothing here imports ``numba.cuda`` at import time: :func:`composite_kernel` and
+:func:`projection_kernel` build a variant (precision, shading) when a render first
+asks for it, through :class:`~pv_hdrvol.gpu._retarget.Retarget`, and numba-cuda
+compiles it at its first launch. The kernel bodies below are the per-pixel bodies of
+``raycast._kernels.render_tiles`` and ``raycast._kernels_ext.render_projection``; the
+marching, sampling, classification, lighting and compositing they call are the CPU
+kernels' own functions.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from ..raycast import _kernels as K
+from ..raycast._kernels import _march as march, voxel_ray  # noqa: F401 (retargeted by name)
+from ..raycast._kernels_ext import _project as project  # noqa: F401
+
+#: Threads of a CUDA block, (x, y): 8 x 8 pixels, a tile of the CPU kernels.
+BLOCK = (8, 8)
+_SCRATCH = 3 * K.SCRATCH
+
+
+def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width,
+                      height, tile_rows, lo, hi, piece, p, shading, lights, gvec, out_rgba, out_depth, out_samples):
+    """One pixel of ``render_tiles`` per thread: pixel column ``x``, and the ``y``-th row
+    of the rows of tiles ``tile_rows`` (``raycast.grid.run_in_chunks``)."""
+    col, y = cuda.grid(2)  # noqa: F821 (injected)
+    row = tile_rows[y // TILE] * TILE + y % TILE  # noqa: F821
+    if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
+        return
+    pix = row * width + col
+    if cam.shape[0] > 0:
+        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
+    else:
+        ox = origins[pix, 0]
+        oy = origins[pix, 1]
+        oz = origins[pix, 2]
+        dx = directions[pix, 0]
+        dy = directions[pix, 1]
+        dz = directions[pix, 2]
+    t_near = 0.0
+    t_far = math.inf
+    if span.shape[0] > 0:
+        t_near = span[pix, 0]
+        t_far = span[pix, 1]
+    scratch = cuda.local.array(SCRATCH_LEN, numba.float64)  # noqa: F821
+    r, g, b, a, dep, ns = march(marker, 0, _make_light(shading, lights, gvec), 0, bricks, offs, table, sigma,  # noqa
+                                leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
+                                t_near, t_far)
+    out_rgba[pix, 0] = r
+    out_rgba[pix, 1] = g
+    out_rgba[pix, 2] = b
+    out_rgba[pix, 3] = a
+    out_depth[pix] = dep
+    out_samples[pix] = ns
+
+
+def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axes, cam, origins, directions, span,
+                       width, height, tile_rows, lo, hi, p, e, out_value, out_rgba, out_depth, out_samples):
+    """One pixel of ``render_projection`` per thread (no level of detail), as
+    :func:`_composite_pixels` places it."""
+    col, y = cuda.grid(2)  # noqa: F821
+    row = tile_rows[y // TILE] * TILE + y % TILE  # noqa: F821
+    if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
+        return
+    pix = row * width + col
+    g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
+         grids[1], grids[2], grids[4], grids[5])
+    if cam.shape[0] > 0:
+        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
+    else:
+        ox = origins[pix, 0]
+        oy = origins[pix, 1]
+        oz = origins[pix, 2]
+        dx = directions[pix, 0]
+        dy = directions[pix, 1]
+        dz = directions[pix, 2]
+    t_near = 0.0
+    t_far = math.inf
+    if span.shape[0] > 0:
+        t_near = span[pix, 0]
+        t_far = span[pix, 1]
+    v, r, gg, b, a, dep, ns = project(bricks, leap, g, pyr, pgeo, 0.0, tables, sigmas, axes, ox, oy, oz, dx, dy, dz,
+                                      lo, hi, p, e, t_near, t_far)
+    out_value[pix] = v
+    out_rgba[pix, 0] = r
+    out_rgba[pix, 1] = gg
+    out_rgba[pix, 2] = b
+    out_rgba[pix, 3] = a
+    out_depth[pix] = dep
+    out_samples[pix] = ns
+
+
+def _no_light(shading, lights, gvec):
+    return 0
+
+
+def _light_tuple(shading, lights, gvec):
+    return shading, lights, gvec
+
+
+def _make_light(shading, lights, gvec):
+    """The ``light`` of ``_kernels.lit`` from its three arrays (compiled only: resolved
+    per variant to 0 or the tuple; a kernel takes arrays, not a tuple of them)."""
+    raise NotImplementedError("compiled only")
+
+
+def _impl(generator, *types):
+    """The Python implementation an ``@overload`` generator returns for these types
+    (positional; trailing arguments it does not look at are ``None``)."""
+    n = generator.__code__.co_argcount
+    return generator(*(types + (None,) * (n - len(types))))
+
+
+def _resolve(precision, shaded):
+    """Stub -> implementation for the compositing loop of one variant (uniform grid,
+    bricks in memory, plain sampler)."""
+    i64 = numba.types.int64
+    marker = numba.types.float64 if precision == "float64" else numba.types.float32
+    light = numba.types.Tuple((numba.types.float64[:],) * 3) if shaded else i64
+    array = numba.types.float64[:]
+    return {
+        K._march_loop: _impl(K._march_loop_impl, marker, i64),
+        K._marker_precision: _impl(K._marker_precision_impl, marker),
+        K._start: _impl(K._start_impl, marker),
+        K._accumulate: _impl(K._accumulate_impl, marker),
+        K._opacity: _impl(K._opacity_impl, marker),
+        K._finish: _impl(K._finish_impl, marker),
+        K.stencil: _impl(K._stencil_impl, None, array),
+        K.span_of: _impl(K._span_of_impl, array),
+        K.warp_at: _impl(K._warp_at_impl, i64),
+        K.nominal_end: _impl(K._nominal_end_impl, i64),
+        K.leap_past: _impl(K._leap_past_impl, i64),
+        K.eye_of: _impl(K._eye_of_impl, light),
+        K.lit: _impl(K._lit_impl, light),
+        K._sample: _impl(K._sample_impl, i64),
+        _make_light: _light_tuple if shaded else _no_light,
+    }
+
+
+_built = {}
+
+
+def _build(source, resolve):
+    from numba import cuda
+
+    from ..raycast.grid import _TILE
+    from ._retarget import Retarget
+
+    retarget = Retarget(lambda f: cuda.jit(device=True)(f), resolve,
+                        inject={"cuda": cuda, "TILE": _TILE, "SCRATCH_LEN": _SCRATCH})
+    return cuda.jit(retarget.source(source))
+
+
+def composite_kernel(precision, shaded):
+    """The compositing kernel of ``precision`` (``"float32"``/``"float64"``), lit or not."""
+    key = ("composite", precision, bool(shaded))
+    if key not in _built:
+        _built[key] = _build(_composite_pixels, _resolve(precision, shaded))
+    return _built[key]
+
+
+def projection_kernel():
+    """The projection kernel (maximum, minimum, average, additive; ``ExtParams.mode``)."""
+    key = ("projection",)
+    if key not in _built:
+        _built[key] = _build(_projection_pixels, _resolve("float64", False))
+    return _built[key]
+
+
+def marker(precision):
+    """The compositing marker of ``precision`` (``raycast.grid._MARKERS``)."""
+    return np.float64(0.0) if precision == "float64" else np.float32(0.0)

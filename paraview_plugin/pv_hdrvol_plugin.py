@@ -71,6 +71,7 @@ CAMERA_MODES = ("Render View", "iso", "xy", "yx", "xz", "zx", "yz", "zy")
 TRANSFER_FUNCTIONS = ("Color Map Editor", "pv_hdrvol default")
 PRECISIONS = ("float32", "float64", "float16", "uint8")
 BLENDINGS = ("composite", "maximum", "minimum", "average", "additive")
+DEVICES = ("cpu", "cuda")
 TONEMAP_OPERATORS = ("reinhard", "drago", "linear", "gamma", "durand", "fattal")
 SCALES = ("auto", "linear", "log", "symlog")
 LENSES = ("none", "magnifier", "fisheye")
@@ -349,6 +350,14 @@ if HDRVolumeRenderer is not None:
         @smdomain.xml(_string_list(BLENDINGS))
         def SetBlending(self, value):
             super().SetBlending(value)
+
+        @smproperty.stringvector(name="Device", default_values="cpu", number_of_elements=1)
+        @smdomain.xml(_string_list(DEVICES) + _documentation(
+            "Where an image volume renders: cpu (default), or cuda: the same kernels on an NVIDIA GPU through "
+            "numba-cuda (pip install 'pv_hdrvol[gpu]' into ParaView's Python). float32/float64, no labels, uniform "
+            "grids in memory; a machine without a GPU says what is missing."))
+        def SetDevice(self, value):
+            super().SetDevice(value)
 
         @smproperty.intvector(name="Shade", default_values=0)
         @smdomain.xml('<BooleanDomain name="bool"/>')

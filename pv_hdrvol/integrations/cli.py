@@ -25,7 +25,7 @@ import sys
 from .. import __version__
 from ..data.transfer import SCALES
 from ..image.tonemap import OPERATORS
-from ..params import BLENDINGS, PRECISIONS
+from ..params import BLENDINGS, DEVICES, PRECISIONS
 
 from .files import BLOCK_FORMATS, IMAGE_FORMATS, MESH_FORMATS, READABLE  # what render and view read; proxies: images
 
@@ -59,6 +59,9 @@ def _add_render_options(p):
                    help="composite (default), maximum/minimum intensity projection, average, or additive (X-ray); "
                         "projections also store the projected value (EXR channel V)")
     p.add_argument("--view", default=None, metavar="VIEW", help=f"camera direction, one of {', '.join(VIEWS)}")
+    p.add_argument("--device", choices=DEVICES, default=None,
+                   help="where an image volume renders: cpu (default) or cuda (an NVIDIA GPU through numba-cuda: "
+                        "pip install 'pv_hdrvol[gpu]')")
     g = p.add_argument_group("lenses (image volumes; pv_hdrvol.Magnifier and Fisheye)")
     g.add_argument("--magnifier", type=float, nargs=4, default=None, metavar=("COL", "ROW", "RADIUS", "FACTOR"),
                    help="a circular magnifier centred at pixel (COL, ROW), RADIUS pixels, magnifying FACTOR times")
@@ -670,7 +673,7 @@ def _render(args, volume, tf, default_view, zoom=1.0, cull=None):
     from ..raycast.memory import RenderMemoryError
 
     names = ("step", "precision", "tolerance", "global_alpha", "blending", "shade", "ambient", "diffuse", "specular",
-             "specular_power")
+             "specular_power", "device")
     options = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if args.light is not None:
         options["lights"] = [tuple(d) for d in args.light]

@@ -289,6 +289,8 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
         "shade_gradient", "'sampled' (central differences at each sample) or 'interpolated'.")
     SetShadeThreshold, GetShadeThreshold = _option_methods(
         "shade_threshold", "fraction of the TF axis per voxel at which shading is at full strength (>= 0).")
+    SetDevice, GetDevice = _option_methods(
+        "device", "'cpu' (default) or 'cuda': image volumes on an NVIDIA GPU through numba-cuda (docs/gpu.md).")
 
     # -- clipping: vtkVolumeMapper's clipping-plane methods, and a crop box -------------
     def AddClippingPlane(self, plane):

@@ -222,7 +222,8 @@ class MultiscalePlan:
         refused = [name for name, on in (("shade=True", opts.shade), ("gradient_opacity=", opts.gradient_opacity),
                                          (f"blending={opts.blending!r}", opts.blending != "composite"),
                                          ("tolerance=", opts.tolerance is not None),
-                                         ("precision='uint8'", opts.precision == "uint8")) if on]
+                                         ("precision='uint8'", opts.precision == "uint8"),
+                                         (f"device={opts.device!r}", opts.device != "cpu")) if on]
         if refused:
             raise ValueError(f"an out-of-core volume renders composite blending of values in float64, float32 or "
                              f"float16; {', '.join(refused)} is not supported for it yet")

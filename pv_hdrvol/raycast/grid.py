@@ -861,8 +861,9 @@ class GridPlan:
             or lod is not None
         on_device = opts.device != "cpu"
         if on_device and lod is not None:
-            raise ValueError(f"device={opts.device!r} renders lenses without a level of detail; a sampling-rate "
-                             "lens (Rays.lod) renders on device='cpu'")
+            raise ValueError(f"device={opts.device!r} renders lenses without a level of detail (Rays.lod: a lens "
+                             "made with antialias=True, the default, or a sampling-rate lens): make the lens with "
+                             "antialias=False, or render on device='cpu'")
         if extended and rays is None and not on_device:
             # the extended kernels take rays as arrays (the device kernels make a camera's own)
             rays = camera.rays((width, height))

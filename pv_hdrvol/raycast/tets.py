@@ -132,6 +132,9 @@ class TetPlan:
             raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
         if opts.gradient_opacity is not None:
             raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
+        if opts.device != "cpu":
+            raise ValueError(f"device={opts.device!r} renders image volumes; tetrahedral meshes render on device='cpu' "
+                             "(docs/gpu.md says what a GPU mesh path would take)")
         self.tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
         if opts.tolerance is not None and self.tau_max != TAU_MAX:
             raise ValueError(f"tolerance= chooses tau_max: leave it at its default or drop tolerance; got "

@@ -1,0 +1,83 @@
+"""Render the cases of tests/test_gpu.py with device="cuda" under numba-cuda's CUDA
+simulator and save them for the test to compare with the CPU's renders.
+
+Run with NUMBA_ENABLE_CUDASIM=1 (the simulator is chosen when numba.cuda is first
+imported, so it needs a process of its own): ``python sim_renders.py OUT.npz``.
+"""
+import json
+import sys
+
+import numpy as np
+
+import pv_hdrvol as hv
+from pv_hdrvol.raycast.grid import GridPlan
+
+N = 16  # a 16^3 volume, 16^2 images: the simulator runs each CUDA thread as Python
+
+
+def volume():
+    """A blob over a faint background, four decades, with a NaN corner."""
+    z, y, x = np.mgrid[0:N, 0:N, 0:N].astype(np.float64)
+    rng = np.random.default_rng(7)
+    v = 1e-3 + 10.0 * np.exp(-((x - 7.3) ** 2 + (y - 8.1) ** 2 + (z - 6.6) ** 2) / 12.0) + 1e-3 * rng.random(x.shape)
+    v[:3, :3, :3] = np.nan
+    return v
+
+
+def far_image():
+    return np.where(np.arange(N * N).reshape(N, N) % 3 == 0, 14.0, np.inf)
+
+
+def cases():
+    """name -> (GridPlan keywords, execute keywords)."""
+    iso = hv.Camera.fit((0, N - 1) * 3, "iso")
+    side = hv.Camera.fit((0, N - 1, 0, N - 1, 0, N - 1), "xz", parallel_projection=True)
+    clip = dict(clip_planes=[((7.0, 7.0, 7.0), (1.0, 0.3, 0.0))], crop_box=(0, 15, 2, 13, 0, 15))
+    return {
+        "float64": (dict(precision="float64"), dict(camera=iso)),
+        "float32": (dict(precision="float32"), dict(camera=iso)),
+        "float32 parallel": (dict(precision="float32"), dict(camera=side)),
+        "float32 shaded": (dict(precision="float32", shade=True), dict(camera=iso)),
+        "float64 shaded interpolated, two lights": (
+            dict(precision="float64", shade=True, shade_gradient="interpolated", lights=[(1, 0, 0), (0, 1, 1)],
+                 specular_power=7.5), dict(camera=iso)),
+        "float32 clipped and cropped": (dict(precision="float32", **clip), dict(camera=iso)),
+        "float64 far": (dict(precision="float64"), dict(camera=iso, far=far_image())),
+        "float64 magnifier": (dict(precision="float64"),
+                              dict(camera=iso, lens=hv.Magnifier((8, 8), 5, 2.0, antialias=False))),
+        "float32 faint (global_alpha 1e-6, no termination)": (
+            dict(precision="float32", global_alpha=1e-6, step=0.1, termination=0.0), dict(camera=iso)),
+        "float64 no skipping, no termination": (
+            dict(precision="float64", skip_empty=False, termination=0.0), dict(camera=iso)),
+        "float64 maximum": (dict(precision="float64", blending="maximum"), dict(camera=iso)),
+        "float32 minimum": (dict(precision="float32", blending="minimum"), dict(camera=iso)),
+        "float64 average": (dict(precision="float64", blending="average"), dict(camera=iso)),
+        "float32 additive, clipped": (dict(precision="float32", blending="additive", **clip), dict(camera=iso)),
+    }
+
+
+def render(plan_kw, exec_kw, device):
+    plan = GridPlan(volume(), None, **plan_kw, device=device)
+    return plan.execute(size=(N, N), **exec_kw)
+
+
+def main(out):
+    arrays, meta = {}, {}
+    for i, (name, (plan_kw, exec_kw)) in enumerate(cases().items()):
+        img = render(plan_kw, exec_kw, "cuda")
+        arrays[f"{i}_rgba"], arrays[f"{i}_depth"] = img.rgba, img.depth
+        arrays[f"{i}_samples"] = np.array(img.metadata["samples"])
+        if img.value is not None:
+            arrays[f"{i}_value"] = img.value
+        meta[name] = img.metadata["device"]
+    # a camera orbit: the second frame uploads no volume, table or skip structure again
+    plan = GridPlan(volume(), None, precision="float32", device="cuda")
+    frames = [plan.execute(hv.Camera.fit((0, N - 1) * 3, view), (N, N)) for view in ("iso", "xy", "yz")]
+    meta["orbit"] = [f.metadata["device"]["uploaded_bytes"] for f in frames]
+    np.savez(out, **arrays)
+    with open(out + ".json", "w") as f:
+        json.dump(meta, f)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

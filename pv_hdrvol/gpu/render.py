@@ -1,6 +1,9 @@
 """The CUDA side of a :class:`~pv_hdrvol.raycast.grid.GridPlan`: device arrays kept
-between executions, kernels launched per chunk of rows of tiles."""
+between executions, one launch a frame (per chunk of rows of tiles when progress is
+watched)."""
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
@@ -19,9 +22,11 @@ class CudaRunner:
         self._arrays = {}  # name -> (host array, device array)
         self._out = None
         self.uploaded_bytes = 0  # since the last frame began (begin_frame)
+        self.kernel_seconds = 0.0  # launches to their end, this frame (the first compiles)
 
     def begin_frame(self):
         self.uploaded_bytes = 0
+        self.kernel_seconds = 0.0
 
     def device_array(self, name, host):
         """``host`` on the device, uploaded only if it is not the array uploaded last
@@ -63,8 +68,10 @@ class CudaRunner:
         # the kernels share nothing between threads, so the block shape changes no pixel
         bx, by = (1, 1) if _simulated() else G.BLOCK
         grid = ((width + bx - 1) // bx, (rows * _TILE + by - 1) // by)
+        t = time.perf_counter()
         kernel[grid, (bx, by)](*args)
         self.cuda.synchronize()
+        self.kernel_seconds += time.perf_counter() - t
 
     def describe(self):
         """``metadata["device"]`` of a frame: the GPU and the bytes this frame uploaded."""
@@ -73,7 +80,8 @@ class CudaRunner:
         else:
             name = self.cuda.get_current_device().name
             gpu = name.decode() if isinstance(name, bytes) else str(name)
-        return {"name": "cuda", "gpu": gpu, "uploaded_bytes": int(self.uploaded_bytes)}
+        return {"name": "cuda", "gpu": gpu, "uploaded_bytes": int(self.uploaded_bytes),
+                "kernel_seconds": self.kernel_seconds}
 
     def composite_frame(self, *args):
         return composite_frame(self, *args)

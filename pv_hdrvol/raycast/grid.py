@@ -917,7 +917,12 @@ class GridPlan:
                                               kernel_args if value is not None else None)
         _check_progress_bar(progress_bar)
         t_start = time.perf_counter()
-        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
+        if finish is not None and progress is None and not progress_bar:
+            # a GPU frame is one launch over every row (chunks would leave the GPU idle
+            # between them); one watched or on a bar goes in chunks, as the CPU's
+            cast(np.arange(-(-height // _TILE), dtype=np.int64))
+        else:
+            run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
         if finish is not None:
             finish()
         elapsed = time.perf_counter() - t_start

@@ -49,6 +49,7 @@ def cases():
             dict(precision="float32", global_alpha=1e-6, step=0.1, termination=0.0), dict(camera=iso)),
         "float64 no skipping, no termination": (
             dict(precision="float64", skip_empty=False, termination=0.0), dict(camera=iso)),
+        "float32 in chunks (progress watched)": (dict(precision="float32"), dict(camera=iso, progress=lambda f: True)),
         "float64 maximum": (dict(precision="float64", blending="maximum"), dict(camera=iso)),
         "float32 minimum": (dict(precision="float32", blending="minimum"), dict(camera=iso)),
         "float64 average": (dict(precision="float64", blending="average"), dict(camera=iso)),

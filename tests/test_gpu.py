@@ -65,10 +65,14 @@ def test_what_the_gpu_does_not_take_is_refused_by_name():
     grid = hv.volume_from_rectilinear(vol, np.arange(6.0), np.arange(6.0) ** 1.5, np.arange(6.0))
     with pytest.raises(ValueError, match=r"got a rectilinear grid \(axes\)"):
         GridPlan(grid, device="cuda")
-    with pytest.raises(ValueError, match="device='cuda' renders image volumes; tetrahedral meshes render on "
-                                         "device='cpu'"):
-        hv.render(hv.tetmesh_from_arrays(np.eye(4)[:, :3] * 1.0, np.array([[0, 1, 2, 3]]), np.arange(4.0)),
-                  device="cuda")
+
+
+def test_an_out_of_core_volume_is_refused_on_the_gpu(tmp_path):
+    pytest.importorskip("zarr")
+    hv.write_multiscale(np.random.default_rng(0).random((8, 8, 8)).astype(np.float32), tmp_path / "s.ome.zarr")
+    volume = hv.open_multiscale(tmp_path / "s.ome.zarr")
+    with pytest.raises(ValueError, match=r"device='cuda' is not supported for it yet"):
+        hv.render(volume, size=(8, 8), device="cuda")
 
 
 # -- no numba-cuda, no GPU: a clear error -----------------------------------------------------
@@ -133,7 +137,7 @@ def test_simulator_equals_cpu(simulated, index, name):
     assert peak > 0
     err = np.abs(gpu_rgba.astype(np.float64) - cpu.rgba).max() / peak
     assert err <= TOLERANCE[plan_kw["precision"]], f"{name}: {err:.3g}"
-    assert int(arrays[f"{index}_samples"]) == cpu.metadata["samples"]
+    assert int(arrays[f"{index}_samples"]) == sim["count"](cpu)
     np.testing.assert_array_equal(np.isfinite(gpu_depth), np.isfinite(cpu.depth))
     np.testing.assert_allclose(gpu_depth[np.isfinite(gpu_depth)], cpu.depth[np.isfinite(cpu.depth)], rtol=1e-12)
     if cpu.value is not None:
@@ -164,7 +168,8 @@ def test_every_kernel_variant_compiles_to_ptx_for_compute_capability_9():
     assert run.returncode == 0, run.stderr[-4000:]
     lines = dict(line.split(": ") for line in run.stdout.strip().splitlines())
     assert sorted(lines) == sorted(["composite float32", "composite float64", "composite float32 shaded",
-                                    "composite float64 shaded", "projection float32", "projection float64"])
+                                    "composite float64 shaded", "projection float32", "projection float64",
+                                    "tets float32", "tets float64"])
     for name, result in lines.items():
         size, seconds = result.split()
         assert int(size) > 10_000, name

@@ -18,6 +18,7 @@ import numpy as np
 from ..raycast import _kernels as K
 from ..raycast._kernels import _march as march, voxel_ray  # noqa: F401 (retargeted by name)
 from ..raycast._kernels_ext import _project as project  # noqa: F401
+from ..raycast._tet_kernels import _march as tet_march, pixel_ray  # noqa: F401
 
 #: Threads of a CUDA block, (x, y): 8 x 8 pixels, a tile of the CPU kernels.
 BLOCK = (8, 8)
@@ -95,6 +96,56 @@ def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axe
     out_samples[pix] = ns
 
 
+def _tet_pixels(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
+                hit_offsets, hit_t, hit_face, hit_enter, cam, own, span, width, height, tile_rows, p, out_rgba,
+                out_depth, out_cells, out_pieces, out_guard):
+    """One pixel of ``raycast._tet_kernels.render_tiles`` per thread, as
+    :func:`_composite_pixels` places it (the boundary crossings ``hit_*`` come from the
+    CPU's rasteriser)."""
+    col, y = cuda.grid(2)  # noqa: F821
+    row = tile_rows[y // TILE] * TILE + y % TILE  # noqa: F821
+    if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
+        return
+    pix = row * width + col
+    # a skipped pixel is written too, as the CPU's zeroed outputs leave it
+    r = 0.0
+    g = 0.0
+    b = 0.0
+    a = 0.0
+    dep = math.inf
+    nc = 0
+    npc = 0
+    guard = False
+    lo = hit_offsets[pix]
+    hi = hit_offsets[pix + 1]
+    own0 = -math.inf
+    own1 = math.inf
+    t_near = 0.0
+    t_far = math.inf
+    go = hi > lo
+    if own.shape[0] > 0:
+        go = go and own[pix, 1] > own[pix, 0]
+        own0 = own[pix, 0] / p.length_scale
+        own1 = own[pix, 1] / p.length_scale
+    if span.shape[0] > 0:
+        go = go and span[pix, 1] > span[pix, 0]
+        t_near = span[pix, 0] / p.length_scale
+        t_far = span[pix, 1] / p.length_scale
+    if go:
+        ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
+        r, g, b, a, dep, nc, npc, guard = tet_march(marker, points, cells_i, cells_f, active, btri, bcell, bface,
+                                                    table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi,
+                                                    ox, oy, oz, dx, dy, dz, p, own0, own1, t_near, t_far)
+    out_rgba[pix, 0] = r
+    out_rgba[pix, 1] = g
+    out_rgba[pix, 2] = b
+    out_rgba[pix, 3] = a
+    out_depth[pix] = dep
+    out_cells[pix] = nc
+    out_pieces[pix] = npc
+    out_guard[pix] = guard
+
+
 def _no_light(shading, lights, gvec):
     return 0
 
@@ -169,6 +220,14 @@ def projection_kernel():
     key = ("projection",)
     if key not in _built:
         _built[key] = _build(_projection_pixels, _resolve("float64", False))
+    return _built[key]
+
+
+def tet_kernel(precision):
+    """The tetrahedral kernel of ``precision`` (shading is a run-time flag there)."""
+    key = ("tets", precision)
+    if key not in _built:
+        _built[key] = _build(_tet_pixels, _resolve(precision, False))
     return _built[key]
 
 

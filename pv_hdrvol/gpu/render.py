@@ -83,6 +83,20 @@ class CudaRunner:
         return {"name": "cuda", "gpu": gpu, "uploaded_bytes": int(self.uploaded_bytes),
                 "kernel_seconds": self.kernel_seconds}
 
+    def tet_outputs(self, n, dtype):
+        """Device outputs of a tetrahedral frame (the kernel writes every pixel), reused
+        while the size and dtype last."""
+        key = ("tets", n, np.dtype(dtype))
+        if self._out is None or self._out[0] != key:
+            c = self.cuda
+            self._out = (key, (c.device_array((n, 4), dtype), c.device_array(n, np.float64),
+                               c.device_array(n, np.int64), c.device_array(n, np.int64),
+                               c.device_array(n, np.bool_)))
+        return self._out[1]
+
+    def tet_frame(self, *args):
+        return tet_frame(self, *args)
+
     def composite_frame(self, *args):
         return composite_frame(self, *args)
 
@@ -155,6 +169,38 @@ def projection_frame(runner, bricks, table, leap, grids, dims, a, cam, origins, 
         rgba.copy_to_host(out_rgba)
         depth.copy_to_host(out_depth)
         samples.copy_to_host(out_samples)
+
+    return cast, finish
+
+
+def tet_frame(runner, prec, mesh, cells_i, cells_f, active, table, grads, shading, lights, hits, cam, own, span,
+              width, height, params, out_rgba, out_depth, out_cells, out_pieces, out_guard):
+    """As :func:`composite_frame`, for ``raycast._tet_kernels.render_tiles``: the mesh,
+    its cell records and tables stay on the device; the boundary crossings ``hits``
+    (``raycast.tets.boundary_crossings``, found on the CPU for each view) travel with
+    every frame."""
+    from ..raycast.grid import pixel_rows
+
+    kernel = G.tet_kernel(prec)
+    d = runner.device_array
+    static = (d("points", mesh.points), d("cells_i", cells_i), d("cells_f", cells_f), d("active", active),
+              d("boundary", mesh.boundary), d("boundary_cell", mesh.boundary_cell),
+              d("boundary_face", mesh.boundary_face), d("table", table), d("grads", grads), runner.small(shading),
+              runner.small(lights))
+    per_view = tuple(runner.small(a) for a in (hits.offsets, hits.t, hits.face, hits.entering, cam, own, span))
+    n = width * height
+    outs = runner.tet_outputs(n, out_rgba.dtype)
+    marker = G.marker(prec)
+
+    def cast(tile_rows):
+        rows = runner.small(np.ascontiguousarray(tile_rows, dtype=np.int64))
+        runner.launch(kernel, width, tile_rows.shape[0], marker, *static, *per_view, width, height, rows, params,
+                      *outs)
+        return pixel_rows(tile_rows, height)
+
+    def finish():
+        for dev, host in zip(outs, (out_rgba, out_depth, out_cells, out_pieces, out_guard)):
+            dev.copy_to_host(host)
 
     return cast, finish
 

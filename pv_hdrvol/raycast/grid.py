@@ -917,14 +917,7 @@ class GridPlan:
                                               kernel_args if value is not None else None)
         _check_progress_bar(progress_bar)
         t_start = time.perf_counter()
-        if finish is not None and progress is None and not progress_bar:
-            # a GPU frame is one launch over every row (chunks would leave the GPU idle
-            # between them); one watched or on a bar goes in chunks, as the CPU's
-            cast(np.arange(-(-height // _TILE), dtype=np.int64))
-        else:
-            run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
-        if finish is not None:
-            finish()
+        run_frame(cast, finish, height, progress, progress_bar, chunk_seconds)
         elapsed = time.perf_counter() - t_start
 
         meta = {
@@ -973,10 +966,7 @@ class GridPlan:
                       grids, dims, light, value, rgba, depth, samples, kernel_args):
         """``(cast, finish)`` of this frame on the plan's device (``DEVICE_RUNNERS``)."""
         if self._runner is None:
-            make = DEVICE_RUNNERS.get(self.options.device)
-            if make is None:
-                raise ValueError(f"device={self.options.device!r} has no renderer registered: import pv_hdrvol.gpu")
-            self._runner = make()
+            self._runner = device_runner(self.options.device)
         runner = self._runner
         runner.begin_frame()
         if value is None:
@@ -992,6 +982,26 @@ class GridPlan:
 #: ``begin_frame()``, ``composite_frame(...)``, ``projection_frame(...)`` and
 #: ``describe()`` (``pv_hdrvol.gpu`` registers ``"cuda"`` when imported).
 DEVICE_RUNNERS = {}
+
+
+def device_runner(device):
+    """A new runner of ``device`` from :data:`DEVICE_RUNNERS`."""
+    make = DEVICE_RUNNERS.get(device)
+    if make is None:
+        raise ValueError(f"device={device!r} has no renderer registered: import pv_hdrvol.gpu")
+    return make()
+
+
+def run_frame(cast, finish, height, progress, progress_bar, chunk_seconds):
+    """Render all rows: one ``cast`` over every row of tiles on a device (``finish``
+    given; chunks would leave it idle between launches) unless progress is watched,
+    else :func:`run_in_chunks`; then ``finish()``."""
+    if finish is not None and progress is None and not progress_bar:
+        cast(np.arange(-(-height // _TILE), dtype=np.int64))
+    else:
+        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
+    if finish is not None:
+        finish()
 
 
 def _check_device(opts, volume, labels):

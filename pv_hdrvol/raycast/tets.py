@@ -22,8 +22,8 @@ from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import (_MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, cached,
-                   empty_render_reason, pixel_rows, resolve_transfer_function, run_in_chunks, warn_empty)
+from .grid import (_MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, cached, device_runner,
+                   empty_render_reason, pixel_rows, resolve_transfer_function, run_frame, warn_empty)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
 
@@ -132,9 +132,6 @@ class TetPlan:
             raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
         if opts.gradient_opacity is not None:
             raise ValueError("gradient_opacity is not supported for tetrahedral meshes")
-        if opts.device != "cpu":
-            raise ValueError(f"device={opts.device!r} renders image volumes; tetrahedral meshes render on device='cpu' "
-                             "(docs/gpu.md says what a GPU mesh path would take)")
         self.tau_max = as_real("tau_max", tau_max, low=0.0, high=1.0, low_open=True)
         if opts.tolerance is not None and self.tau_max != TAU_MAX:
             raise ValueError(f"tolerance= chooses tau_max: leave it at its default or drop tolerance; got "
@@ -153,6 +150,7 @@ class TetPlan:
             float(mesh.scale), self.tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64), int(opts.shade),
         )
         self.active = _active_cells(mesh, sigma, self.params)
+        self._runner = None
         # said by each execution (after its own checks), as by a one-off render
         self._empty_reason = empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf,
                                                  visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
@@ -251,8 +249,16 @@ class TetPlan:
                             params, rgba, depth, cells, pieces, guard)
             return pixel_rows(tile_rows, height)
 
+        finish = None
+        if opts.device != "cpu":
+            if self._runner is None:
+                self._runner = device_runner(opts.device)
+            self._runner.begin_frame()
+            cast, finish = self._runner.tet_frame(prec, mesh, cells_i, cells_f, active, table, grads, shading,
+                                                  lights, hits, cam, own, span, width, height, params, rgba, depth,
+                                                  cells, pieces, guard)
         t1 = time.perf_counter()
-        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
+        run_frame(cast, finish, height, progress, progress_bar, chunk_seconds)
         elapsed = time.perf_counter() - t1
         meta = {
             "renderer": "pv_hdrvol tetrahedral ray caster",
@@ -276,6 +282,8 @@ class TetPlan:
         }
         if opts.shade:
             meta["shading"] = shading_metadata(opts)
+        if finish is not None:
+            meta["device"] = self._runner.describe()
         if piece is not None:
             meta["piece"] = {"owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi)}
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view

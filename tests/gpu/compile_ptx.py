@@ -66,10 +66,13 @@ def main():
         "projection float32": dict(precision="float32", blending="maximum"),
         "projection float64": dict(precision="float64", blending="additive"),
     }
+    variants.update({"tets float32": dict(precision="float32"), "tets float64": dict(precision="float64")})
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
+    tet = hv.tetmesh_from_arrays(points, np.array([[0, 1, 2, 3]]), np.arange(4.0))
     wanted = sys.argv[1:] or list(variants)
     for name in wanted:
         launches.clear()
-        hv.render(vol, None, "iso", (8, 8), device="cuda", **variants[name])
+        hv.render(tet if name.startswith("tets") else vol, None, "iso", (8, 8), device="cuda", **variants[name])
         kernel, args = launches[0]
         sig = tuple(numba.typeof(np.asarray(a) if isinstance(a, np.ndarray) else a) for a in args)
         t = time.perf_counter()

@@ -11,6 +11,7 @@ import numpy as np
 
 import pv_hdrvol as hv
 from pv_hdrvol.raycast.grid import GridPlan
+from pv_hdrvol.raycast.tets import TetPlan
 
 N = 16  # a 16^3 volume, 16^2 images: the simulator runs each CUDA thread as Python
 
@@ -24,14 +25,36 @@ def volume():
     return v
 
 
+def mesh():
+    """The blob on a 7^3 lattice of cubes cut into six tetrahedra each (Kuhn's split)."""
+    import itertools
+
+    n = 7
+    g = np.arange(n, dtype=np.float64)
+    z, y, x = np.meshgrid(g, g, g, indexing="ij")
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    tets = []
+    for k, j, i in itertools.product(range(n - 1), repeat=3):
+        for order in itertools.permutations(range(3)):
+            c = [i, j, k]
+            path = [(c[2] * n + c[1]) * n + c[0]]
+            for axis in order:
+                c[axis] += 1
+                path.append((c[2] * n + c[1]) * n + c[0])
+            tets.append(path)
+    values = 1e-3 + np.exp(-((points - [3.1, 2.9, 3.3]) ** 2).sum(1) / 3.0)
+    return hv.tetmesh_from_arrays(points, np.array(tets, dtype=np.int64), values)
+
+
 def far_image():
     return np.where(np.arange(N * N).reshape(N, N) % 3 == 0, 14.0, np.inf)
 
 
 def cases():
-    """name -> (GridPlan keywords, execute keywords)."""
+    """name -> (GridPlan keywords, or TetPlan ones with ``mesh=True``; execute keywords)."""
     iso = hv.Camera.fit((0, N - 1) * 3, "iso")
     side = hv.Camera.fit((0, N - 1, 0, N - 1, 0, N - 1), "xz", parallel_projection=True)
+    mesh_iso = hv.Camera.fit((0, 6) * 3, "iso")
     clip = dict(clip_planes=[((7.0, 7.0, 7.0), (1.0, 0.3, 0.0))], crop_box=(0, 15, 2, 13, 0, 15))
     return {
         "float64": (dict(precision="float64"), dict(camera=iso)),
@@ -54,12 +77,26 @@ def cases():
         "float32 minimum": (dict(precision="float32", blending="minimum"), dict(camera=iso)),
         "float64 average": (dict(precision="float64", blending="average"), dict(camera=iso)),
         "float32 additive, clipped": (dict(precision="float32", blending="additive", **clip), dict(camera=iso)),
+        "mesh float64": (dict(mesh=True, precision="float64"), dict(camera=mesh_iso)),
+        "mesh float32 shaded": (dict(mesh=True, precision="float32", shade=True), dict(camera=mesh_iso)),
+        "mesh float32 clipped, far": (
+            dict(mesh=True, precision="float32", clip_planes=[((3.0, 3.0, 3.0), (1.0, 0.3, 0.0))]),
+            dict(camera=mesh_iso, far=np.full((N, N), mesh_iso.distance))),
     }
 
 
 def render(plan_kw, exec_kw, device):
+    if plan_kw.get("mesh"):
+        plan_kw = dict(plan_kw)
+        del plan_kw["mesh"]
+        return TetPlan(mesh(), None, **plan_kw, device=device).execute(size=(N, N), **exec_kw)
     plan = GridPlan(volume(), None, **plan_kw, device=device)
     return plan.execute(size=(N, N), **exec_kw)
+
+
+def count(img):
+    """Samples a grid render took, or cells a mesh render crossed."""
+    return img.metadata["samples"] if "samples" in img.metadata else img.metadata["cells"]
 
 
 def main(out):
@@ -67,7 +104,7 @@ def main(out):
     for i, (name, (plan_kw, exec_kw)) in enumerate(cases().items()):
         img = render(plan_kw, exec_kw, "cuda")
         arrays[f"{i}_rgba"], arrays[f"{i}_depth"] = img.rgba, img.depth
-        arrays[f"{i}_samples"] = np.array(img.metadata["samples"])
+        arrays[f"{i}_samples"] = np.array(count(img))
         if img.value is not None:
             arrays[f"{i}_value"] = img.value
         meta[name] = img.metadata["device"]

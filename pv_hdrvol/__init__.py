@@ -199,5 +199,5 @@ __all__ = [
     "render_tets", "render_volume", "tetmesh_from_arrays", "tetmesh_from_dataset", "tonemap", "upsample",
     "volume_from_array", "volume_from_dataset", "volume_from_rectilinear", "view", "add_hdr_volume", "TransferFunctionEditor",
     "make_proxies", "load_proxies", "ProxySet", "ProxyFormatError", "VolumeDistortionCamera",
-    "MultiscaleStore", "MultiscaleVolume", "open_multiscale", "write_multiscale",
+    "MultiscaleStore", "MultiscaleVolume", "open_multiscale", "write_multiscale", "DeviceUnavailableError",
 ]

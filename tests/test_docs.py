@@ -41,8 +41,8 @@ def test_every_python_block_is_runnable_or_marked_a_fragment():
     assert len(counted["README.md"][0]) == 3
     # the fragments are the known excerpts
     assert sorted(name for name, (_, frag) in counted.items() if frag) == ["data_types.md", "development.md",
-                                                                          "interactive.md", "lenses.md", "proxy.md",
-                                                                          "shading.md", "tetrahedra.md"]
+                                                                          "gpu.md", "interactive.md", "lenses.md",
+                                                                          "proxy.md", "shading.md", "tetrahedra.md"]
 
 
 def test_readme_examples_run_and_print_what_the_readme_says(tmp_path, monkeypatch):

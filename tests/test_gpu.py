@@ -116,7 +116,7 @@ def test_a_cpu_render_imports_nothing_of_cuda():
 def simulated(tmp_path_factory):
     pytest.importorskip("numba_cuda")
     out = str(tmp_path_factory.mktemp("gpu") / "sim.npz")
-    run = _run([str(SIM), out], _env(NUMBA_ENABLE_CUDASIM="1"))
+    run = _run([str(SIM), out, "--front-ends"], _env(NUMBA_ENABLE_CUDASIM="1"))
     assert run.returncode == 0, run.stderr[-4000:]
     with open(out + ".json") as f:
         return np.load(out), json.load(f)
@@ -136,13 +136,21 @@ def test_simulator_equals_cpu(simulated, index, name):
     peak = np.abs(cpu.rgba).max()
     assert peak > 0
     err = np.abs(gpu_rgba.astype(np.float64) - cpu.rgba).max() / peak
-    assert err <= TOLERANCE[plan_kw["precision"]], f"{name}: {err:.3g}"
+    assert err <= TOLERANCE[plan_kw.get("precision", "float32")], f"{name}: {err:.3g}"
     assert int(arrays[f"{index}_samples"]) == sim["count"](cpu)
     np.testing.assert_array_equal(np.isfinite(gpu_depth), np.isfinite(cpu.depth))
     np.testing.assert_allclose(gpu_depth[np.isfinite(gpu_depth)], cpu.depth[np.isfinite(cpu.depth)], rtol=1e-12)
     if cpu.value is not None:
         np.testing.assert_allclose(arrays[f"{index}_value"], cpu.value, rtol=1e-12, equal_nan=True)
     assert meta[name]["gpu"] == "numba-cuda simulator"
+
+
+def test_front_ends_render_on_the_gpu(simulated):
+    _, meta = simulated
+    fronts = meta["front ends"]
+    for name in ("accessor", "vtk", "cli"):
+        assert fronts[name] <= TOLERANCE["float32"], (name, fronts[name])
+    assert fronts["cli_device"] == "numba-cuda simulator"
 
 
 def test_shading_changes_the_simulated_image(simulated):

@@ -2,7 +2,9 @@
 simulator and save them for the test to compare with the CPU's renders.
 
 Run with NUMBA_ENABLE_CUDASIM=1 (the simulator is chosen when numba.cuda is first
-imported, so it needs a process of its own): ``python sim_renders.py OUT.npz``.
+imported, so it needs a process of its own): ``python sim_renders.py OUT.npz
+[--front-ends]`` (the last also renders through the PyVista accessor, the VTK
+algorithm and the CLI, GPU and CPU, and saves their differences).
 """
 import json
 import sys
@@ -46,6 +48,48 @@ def mesh():
     return hv.tetmesh_from_arrays(points, np.array(tets, dtype=np.int64), values)
 
 
+def half_mask():
+    """Blocks (4^3 cells) to render: the half at x >= 8."""
+    mask = np.ones((4, 4, 4), bool)
+    mask[:, :, :2] = False
+    return mask
+
+
+def front_ends(folder):
+    """max |GPU - CPU| / peak through the PyVista accessor, the VTK algorithm and the CLI."""
+    import subprocess
+
+    import pyvista as pv
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
+
+    def err(a, b):
+        return float(np.abs(np.asarray(a, np.float64) - b).max() / np.abs(b).max())
+
+    grid = pv.ImageData(dimensions=(N, N, N))
+    grid.point_data["v"] = volume().ravel()
+    out = {"accessor": err(grid.hdrvol.render(size=(N, N), device="cuda").rgba, grid.hdrvol.render(size=(N, N)).rgba)}
+    rgba = {}
+    for device in ("cuda", "cpu"):
+        alg = HDRVolumeRenderer()
+        alg.SetInputDataObject(grid)
+        alg.SetImageSize(N, N)
+        alg.SetDevice(device)
+        alg.Update()
+        rgba[device] = vtk_to_numpy(alg.GetOutputDataObject(0).GetPointData().GetArray("rgba")).copy()
+    out["vtk"] = err(rgba["cuda"], rgba["cpu"])
+    path = f"{folder}/blob.vti"
+    grid.save(path)
+    for device in ("cuda", "cpu"):
+        subprocess.run([sys.executable, "-m", "pv_hdrvol.integrations.cli", "render", path, "--size", str(N),
+                        "--device", device, "-o", f"{folder}/{device}.exr"], check=True, capture_output=True)
+    gpu, cpu = hv.load(f"{folder}/cuda.exr"), hv.load(f"{folder}/cpu.exr")
+    out["cli"] = err(gpu.rgba, cpu.rgba)
+    out["cli_device"] = gpu.metadata["device"]["gpu"]
+    return out
+
+
 def far_image():
     return np.where(np.arange(N * N).reshape(N, N) % 3 == 0, 14.0, np.inf)
 
@@ -73,6 +117,8 @@ def cases():
         "float64 no skipping, no termination": (
             dict(precision="float64", skip_empty=False, termination=0.0), dict(camera=iso)),
         "float32 in chunks (progress watched)": (dict(precision="float32"), dict(camera=iso, progress=lambda f: True)),
+        "tolerance=1e-2 (the knobs it chooses)": (dict(tolerance=1e-2), dict(camera=iso)),
+        "float32 block mask": (dict(precision="float32"), dict(camera=iso, block_mask=half_mask())),
         "float64 maximum": (dict(precision="float64", blending="maximum"), dict(camera=iso)),
         "float32 minimum": (dict(precision="float32", blending="minimum"), dict(camera=iso)),
         "float64 average": (dict(precision="float64", blending="average"), dict(camera=iso)),
@@ -112,6 +158,10 @@ def main(out):
     plan = GridPlan(volume(), None, precision="float32", device="cuda")
     frames = [plan.execute(hv.Camera.fit((0, N - 1) * 3, view), (N, N)) for view in ("iso", "xy", "yz")]
     meta["orbit"] = [f.metadata["device"]["uploaded_bytes"] for f in frames]
+    if "--front-ends" in sys.argv:
+        import os
+
+        meta["front ends"] = front_ends(os.path.dirname(out))
     np.savez(out, **arrays)
     with open(out + ".json", "w") as f:
         json.dump(meta, f)

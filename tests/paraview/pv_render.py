@@ -217,6 +217,20 @@ def test_bad_input_gives_the_clear_message(plugin, shared_data):
     simple.Delete(render)
 
 
+def test_device_cuda_without_numba_cuda_says_what_is_missing(plugin, shared_data):
+    """ParaView's Python (Debian's) has no numba-cuda: Device=cuda fails the render with
+    the message naming it, and Device=cpu renders again."""
+    reader, array = _reader(shared_data, ENGINE)
+    render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[8, 8], Camera="iso", Device="cuda")
+    text = _error_text(render)
+    assert text is not None and text.startswith("DeviceUnavailableError: device='cuda' needs numba-cuda, which is "
+                                                "not installed"), text
+    assert "pip install 'pv_hdrvol[gpu]'" in text
+    render.Device = "cpu"
+    assert _error_text(render) is None
+    simple.Delete(render)
+
+
 def test_progress_reaches_paraview_and_abort_is_honoured(plugin, shared_data):
     reader, array = _reader(shared_data, ENGINE)
     render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[64, 48], Camera="iso",

@@ -15,6 +15,7 @@ import math
 import numba
 import numpy as np
 
+from .._jit import kernel
 from ..raycast import _kernels as K
 from ..raycast._kernels import _march as march, voxel_ray  # noqa: F401 (retargeted by name)
 from ..raycast._kernels_ext import _project as project  # noqa: F401
@@ -23,6 +24,27 @@ from ..raycast._tet_kernels import _march as tet_march, pixel_ray  # noqa: F401
 #: Threads of a CUDA block, (x, y): 8 x 8 pixels, a tile of the CPU kernels.
 BLOCK = (8, 8)
 _SCRATCH = 3 * K.SCRATCH
+
+
+@kernel
+def pixel_ray_span(cam, origins, directions, span, col, row, width, height):
+    """The ray of pixel ``(col, row)`` in voxel coordinates and its ``[near, far]``, as
+    ``raycast._kernels.render_tiles`` takes them: from the camera array ``cam``
+    (``voxel_ray``) or, when it is empty, from ``origins``/``directions``; ``span`` empty
+    means ``[0, inf]``. (A CPU kernel, retargeted with the rest.)"""
+    pix = row * width + col
+    if cam.shape[0] > 0:
+        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
+    else:
+        ox = origins[pix, 0]
+        oy = origins[pix, 1]
+        oz = origins[pix, 2]
+        dx = directions[pix, 0]
+        dy = directions[pix, 1]
+        dz = directions[pix, 2]
+    if span.shape[0] > 0:
+        return ox, oy, oz, dx, dy, dz, span[pix, 0], span[pix, 1]
+    return ox, oy, oz, dx, dy, dz, 0.0, math.inf
 
 
 def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width,
@@ -34,20 +56,7 @@ def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam
     if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
         return
     pix = row * width + col
-    if cam.shape[0] > 0:
-        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
-    else:
-        ox = origins[pix, 0]
-        oy = origins[pix, 1]
-        oz = origins[pix, 2]
-        dx = directions[pix, 0]
-        dy = directions[pix, 1]
-        dz = directions[pix, 2]
-    t_near = 0.0
-    t_far = math.inf
-    if span.shape[0] > 0:
-        t_near = span[pix, 0]
-        t_far = span[pix, 1]
+    ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, col, row, width, height)
     scratch = cuda.local.array(SCRATCH_LEN, numba.float64)  # noqa: F821
     r, g, b, a, dep, ns = march(marker, 0, _make_light(shading, lights, gvec), 0, bricks, offs, table, sigma,  # noqa
                                 leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
@@ -71,20 +80,7 @@ def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axe
     pix = row * width + col
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
-    if cam.shape[0] > 0:
-        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
-    else:
-        ox = origins[pix, 0]
-        oy = origins[pix, 1]
-        oz = origins[pix, 2]
-        dx = directions[pix, 0]
-        dy = directions[pix, 1]
-        dz = directions[pix, 2]
-    t_near = 0.0
-    t_far = math.inf
-    if span.shape[0] > 0:
-        t_near = span[pix, 0]
-        t_far = span[pix, 1]
+    ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, col, row, width, height)
     v, r, gg, b, a, dep, ns = project(bricks, leap, g, pyr, pgeo, 0.0, tables, sigmas, axes, ox, oy, oz, dx, dy, dz,
                                       lo, hi, p, e, t_near, t_far)
     out_value[pix] = v

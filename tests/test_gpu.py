@@ -148,7 +148,7 @@ def test_simulator_equals_cpu(simulated, index, name):
 def test_front_ends_render_on_the_gpu(simulated):
     _, meta = simulated
     fronts = meta["front ends"]
-    for name in ("accessor", "vtk", "cli"):
+    for name in ("accessor", "vtk", "progressive", "progressive mesh", "cli"):
         assert fronts[name] <= TOLERANCE["float32"], (name, fronts[name])
     assert fronts["cli_device"] == "numba-cuda simulator"
 

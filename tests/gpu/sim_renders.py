@@ -56,7 +56,8 @@ def half_mask():
 
 
 def front_ends(folder):
-    """max |GPU - CPU| / peak through the PyVista accessor, the VTK algorithm and the CLI."""
+    """max |GPU - CPU| / peak through the PyVista accessor, the VTK algorithm, the viewer's
+    progressive renderer (its full frame; a volume and a mesh) and the CLI."""
     import subprocess
 
     import pyvista as pv
@@ -79,6 +80,13 @@ def front_ends(folder):
         alg.Update()
         rgba[device] = vtk_to_numpy(alg.GetOutputDataObject(0).GetPointData().GetArray("rgba")).copy()
     out["vtk"] = err(rgba["cuda"], rgba["cpu"])
+    from pv_hdrvol.viewer.progressive import ProgressiveRenderer
+
+    for name, data in (("progressive", hv.volume_from_array(volume())), ("progressive mesh", mesh())):
+        camera = hv.Camera.fit(data.bounds, "iso")
+        full = {device: ProgressiveRenderer(data, device=device, factor=2).frames(camera, (N, N))[-1].image.rgba
+                for device in ("cuda", "cpu")}
+        out[name] = err(full["cuda"], full["cpu"])
     path = f"{folder}/blob.vti"
     grid.save(path)
     for device in ("cuda", "cpu"):

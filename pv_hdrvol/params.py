@@ -326,15 +326,16 @@ class RenderOptions:
         Keep only this world box (VTK's bounds order; a ``vtkBox`` or a dataset gives
         its bounds). Default ``None``: no crop.
     device : {"cpu", "cuda"}
-        Where an image volume renders. ``"cpu"`` (default): the numba CPU kernels.
-        ``"cuda"``: the same kernels compiled for an NVIDIA GPU by numba-cuda
-        (``pip install 'pv_hdrvol[gpu]'``), the volume and tables kept on the GPU between
-        renders; equal to the CPU render to rounding. It takes ``float32``/``float64``
-        precision, composite (shaded or not), maximum, minimum, average and additive
-        blending, clipping, ``far=`` and lenses without a level of detail, on uniform
-        grids in memory; other settings raise ``ValueError`` (docs/gpu.md). A machine
-        without a usable GPU raises :class:`~pv_hdrvol.gpu.DeviceUnavailableError`
-        naming what is missing.
+        Where a render runs. ``"cpu"`` (default): the numba CPU kernels. ``"cuda"``:
+        the same kernels compiled for an NVIDIA GPU by numba-cuda (``pip install
+        'pv_hdrvol[gpu]'``), the data and tables kept on the GPU between renders of a
+        plan; equal to the CPU render to rounding. It takes ``float32``/``float64``
+        precision; on uniform grids in memory composite (shaded or not), maximum,
+        minimum, average and additive blending, clipping, ``far=``, block masks and
+        lenses without a level of detail; tetrahedral meshes as on the CPU. Labels,
+        gradient opacity, rectilinear grids, level-of-detail lenses and out-of-core
+        volumes raise ``ValueError`` (docs/gpu.md). A machine without a usable GPU raises
+        :class:`~pv_hdrvol.DeviceUnavailableError` naming what is missing.
     """
 
     step: float = 0.5

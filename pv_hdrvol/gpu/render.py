@@ -3,6 +3,8 @@ between executions, one launch a frame (per chunk of rows of tiles when progress
 watched)."""
 from __future__ import annotations
 
+import contextlib
+import threading
 import time
 
 import numpy as np
@@ -19,14 +21,20 @@ class CudaRunner:
 
     def __init__(self):
         self.cuda = cuda_module()
+        self._lock = threading.RLock()
         self._arrays = {}  # name -> (host array, device array)
         self._out = None
-        self.uploaded_bytes = 0  # since the last frame began (begin_frame)
+        self.uploaded_bytes = 0  # by this frame (frame())
         self.kernel_seconds = 0.0  # launches to their end, this frame (the first compiles)
 
-    def begin_frame(self):
-        self.uploaded_bytes = 0
-        self.kernel_seconds = 0.0
+    @contextlib.contextmanager
+    def frame(self):
+        """Hold the runner for one frame (its device outputs and counters are shared by
+        the plan's frames: a viewer's worker and a script may render one plan at once)."""
+        with self._lock:
+            self.uploaded_bytes = 0
+            self.kernel_seconds = 0.0
+            yield self
 
     def device_array(self, name, host):
         """``host`` on the device, uploaded only if it is not the array uploaded last

@@ -910,14 +910,25 @@ class GridPlan:
                               depth, samples)
             return pixel_rows(tile_rows, height)
 
-        finish = None
-        if on_device and not flat:
-            cast, finish = self._device_frame(cam, origins, directions, span, width, height, lo, hi, piece_box,
-                                              params, bricks, leap, grids, dims, light, value, rgba, depth, samples,
-                                              kernel_args if value is not None else None)
         _check_progress_bar(progress_bar)
         t_start = time.perf_counter()
-        run_frame(cast, finish, height, progress, progress_bar, chunk_seconds)
+        device_meta = {"name": opts.device}
+        if on_device and not flat:
+            if self._runner is None:
+                self._runner = device_runner(opts.device)
+            with self._runner.frame() as runner:  # one frame at a time on a plan's device arrays
+                if value is None:
+                    on_gpu, finish = runner.composite_frame(prec, light, bricks, table, sigma, leap, grids, dims, cam,
+                                                            origins, directions, span, width, height, lo, hi,
+                                                            piece_box, params, rgba, depth, samples)
+                else:
+                    on_gpu, finish = runner.projection_frame(bricks, table, leap, grids, dims, kernel_args, cam,
+                                                             origins, directions, span, width, height, lo, hi, params,
+                                                             value, rgba, depth, samples)
+                run_frame(on_gpu, finish, height, progress, progress_bar, chunk_seconds)
+                device_meta = runner.describe()
+        else:
+            run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
         elapsed = time.perf_counter() - t_start
 
         meta = {
@@ -956,31 +967,18 @@ class GridPlan:
         if lod is not None:
             meta["max_lod"] = float(lod.max())
         if on_device:
-            meta["device"] = self._runner.describe() if self._runner is not None else {"name": opts.device}
+            meta["device"] = device_meta
         if value is not None:
             value = value.reshape(height, width)
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
 
 
-    def _device_frame(self, cam, origins, directions, span, width, height, lo, hi, piece_box, params, bricks, leap,
-                      grids, dims, light, value, rgba, depth, samples, kernel_args):
-        """``(cast, finish)`` of this frame on the plan's device (``DEVICE_RUNNERS``)."""
-        if self._runner is None:
-            self._runner = device_runner(self.options.device)
-        runner = self._runner
-        runner.begin_frame()
-        if value is None:
-            return runner.composite_frame(self.options.precision, light, bricks, self.table, self.sigma, leap, grids,
-                                          dims, cam, origins, directions, span, width, height, lo, hi, piece_box,
-                                          params, rgba, depth, samples)
-        return runner.projection_frame(bricks, self.table, leap, grids, dims, kernel_args, cam, origins, directions,
-                                       span, width, height, lo, hi, params, value, rgba, depth, samples)
-
-
 #: Renderers on other devices than the CPU, registered by later stages: device name
 #: (``RenderOptions.device``) -> a function of no arguments that returns a runner with
-#: ``begin_frame()``, ``composite_frame(...)``, ``projection_frame(...)`` and
-#: ``describe()`` (``pv_hdrvol.gpu`` registers ``"cuda"`` when imported).
+#: ``frame()`` (a context manager holding the runner for one frame), the frame makers
+#: ``composite_frame(...)``, ``projection_frame(...)`` and ``tet_frame(...)`` (each
+#: returns ``(cast, finish)``: see :func:`run_frame`), and ``describe()``, the frame's
+#: ``metadata["device"]`` (``pv_hdrvol.gpu`` registers ``"cuda"`` when imported).
 DEVICE_RUNNERS = {}
 
 
@@ -993,15 +991,15 @@ def device_runner(device):
 
 
 def run_frame(cast, finish, height, progress, progress_bar, chunk_seconds):
-    """Render all rows: one ``cast`` over every row of tiles on a device (``finish``
-    given; chunks would leave it idle between launches) unless progress is watched,
-    else :func:`run_in_chunks`; then ``finish()``."""
-    if finish is not None and progress is None and not progress_bar:
+    """A device frame: one ``cast`` over every row of tiles (chunks would leave the
+    device idle between launches), or :func:`run_in_chunks` when progress is watched
+    (``progress``, a bar), so that it reports and can be cancelled; then ``finish()``,
+    which copies the image back."""
+    if progress is None and not progress_bar:
         cast(np.arange(-(-height // _TILE), dtype=np.int64))
     else:
         run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
-    if finish is not None:
-        finish()
+    finish()
 
 
 def _check_device(opts, volume, labels):

@@ -23,7 +23,7 @@ from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
 from .grid import (_MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, cached, device_runner,
-                   empty_render_reason, pixel_rows, resolve_transfer_function, run_frame, warn_empty)
+                   empty_render_reason, pixel_rows, resolve_transfer_function, run_frame, run_in_chunks, warn_empty)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
 
@@ -249,16 +249,19 @@ class TetPlan:
                             params, rgba, depth, cells, pieces, guard)
             return pixel_rows(tile_rows, height)
 
-        finish = None
+        t1 = time.perf_counter()
+        device_meta = None
         if opts.device != "cpu":
             if self._runner is None:
                 self._runner = device_runner(opts.device)
-            self._runner.begin_frame()
-            cast, finish = self._runner.tet_frame(prec, mesh, cells_i, cells_f, active, table, grads, shading,
+            with self._runner.frame() as runner:  # one frame at a time on a plan's device arrays
+                on_gpu, finish = runner.tet_frame(prec, mesh, cells_i, cells_f, active, table, grads, shading,
                                                   lights, hits, cam, own, span, width, height, params, rgba, depth,
                                                   cells, pieces, guard)
-        t1 = time.perf_counter()
-        run_frame(cast, finish, height, progress, progress_bar, chunk_seconds)
+                run_frame(on_gpu, finish, height, progress, progress_bar, chunk_seconds)
+                device_meta = runner.describe()
+        else:
+            run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
         elapsed = time.perf_counter() - t1
         meta = {
             "renderer": "pv_hdrvol tetrahedral ray caster",
@@ -282,8 +285,8 @@ class TetPlan:
         }
         if opts.shade:
             meta["shading"] = shading_metadata(opts)
-        if finish is not None:
-            meta["device"] = self._runner.describe()
+        if device_meta is not None:
+            meta["device"] = device_meta
         if piece is not None:
             meta["piece"] = {"owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi)}
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view

@@ -182,6 +182,7 @@ def test_client_server(shared_data):
     server, the plugin's client side links the view's camera and the array's colour map
     (tests/paraview/client_server.py)."""
     import socket
+    import threading
 
     pvserver, pvpython, xvfb_run = _tool("pvserver"), _tool("pvpython"), _tool("xvfb-run")
     with socket.socket() as probe:  # a free port on the loopback
@@ -193,24 +194,38 @@ def test_client_server(shared_data):
     server = subprocess.Popen([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", pvserver, f"--server-port={port}",
                                "--timeout=10"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                               start_new_session=True)
+    lines, reader = [], None
     try:
-        lines = []
         for line in server.stdout:  # wait until it listens
             lines.append(line)
             if "Accepting connection" in line:
                 break
         else:
             raise AssertionError("pvserver did not start:\n" + "".join(lines))
+        # its output read on while the client runs: a full pipe would stall the server
+        reader = threading.Thread(target=lambda: lines.extend(server.stdout), daemon=True)
+        reader.start()
         done = subprocess.run([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", pvpython,
                                str(REPO_ROOT / "tests" / "paraview" / "client_server.py"), str(port)], env=env,
                               cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=900)
     finally:
         import signal
 
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(server.pid, signal.SIGKILL)
-        server.wait()
-    assert done.returncode == 0, f"the client failed (exit {done.returncode}):\n{done.stdout[-4000:]}"
+        ended = server.poll()  # not None: the server ended before the client was done
+        # SIGTERM first: Xvfb removes its /tmp/.X*-lock only when it ends by itself
+        for sig, wait in ((signal.SIGTERM, 10), (signal.SIGKILL, None)):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(server.pid, sig)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                server.wait(wait)
+                break
+        if reader is not None:
+            reader.join(timeout=10)
+        server_output = "".join(lines)
+    # a server that ended by itself (a crash) says why in its own output, not the client's
+    assert done.returncode == 0, (f"the client failed (exit {done.returncode}):\n{_failure_text(done.stdout, 3000)}\n"
+                                  f"the server {'exited ' + str(ended) if ended is not None else 'was running'}:\n"
+                                  f"{_failure_text(server_output, 4000)}")
     assert ("client-server: the array's colour map and the view's camera; the image equals hv.render"
             in done.stdout), done.stdout[-3000:]
 

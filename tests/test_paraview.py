@@ -213,12 +213,14 @@ def test_client_server(shared_data):
 
         ended = server.poll()  # not None: the server ended before the client was done
         # SIGTERM first: Xvfb removes its /tmp/.X*-lock only when it ends by itself
-        for sig, wait in ((signal.SIGTERM, 10), (signal.SIGKILL, None)):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(server.pid, signal.SIGTERM)
+        try:
+            server.wait(10)
+        except subprocess.TimeoutExpired:
             with contextlib.suppress(ProcessLookupError):
-                os.killpg(server.pid, sig)
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                server.wait(wait)
-                break
+                os.killpg(server.pid, signal.SIGKILL)
+            server.wait()
         if reader is not None:
             reader.join(timeout=10)
         server_output = "".join(lines)

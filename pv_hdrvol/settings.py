@@ -26,6 +26,20 @@ from .rays.camera import Camera
 #: Version of the ``"settings"`` layout; :meth:`RenderSettings.from_dict` reads this one.
 SETTINGS_VERSION = 1
 
+# The function RenderSettings.render replays with: pv_hdrvol.render, registered by
+# pv_hdrvol.dispatch as it loads (register_renderer). This record sits below the
+# renderers, which import it to write their settings, so it cannot import them.
+_RENDERER = []
+
+
+def register_renderer(render):
+    """Make ``render`` (``render(data, tf, camera, size, options=..., **keywords)``) the
+    function :meth:`RenderSettings.render` calls; :mod:`pv_hdrvol.dispatch` registers
+    :func:`pv_hdrvol.render`."""
+    if not callable(render):
+        raise TypeError(f"register_renderer needs a callable; got {type(render).__name__}")
+    _RENDERER[:] = [render]
+
 
 @dataclass(frozen=True)
 class RenderSettings:
@@ -67,8 +81,9 @@ class RenderSettings:
     def render(self, data, **kwargs):
         """``pv_hdrvol.render(data, tf, camera, size, options=options, **keywords)``;
         ``kwargs`` add to (or replace) the keywords (``scalars=``, ``progress_bar=``...)."""
-        from . import render
-
+        if not _RENDERER:
+            raise RuntimeError("no renderer is registered: import pv_hdrvol (its dispatch registers pv_hdrvol.render)")
+        render = _RENDERER[0]
         if self.camera is None:
             raise ValueError("these settings hold no camera (the render was given rays); pass the rays: "
                              "pv_hdrvol.render(data, settings.tf, rays, options=settings.options)")
@@ -167,4 +182,5 @@ def _as_tuple(value):
     return tuple(_as_tuple(v) for v in value) if isinstance(value, list) else value
 
 
-__all__ = ["RenderSettings", "SETTINGS_VERSION", "options_from_dict", "options_to_dict", "settings_metadata"]
+__all__ = ["RenderSettings", "SETTINGS_VERSION", "options_from_dict", "options_to_dict", "register_renderer",
+           "settings_metadata"]

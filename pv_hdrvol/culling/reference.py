@@ -27,11 +27,10 @@ def ert_oracle(volume, tf, camera, size, *, block_size=16, threshold=DEFAULT_THR
     reaches the threshold) marks the block containing it; ``nonempty`` (same shape)
     keeps only blocks that can hold opacity.
     """
-    from .. import render
-    from ..raycast.grid import as_volume
+    from ..raycast.grid import as_volume, render_volume
 
     volume = as_volume(volume)
-    image = render(volume, tf, camera, size, depth_threshold=threshold, termination=0.0, progress_bar=False,
+    image = render_volume(volume, tf, camera, size, depth_threshold=threshold, termination=0.0, progress_bar=False,
                    **options)
     step_world = image.metadata["step_world"]
     rays = camera.rays(size)
@@ -62,8 +61,7 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
                      render_block_size=4, **options):
     """(bz, by, bx) bool: R2, the paper's exact sequential culling, and the number of
     block renders it took. ``nonempty`` (default: every block) limits the candidates."""
-    from .. import render
-    from ..raycast.grid import BlockGrid, as_volume
+    from ..raycast.grid import BlockGrid, as_volume, render_volume
 
     if not isinstance(camera, Camera) or not camera.parallel_projection:
         raise ValueError("exact_sequential needs an orthographic Camera")
@@ -94,7 +92,7 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
             continue
         visible[b] = True
         mask = single_block_mask(b, shape, block_size, render_block_size, render_shape)
-        alpha = render(volume, tf, camera, (width, height), block_mask=mask, termination=0.0, progress_bar=False,
+        alpha = render_volume(volume, tf, camera, (width, height), block_mask=mask, termination=0.0, progress_bar=False,
                        **options).rgba[..., 3].reshape(-1).astype(np.float64)
         renders += 1
         opacity = 1.0 - (1.0 - opacity) * (1.0 - alpha)

@@ -138,9 +138,8 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
         counts, t, thickness = boundary_layers(mesh, camera, (width, height), max_layers)
         k = max(1, min(max_layers, int(counts.max()) if counts.size else 0))
         return mesh_layers(mesh, (width, height), counts, t[:k], thickness, t0)
-    from .. import render
     from ..data.transfer import TransferFunction
-    from .grid import as_volume
+    from .grid import as_volume, render_volume
 
     volume = as_volume(data, scalars=scalars, preference=preference)
     if camera is None:
@@ -161,7 +160,7 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
     else:
         source = f"opacity {threshold:g} of {tf!r}"
     threshold = as_real("threshold", threshold, low=0.0, high=1.0, low_open=True)
-    img = render(volume, tf, camera, size, depth_threshold=threshold, progress_bar=False, **options)
+    img = render_volume(volume, tf, camera, size, depth_threshold=threshold, progress_bar=False, **options)
     depth = img.depth[None].astype(np.float64)
     counts = np.isfinite(img.depth).astype(np.int64)
     return DepthLayers(depth, counts, time.perf_counter() - t0, source)

@@ -164,7 +164,7 @@ def grid_arrays(grid, scalars):
 
 def setup(grid, scalars):
     import pv_hdrvol as hv
-    from pv_hdrvol.data.structured import tetmesh_from_structured
+    from pv_hdrvol.data.tets import tetmesh_from_structured
 
     mesh = tetmesh_from_structured(grid, scalars)
     lo, hi = mesh.value_range
@@ -250,7 +250,7 @@ def same_tets(grid, ug):
 
 def part_time(label, grid, scalars, size, repeat, ref, use_vtk):
     import pv_hdrvol as hv
-    from pv_hdrvol.data.structured import tetmesh_from_structured
+    from pv_hdrvol.data.tets import tetmesh_from_structured
 
     _, tf, camera, unit = setup(grid, scalars)  # the same tf, camera and unit as part 1
     out = {"grid": label, "load0": load()}

@@ -10,7 +10,8 @@ import pytest
 import pyvista as pv
 
 import pv_hdrvol as hv
-from pv_hdrvol.data.structured import collapsed_tets, structured_tets, tetmesh_from_structured, visible_cells
+from pv_hdrvol.data.structured import collapsed_tets, structured_tets, visible_cells
+from pv_hdrvol.data.tets import tetmesh_from_structured
 from pv_hdrvol.data.tets import FACE_CORNERS, as_tetmesh, is_unstructured
 
 from meshes import WHITE, constant_tf, oblique_camera, slab_length

@@ -151,7 +151,7 @@ def collapsed_tets(points, tets):
     adjacency links the wrong two, leaving a false boundary face inside the mesh
     (a 270-degree shell sector with a collapsed axis then fails with "the camera is
     inside the mesh", split by VTK's vtkDataSetTriangleFilter as by
-    :func:`structured_tets`). :func:`tetmesh_from_structured` drops them; the split
+    :func:`structured_tets`). :func:`structured_tet_arrays` drops them; the split
     stays conforming without them (each collapsed quad face keeps its one real
     triangle in both cells).
     """
@@ -224,8 +224,10 @@ def visible_cells(dataset):
     return ~hidden
 
 
-def tetmesh_from_structured(dataset, scalars=None, preference="point"):
-    """Prepare a curvilinear grid for the tet ray caster; the dataset is not modified.
+def structured_tet_arrays(dataset, scalars=None, preference="point"):
+    """A curvilinear grid split into tetrahedra, as the arguments of
+    :func:`~pv_hdrvol.data.tets.tetmesh_from_arrays`; the dataset is not modified.
+    :func:`~pv_hdrvol.data.tets.tetmesh_from_structured` makes the mesh of them.
 
     Parameters
     ----------
@@ -241,7 +243,12 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
 
     Returns
     -------
-    TetMesh
+    points : ndarray, shape (n, 3)
+    tets : ndarray of int64, shape (m, 4)
+    values : ndarray, shape (n,) or (m,)
+    association : {"point", "cell"}
+    name : str
+        The array's name.
 
     Raises
     ------
@@ -261,8 +268,6 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
     zero-volume tetrahedra and folded cells inverted ones: the tet caster crosses both
     (a flat cell in zero length).
     """
-    from .tets import tetmesh_from_arrays
-
     as_choice("preference", preference, ("point", "cell"))
     if not is_structured_grid(dataset):
         raise TypeError(f"expected a pyvista.StructuredGrid / vtkStructuredGrid; got {type(dataset).__name__}")
@@ -309,4 +314,4 @@ def tetmesh_from_structured(dataset, scalars=None, preference="point"):
         tets = tets[~collapsed]
         if use_cell:
             values = values[~collapsed]
-    return tetmesh_from_arrays(points, tets, values, association="cell" if use_cell else "point", name=name)
+    return points, tets, values, "cell" if use_cell else "point", name

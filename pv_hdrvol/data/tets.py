@@ -28,6 +28,7 @@ import numpy as np
 
 from .grid import DatasetCache, ScalarsError, _arrays, choose_scalars, content_digest
 from .._validate import as_choice
+from .structured import structured_tet_arrays
 
 #: VTK cell type of a linear tetrahedron
 VTK_TETRA = 10
@@ -96,7 +97,7 @@ class TetMesh:
 def is_unstructured(data):
     """True for data rendered by the tet path: a :class:`TetMesh`, a vtkUnstructuredGrid
     (pyvista.UnstructuredGrid) or a curvilinear vtkStructuredGrid (pyvista.StructuredGrid,
-    split into tetrahedra by :func:`~pv_hdrvol.data.structured.tetmesh_from_structured`)."""
+    split into tetrahedra by :func:`tetmesh_from_structured`)."""
     if isinstance(data, TetMesh):
         return True
     return hasattr(data, "GetClassName") and data.GetClassName() in ("vtkUnstructuredGrid", "vtkStructuredGrid")
@@ -107,7 +108,7 @@ def as_tetmesh(data, scalars=None, preference="point"):
     (curvilinear) grid, cached per grid.
 
     A structured grid's hexahedra are split into five tetrahedra each
-    (:func:`~pv_hdrvol.data.structured.tetmesh_from_structured`).
+    (:func:`tetmesh_from_structured`).
     The cache key holds the grid's modification time, the array and its association,
     and a SHA-1 of the point coordinates, the scalars and (structured grids) the
     dimensions and blanking: changing the mesh or its scalars rebuilds it, also by an
@@ -178,7 +179,7 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
         ``vtkDataSetTriangleFilter``, with a warning; 0-D to 2-D cells are dropped.
         A structured (curvilinear) grid's hexahedra are split into five tetrahedra
         each, without a warning
-        (:func:`~pv_hdrvol.data.structured.tetmesh_from_structured`).
+        (:func:`tetmesh_from_structured`).
     scalars : str, optional
         Array to render; default the active scalars, else the only array.
     preference : {"point", "cell"}
@@ -195,8 +196,6 @@ def tetmesh_from_dataset(dataset, scalars=None, preference="point"):
         raise TypeError(f"expected a pyvista.UnstructuredGrid / vtkUnstructuredGrid or a pyvista.StructuredGrid / "
                         f"vtkStructuredGrid; got {type(dataset).__name__}")
     if dataset.GetClassName() == "vtkStructuredGrid":
-        from .structured import tetmesh_from_structured
-
         return tetmesh_from_structured(dataset, scalars, preference)
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
@@ -290,6 +289,20 @@ def tetmesh_from_arrays(points, tets, values, *, association="point", name=""):
     return TetMesh(unit, np.ascontiguousarray(merged), np.ascontiguousarray(per_corner), neighbors, neighbor_faces,
                    boundary, bcell.astype(np.int64), bface.astype(np.int64), center, scale, value_range, name,
                    association)
+
+
+def tetmesh_from_structured(dataset, scalars=None, preference="point"):
+    """Prepare a curvilinear grid (``pyvista.StructuredGrid``, ``vtkStructuredGrid``) for
+    the tet ray caster: each hexahedron split into 5 tetrahedra, blanked cells left out,
+    collapsed ones dropped (:func:`~pv_hdrvol.data.structured.structured_tet_arrays`
+    gives the parameters, the errors and the notes); the dataset is not modified.
+
+    Returns
+    -------
+    TetMesh
+    """
+    points, tets, values, association, name = structured_tet_arrays(dataset, scalars, preference)
+    return tetmesh_from_arrays(points, tets, values, association=association, name=name)
 
 
 def _cell_types(ug):

@@ -45,7 +45,7 @@ class VolumeCache:
 
                 self._volume = tetmesh_from_dataset(dataset, scalars=scalars, preference=preference)
             elif dataset.GetClassName() == "vtkStructuredGrid":
-                from ..data.structured import tetmesh_from_structured
+                from ..data.tets import tetmesh_from_structured
 
                 self._volume = tetmesh_from_structured(dataset, scalars=scalars, preference=preference)
             else:

@@ -173,11 +173,11 @@ class HDRImage:
 
     def save_png(self, path, exposure_stops=None):
         """Write the default display mapping as an 8-bit PNG."""
-        _write_png(path, self.to_display(exposure_stops))
+        _fileio.write_png(path, self.to_display(exposure_stops))
 
     def _repr_png_(self):
         buf = _io.BytesIO()
-        _write_png(buf, self.to_display())
+        _fileio.write_png(buf, self.to_display())
         return buf.getvalue()
 
     # -- files -------------------------------------------------------------------
@@ -317,25 +317,3 @@ class HDRImage:
 def load(path):
     """Read an :class:`HDRImage` from ``.exr``, ``.hdr`` or ``.npy`` (see :meth:`HDRImage.load`)."""
     return HDRImage.load(path)
-
-
-def _write_png(target, rgb_u8):
-    """Minimal PNG writer (zlib, 8-bit RGB): no imaging library needed."""
-    import struct
-    import zlib
-
-    rgb_u8 = np.ascontiguousarray(rgb_u8, dtype=np.uint8)
-    h, w, c = rgb_u8.shape
-    color_type = {3: 2, 4: 6}[c]
-    raw = b"".join(b"\x00" + rgb_u8[r].tobytes() for r in range(h))
-
-    def chunk(tag, data):
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-
-    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, color_type, 0, 0, 0))
-    png += chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b"")
-    if hasattr(target, "write"):
-        target.write(png)
-    else:
-        with open(os.fspath(target), "wb") as f:
-            f.write(png)

@@ -126,3 +126,27 @@ def read_npy(path):
         raise ValueError(f"{path}: expected a (rows, cols, 4 or 5) array; got {arr.shape}")
     depth = arr[..., 4].astype(np.float64) if arr.shape[2] == 5 else None
     return np.ascontiguousarray(arr[..., :4]), depth
+
+
+def write_png(target, rgb_u8):
+    """Write ``rgb_u8`` ((rows, cols, 3 or 4) uint8, row 0 at the top) as a PNG to a path
+    or a binary file object: a minimal writer (zlib, 8-bit RGB or RGBA), no imaging
+    library needed."""
+    import struct
+    import zlib
+
+    rgb_u8 = np.ascontiguousarray(rgb_u8, dtype=np.uint8)
+    h, w, c = rgb_u8.shape
+    color_type = {3: 2, 4: 6}[c]
+    raw = b"".join(b"\x00" + rgb_u8[r].tobytes() for r in range(h))
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, color_type, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b"")
+    if hasattr(target, "write"):
+        target.write(png)
+    else:
+        with open(os.fspath(target), "wb") as f:
+            f.write(png)

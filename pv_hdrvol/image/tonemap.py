@@ -612,17 +612,17 @@ class ToneMapped:
 
     def save_png(self, path):
         """Write :attr:`rgb8` as a PNG."""
-        from .hdr import _write_png
+        from .io import write_png
 
-        _write_png(path, self.rgb8)
+        write_png(path, self.rgb8)
 
     def _repr_png_(self):
         import io
 
-        from .hdr import _write_png
+        from .io import write_png
 
         buf = io.BytesIO()
-        _write_png(buf, self.rgb8)
+        write_png(buf, self.rgb8)
         return buf.getvalue()
 
 
@@ -712,12 +712,8 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
 # -- helpers ------------------------------------------------------------------------------
 def _as_pixels(image):
     """The image's (rows, cols, 3 or 4) float array (RGB first), validated, not copied."""
-    from .hdr import HDRImage
-
-    if isinstance(image, HDRImage):
-        arr = image.rgba
-    else:
-        arr = np.asarray(image)
+    rgba = getattr(image, "rgba", None)  # an HDRImage (hdr.py imports this module: no isinstance)
+    arr = np.asarray(image) if rgba is None else rgba
     if arr.ndim != 3 or arr.shape[2] not in (3, 4):
         raise ValueError(f"image must be an HDRImage or an array of shape (rows, cols, 3 or 4); got {arr.shape}")
     if not np.issubdtype(arr.dtype, np.floating):

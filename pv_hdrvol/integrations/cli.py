@@ -756,9 +756,9 @@ def _write_preview(image, png, args, tf, label):
 
         save_png_with_colorbar(png, picture, tf, label=label or None)
     else:
-        from ..image.hdr import _write_png
+        from ..image.io import write_png
 
-        _write_png(png, picture)
+        write_png(png, picture)
 
 
 def _print_settings(stored):

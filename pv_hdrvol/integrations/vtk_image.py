@@ -486,9 +486,9 @@ class HDRImageWriter(_ReportingAlgorithm):
         shown = image.GetPointData().GetArray("tonemapped")
         if self._file_name.lower().endswith(".png") and shown is not None and shown.GetNumberOfComponents() == 3 \
                 and shown.GetDataType() == VTK_UNSIGNED_CHAR:
-            from ..image.hdr import _write_png
+            from ..image.io import write_png
 
-            _write_png(self._file_name, vtk_to_numpy(shown).reshape(rows, cols, 3)[::-1])  # rows top first
+            write_png(self._file_name, vtk_to_numpy(shown).reshape(rows, cols, 3)[::-1])  # rows top first
         else:
             HDRImage.from_pyvista(image).save(self._file_name, pixel_type=self._pixel_type)
         self._wrote = True

@@ -43,10 +43,10 @@ TONEMAPS = {name: EXPOSURE_PARAMETERS[name] for name in ("reinhard", "drago", "l
 
 
 def _png(rgb_u8):
-    from ..image.hdr import _write_png
+    from ..image.io import write_png
 
     buffer = io.BytesIO()
-    _write_png(buffer, np.ascontiguousarray(rgb_u8))
+    write_png(buffer, np.ascontiguousarray(rgb_u8))
     return buffer.getvalue()
 
 

@@ -645,9 +645,9 @@ class HDRViewer(QtWidgets.QMainWindow):
 
     def save_png(self, path):
         """Write the picture shown (the composite, tone-mapped) to ``path``."""
-        from ..image.hdr import _write_png
+        from ..image.io import write_png
 
-        _write_png(path, self.actor.composite)
+        write_png(path, self.actor.composite)
 
     def _file_dialog(self, caption, pattern, save=True):
         get = QtWidgets.QFileDialog.getSaveFileName if save else QtWidgets.QFileDialog.getOpenFileName

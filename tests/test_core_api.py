@@ -210,10 +210,10 @@ def test_render_rejects_bad_spacing_and_arguments():
 
 
 def test_progress_callback_and_abort(monkeypatch):
-    import pv_hdrvol.raycast.grid as grid
+    import pv_hdrvol.raycast.frame as frame
 
     # a clock that stands still: the chunks do not depend on how fast this machine is
-    monkeypatch.setattr(grid, "_clock", lambda: 0.0)
+    monkeypatch.setattr(frame, "_clock", lambda: 0.0)
     seen = []
     with pytest.warns(hv.EmptyRenderWarning):  # constant data, default transfer function
         hv.render(np.ones((8, 8, 8)), None, None, (16, 64), progress=seen.append)
@@ -363,7 +363,7 @@ def test_vtk_round_trip_flips_rows_and_keeps_everything():
 
 
 def test_progress_bar_appears_only_when_asked_or_for_slow_renders(capsys, monkeypatch):
-    import pv_hdrvol.raycast.grid as grid
+    import pv_hdrvol.raycast.frame as frame
 
     vol = np.linspace(0, 1, 16**3).reshape(16, 16, 16)
     plain = hv.render(vol, None, None, (64, 64), progress_bar=False)
@@ -371,10 +371,10 @@ def test_progress_bar_appears_only_when_asked_or_for_slow_renders(capsys, monkey
     assert capsys.readouterr().err == ""
     np.testing.assert_array_equal(fast.rgba, plain.rgba)
     pytest.importorskip("tqdm")
-    monkeypatch.setattr(grid, "_AUTO_BAR_SECONDS", 0.0)  # every render now counts as slow
+    monkeypatch.setattr(frame, "AUTO_BAR_SECONDS", 0.0)  # every render now counts as slow
     slow = hv.render(vol, None, None, (64, 64))
     assert capsys.readouterr().err == ""  # stderr is no terminal here: no bar in logs
-    monkeypatch.setattr(grid, "_auto_bar_wanted", lambda: True)  # as on a terminal
+    monkeypatch.setattr(frame, "auto_bar_wanted", lambda: True)  # as on a terminal
     slow = hv.render(vol, None, None, (64, 64))
     assert "Rendering" in capsys.readouterr().err
     np.testing.assert_array_equal(slow.rgba, plain.rgba)  # chunking changes no pixel

@@ -288,6 +288,7 @@ def test_the_2048_cubed_volume_of_the_issue_needs_its_11_5_gib_of_bricks():
 import sys  # noqa: E402
 import types  # noqa: E402
 
+from pv_hdrvol.raycast import frame as F  # noqa: E402
 from pv_hdrvol.raycast import grid as G  # noqa: E402
 
 
@@ -296,14 +297,14 @@ class FakeCast:
 
     def __init__(self, monkeypatch, seconds_per_row, interrupt_at=None):
         self.now, self.calls, self.per_row, self.interrupt_at = 0.0, [], seconds_per_row, interrupt_at
-        monkeypatch.setattr(G, "_clock", lambda: self.now)
+        monkeypatch.setattr(F, "_clock", lambda: self.now)
 
     def __call__(self, tile_rows):
         if self.interrupt_at is not None and len(self.calls) == self.interrupt_at:
             raise KeyboardInterrupt  # what Ctrl-C raises once a chunk returns
         self.calls.append(tile_rows.tolist())
-        self.now += self.per_row * tile_rows.size * G._TILE
-        return tile_rows.size * G._TILE
+        self.now += self.per_row * tile_rows.size * F.TILE
+        return tile_rows.size * F.TILE
 
 
 class FakeBar:
@@ -323,7 +324,7 @@ class FakeBar:
 @pytest.fixture
 def fake_bar(monkeypatch):
     FakeBar.made = []
-    monkeypatch.setattr(G, "_progress_bar", lambda enabled, total, quiet_without_tqdm=False:
+    monkeypatch.setattr(F, "tqdm_bar", lambda enabled, total, quiet_without_tqdm=False:
                         FakeBar() if enabled else None)
     return FakeBar.made
 
@@ -336,8 +337,8 @@ def _covered(calls):
 @pytest.mark.parametrize("progress_bar", [None, False])
 def test_a_quick_render_runs_in_a_few_calls_and_shows_no_bar(monkeypatch, fake_bar, progress_bar):
     cast = FakeCast(monkeypatch, 1e-4)  # 512 rows: 0.05 s
-    monkeypatch.setattr(G, "_auto_bar_wanted", lambda: True)
-    G.run_in_chunks(cast, 512, progress_bar=progress_bar)
+    monkeypatch.setattr(F, "auto_bar_wanted", lambda: True)
+    F.run_in_chunks(cast, 512, progress_bar=progress_bar)
     # the middle row, chunks doubling until 15 >= 64 / 8 rows are timed, then the rest
     assert [len(c) for c in cast.calls] == [1, 2, 4, 8, 49] and cast.calls[:2] == [[32], [0, 33]]
     assert _covered(cast.calls) == list(range(64))
@@ -347,7 +348,7 @@ def test_a_quick_render_runs_in_a_few_calls_and_shows_no_bar(monkeypatch, fake_b
 @pytest.mark.parametrize("progress_bar", [None, False])
 def test_a_slow_render_runs_in_quarter_second_chunks_whatever_the_bar(monkeypatch, fake_bar, progress_bar):
     cast = FakeCast(monkeypatch, 0.01)  # 80 ms a tile row, 5.12 s in all: 63 rows left
-    G.run_in_chunks(cast, 512, progress_bar=progress_bar)
+    F.run_in_chunks(cast, 512, progress_bar=progress_bar)
     # the middle row, then chunks of at most int(0.25 / 0.08) = 3 rows (0.24 s), spread out
     assert [len(c) for c in cast.calls] == [1, 2] + [3] * 20 + [1]
     assert cast.calls[:3] == [[32], [0, 33], [8, 16, 49]] and _covered(cast.calls) == list(range(64))
@@ -363,10 +364,10 @@ def test_chunks_follow_the_rate_measured_so_far(monkeypatch):
     def timed(tile_rows):
         cast.now += sum(costs.get(r, 0.1) for r in tile_rows.tolist())
         cast.calls.append(tile_rows.tolist())
-        return tile_rows.size * G._TILE
+        return tile_rows.size * F.TILE
 
-    monkeypatch.setattr(G, "_AUTO_BAR_SECONDS", 0.0)
-    G.run_in_chunks(timed, 512, progress_bar=False)
+    monkeypatch.setattr(F, "AUTO_BAR_SECONDS", 0.0)
+    F.run_in_chunks(timed, 512, progress_bar=False)
     sizes = [len(c) for c in cast.calls]
     # 0.001 s a row would allow 250 rows: the chunks double instead (2 rows, 0.2 s); then
     # the rate is 0.1 s a row, and int(0.25 / 0.1) = 2 rows a chunk
@@ -374,18 +375,18 @@ def test_chunks_follow_the_rate_measured_so_far(monkeypatch):
 
 
 def test_spread_order_is_bit_reversed():
-    assert G._spread_order(np.arange(8)).tolist() == [0, 4, 2, 6, 1, 5, 3, 7]
-    order = G._spread_order(np.arange(100) * 2)
+    assert F._spread_order(np.arange(8)).tolist() == [0, 4, 2, 6, 1, 5, 3, 7]
+    order = F._spread_order(np.arange(100) * 2)
     assert sorted(order.tolist()) == list(range(0, 200, 2))
 
 
 def test_the_automatic_bar_shows_for_slow_renders_on_a_terminal_only(monkeypatch, fake_bar):
-    monkeypatch.setattr(G, "_auto_bar_wanted", lambda: True)
+    monkeypatch.setattr(F, "auto_bar_wanted", lambda: True)
     cast = FakeCast(monkeypatch, 0.01)
-    G.run_in_chunks(cast, 512)
+    F.run_in_chunks(cast, 512)
     (bar,) = fake_bar
     assert bar.updates == [8, 16] + [24] * 20 + [8] and bar.closed
-    G.run_in_chunks(FakeCast(monkeypatch, 0.01), 512, progress_bar=False)
+    F.run_in_chunks(FakeCast(monkeypatch, 0.01), 512, progress_bar=False)
     assert len(fake_bar) == 1
 
 
@@ -399,27 +400,27 @@ def test_auto_bar_wanted_on_a_terminal_or_in_a_jupyter_kernel(monkeypatch):
 
     monkeypatch.delitem(sys.modules, "IPython", raising=False)
     monkeypatch.setattr(sys, "stderr", Stream(False))
-    assert G._auto_bar_wanted() is False
+    assert F.auto_bar_wanted() is False
     monkeypatch.setattr(sys, "stderr", Stream(True))
-    assert G._auto_bar_wanted() is True
+    assert F.auto_bar_wanted() is True
     monkeypatch.setattr(sys, "stderr", None)
-    assert G._auto_bar_wanted() is False
+    assert F.auto_bar_wanted() is False
     # IPython in a terminal (no kernel) and in a Jupyter kernel, stderr not a terminal
     monkeypatch.setattr(sys, "stderr", Stream(False))
     fake = types.ModuleType("IPython")
     fake.get_ipython = lambda: types.SimpleNamespace()
     monkeypatch.setitem(sys.modules, "IPython", fake)
-    assert G._auto_bar_wanted() is False
+    assert F.auto_bar_wanted() is False
     fake.get_ipython = lambda: types.SimpleNamespace(kernel=object())
-    assert G._auto_bar_wanted() is True
+    assert F.auto_bar_wanted() is True
     fake.get_ipython = lambda: None
-    assert G._auto_bar_wanted() is False
+    assert F.auto_bar_wanted() is False
 
 
 def test_an_interrupt_between_chunks_propagates_and_closes_the_bar(monkeypatch, fake_bar):
     cast = FakeCast(monkeypatch, 0.01, interrupt_at=5)
     with pytest.raises(KeyboardInterrupt):
-        G.run_in_chunks(cast, 512, progress_bar=True)
+        F.run_in_chunks(cast, 512, progress_bar=True)
     assert len(cast.calls) == 5 and fake_bar[0].closed
 
 
@@ -453,7 +454,7 @@ def test_chunking_changes_no_pixel(monkeypatch, seconds_per_tick, sizes):
     vals = np.linspace(0, 1, 10 * 11 * 12).reshape(10, 11, 12)
     ref = hv.render(vals, GRAY_TF, None, (40, 72), progress_bar=False, precision="float64")
     ticks = itertools.count(0.0, seconds_per_tick)
-    monkeypatch.setattr(G, "_clock", lambda: next(ticks))
+    monkeypatch.setattr(F, "_clock", lambda: next(ticks))
     calls = []
     run = G.run_in_chunks
 
@@ -571,10 +572,10 @@ def test_chunking_changes_no_pixel_of_a_mesh(monkeypatch):
     mesh = pv.ImageData(dimensions=(5, 5, 5)).triangulate()
     mesh["s"] = np.linspace(0.0, 1.0, mesh.n_points)
     tf = hv.TransferFunction.ramp(0.0, 1.0, cmap="gray", opacity=(0.1, 0.6))
-    monkeypatch.setattr(G, "_clock", lambda: 0.0)
+    monkeypatch.setattr(F, "_clock", lambda: 0.0)
     ref = hv.render(mesh, tf, None, (40, 72), progress_bar=False, precision="float64")
     ticks = itertools.count(0.0, 1.0)  # every row of tiles alone
-    monkeypatch.setattr(G, "_clock", lambda: next(ticks))
+    monkeypatch.setattr(F, "_clock", lambda: next(ticks))
     img = hv.render(mesh, tf, None, (40, 72), progress_bar=False, precision="float64")
     assert img.rgba[..., 3].max() > 0.5
     np.testing.assert_array_equal(img.rgba, ref.rgba)

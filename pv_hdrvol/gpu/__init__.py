@@ -10,7 +10,7 @@ for ``device="cuda"``; a machine without it then gets a
 """
 from __future__ import annotations
 
-from ..raycast.grid import DEVICE_RUNNERS
+from ..raycast.frame import DEVICE_RUNNERS
 from .device import DeviceUnavailableError, cuda_module
 
 

@@ -50,7 +50,7 @@ def pixel_ray_span(cam, origins, directions, span, col, row, width, height):
 def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width,
                       height, tile_rows, lo, hi, piece, p, shading, lights, gvec, out_rgba, out_depth, out_samples):
     """One pixel of ``render_tiles`` per thread: pixel column ``x``, and the ``y``-th row
-    of the rows of tiles ``tile_rows`` (``raycast.grid.run_in_chunks``)."""
+    of the rows of tiles ``tile_rows`` (``raycast.frame.run_in_chunks``)."""
     col, y = cuda.grid(2)  # noqa: F821 (injected)
     row = tile_rows[y // TILE] * TILE + y % TILE  # noqa: F821
     if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
@@ -195,11 +195,11 @@ _built = {}
 def _build(source, resolve):
     from numba import cuda
 
-    from ..raycast.grid import _TILE
+    from ..raycast.frame import TILE
     from ._retarget import Retarget
 
     retarget = Retarget(lambda f: cuda.jit(device=True)(f), resolve,
-                        inject={"cuda": cuda, "TILE": _TILE, "SCRATCH_LEN": _SCRATCH})
+                        inject={"cuda": cuda, "TILE": TILE, "SCRATCH_LEN": _SCRATCH})
     return cuda.jit(retarget.source(source))
 
 
@@ -228,5 +228,5 @@ def tet_kernel(precision):
 
 
 def marker(precision):
-    """The compositing marker of ``precision`` (``raycast.grid._MARKERS``)."""
+    """The compositing marker of ``precision`` (``raycast.frame.MARKERS``)."""
     return np.float64(0.0) if precision == "float64" else np.float32(0.0)

@@ -69,13 +69,13 @@ class CudaRunner:
 
     def launch(self, kernel, width, rows, *args):
         """``kernel`` over ``width`` columns and the pixel rows of ``rows`` tile rows."""
-        from ..raycast.grid import _TILE
+        from ..raycast.frame import TILE
 
         # the simulator runs a block's threads as Python threads that contend for the GIL
         # with its polling (a 16 x 16 render: 18-56 s in 8 x 8 blocks, 0.6 s one by one);
         # the kernels share nothing between threads, so the block shape changes no pixel
         bx, by = (1, 1) if _simulated() else G.BLOCK
-        grid = ((width + bx - 1) // bx, (rows * _TILE + by - 1) // by)
+        grid = ((width + bx - 1) // bx, (rows * TILE + by - 1) // by)
         t = time.perf_counter()
         kernel[grid, (bx, by)](*args)
         self.cuda.synchronize()
@@ -121,9 +121,9 @@ def _simulated():
 def composite_frame(runner, prec, light, bricks, table, sigma, leap, grids, dims, cam, origins, directions, span,
                     width, height, lo, hi, piece, params, out_rgba, out_depth, out_samples):
     """``(cast, finish)`` of a composite render on the GPU: ``cast(tile_rows)`` renders
-    those rows of tiles (``raycast.grid.run_in_chunks``), ``finish()`` copies the image
+    those rows of tiles (``raycast.frame.run_in_chunks``), ``finish()`` copies the image
     into the host arrays ``out_*``. Arguments as ``raycast._kernels.render_tiles``."""
-    from ..raycast.grid import pixel_rows
+    from ..raycast.frame import pixel_rows
 
     kernel = G.composite_kernel(prec, light != 0)
     d = runner.device_array
@@ -157,7 +157,7 @@ def projection_frame(runner, bricks, table, leap, grids, dims, a, cam, origins, 
     """As :func:`composite_frame`, for ``raycast._kernels_ext.render_projection`` (``a``:
     its ``_Extended`` arguments; no level of detail). ``cam``: the camera's kernel array,
     or empty with the rays in ``origins``/``directions``."""
-    from ..raycast.grid import pixel_rows
+    from ..raycast.frame import pixel_rows
 
     kernel = G.projection_kernel()
     d = runner.device_array
@@ -187,7 +187,7 @@ def tet_frame(runner, prec, mesh, cells_i, cells_f, active, table, grads, shadin
     its cell records and tables stay on the device; the boundary crossings ``hits``
     (``raycast.tets.boundary_crossings``, found on the CPU for each view) travel with
     every frame."""
-    from ..raycast.grid import pixel_rows
+    from ..raycast.frame import pixel_rows
 
     kernel = G.tet_kernel(prec)
     d = runner.device_array

@@ -23,6 +23,69 @@ SPATIAL = ("bilinear", "gaussian")
 _EXP_TABLE = K.exp_table()
 
 
+class DepthLayers:
+    """Per pixel, the first ``k`` depths (world distance along the ray; ``inf`` where a
+    pixel has fewer) and, for a mesh, the length of the ray inside it.
+
+    Attributes
+    ----------
+    depth : ndarray (k, rows, cols) float64
+    counts : ndarray (rows, cols) int
+        How many layers each pixel has in all (may exceed ``k``).
+    thickness : ndarray (rows, cols) float64 or None
+        Meshes: the world length of each pixel's ray inside the mesh, from all its
+        boundary crossings (exits minus entries), not only the ``k`` kept; 0 where
+        the ray misses. ``None`` for the reference depth of an image volume.
+    seconds : float
+        Time taken to compute them.
+    """
+
+    def __init__(self, depth, counts, seconds=0.0, source="", thickness=None):
+        self.depth = depth
+        self.counts = counts
+        self.thickness = thickness
+        self.seconds = seconds
+        self.source = source
+
+    @property
+    def n_layers(self):
+        return int(self.depth.shape[0])
+
+    @property
+    def shape(self):
+        return self.depth.shape[1:]
+
+    @property
+    def layers_needed(self):
+        """The most layers any pixel has: peeling more finds nothing new."""
+        return int(self.counts.max()) if self.counts.size else 0
+
+    def normalized(self, missing=2.0, layer_first=False):
+        """The layers as a float64 guide: depths scaled to [0, 1] over the finite range,
+        ``missing`` (default 2, far from every surface) where a pixel has no such layer;
+        (rows, cols, k), or (k, rows, cols) with ``layer_first``."""
+        from ._upsample_kernels import normalize_depths
+
+        d = np.ascontiguousarray(self.depth, dtype=np.float64)
+        out = np.empty(d.shape)
+        normalize_depths(d.reshape(-1), float(missing), out.reshape(-1))
+        return out if layer_first else np.ascontiguousarray(np.moveaxis(out, 0, -1))
+
+    def normalized_thickness(self):
+        """:attr:`thickness` divided by its largest value (all zeros stay zeros), float64
+        (rows, cols): the guide of ``upsample(guide="thickness")``."""
+        if self.thickness is None:
+            raise ValueError(f"these layers have no thickness (they are the {self.source}); only a mesh's "
+                             "boundary layers do")
+        top = float(self.thickness.max()) if self.thickness.size else 0.0
+        return self.thickness / top if top > 0.0 else np.array(self.thickness, dtype=np.float64)
+
+    def __repr__(self):
+        rows, cols = self.shape
+        return (f"DepthLayers({cols}x{rows}, {self.n_layers} layers kept, {self.layers_needed} needed, "
+                f"{self.seconds * 1e3:.1f} ms, {self.source})")
+
+
 def _inverse_two_squares(sigma):
     """``1 / (2 sigma^2)``, capped at 1e300 so that a tiny sigma (whose square underflows)
     still weighs equal guides fully and any difference as nothing (never ``0 * inf``)."""

@@ -44,10 +44,8 @@ from ..data.transfer import SCALE_CODES, TF_KEYWORDS, TransferFunction, auto_tra
 from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
-from ..raycast.grid import (
-    VolumePiece, _MARKERS, _TILE, _check_progress_bar, _lanes, _visible, _windowed, dilate, leap_radius,
-    pixel_rows, run_in_chunks,
-)
+from ..raycast.grid import VolumePiece, _visible, dilate, leap_radius
+from ..raycast.frame import MARKERS, TILE, check_progress_bar, pixel_rows, run_in_chunks, tile_lanes, windowed
 from ..rays.camera import Camera, Rays, as_camera
 from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
@@ -440,7 +438,7 @@ class MultiscalePlan:
                 raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
         owned = None if piece is None else self._check_piece(piece)
         screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
-        _check_progress_bar(progress_bar)
+        check_progress_bar(progress_bar)
         camera = as_camera(camera, vol.bounds)
         lens_camera = None
         if lens is not None:
@@ -462,7 +460,7 @@ class MultiscalePlan:
         # (a ray's level of detail, Rays.lod, is not read: the blocks' levels come from
         # the rays' footprints, which a minifying lens's sparse rays make coarser)
         desired = self.desired_levels(camera, (width, height), screen_error)
-        rays, far, width, height = _windowed(camera, rays, far, window, width, height)
+        rays, far, width, height = windowed(camera, rays, far, window, width, height)
         n_levels = vol.n_levels
         # visible where the desired level's data can show anything under the function
         shown = desired >= 0
@@ -564,8 +562,8 @@ class MultiscalePlan:
         rgba = np.zeros((height * width, 4), dtype=out_dtype)
         depth = np.full(height * width, np.inf, dtype=np.float64)
         samples = np.zeros(height * width, dtype=np.int64)
-        marker = _MARKERS[prec]
-        lanes = _lanes()
+        marker = MARKERS[prec]
+        lanes = tile_lanes()
         # a block of level L samples once per 2**(L - finest) segments of the frame's lattice
         segments = np.ones(vol.block_shape, dtype=np.int64)
         segments[active] = 1 << (level[active] - finest)
@@ -576,7 +574,7 @@ class MultiscalePlan:
             rows = np.ascontiguousarray(tile_rows)
             if not flat:
                 K.render_tiles(marker, cache.pool, offs, table.reshape(-1), self.sigma, leap, grids, dims, cam,
-                               origins, directions, span, width, height, _TILE, rows, lanes, lo, hi, piece_box,
+                               origins, directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box,
                                params, 0, 0, rgba, depth, samples)
             return pixel_rows(tile_rows, height)
 

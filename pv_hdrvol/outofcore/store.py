@@ -386,9 +386,9 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     src = _as_source(source, shape, dtype, spacing, origin, name, scalars)
     if downsample == "mode" and not np.issubdtype(src.dtype, np.integer):
         raise ValueError(f"downsample='mode' is for label volumes (integers); got dtype {src.dtype}")
-    from ..raycast.grid import _auto_bar_wanted, _check_progress_bar
+    from ..raycast.frame import auto_bar_wanted, check_progress_bar
 
-    _check_progress_bar(progress_bar)  # every check before an old store is removed
+    check_progress_bar(progress_bar)  # every check before an old store is removed
     path = os.fspath(path)
     if os.path.lexists(path):
         if not overwrite:
@@ -402,7 +402,7 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     edges = [shard_edge(_level_dtype(src.dtype, L, downsample).itemsize, chunk) for L in range(len(shapes))]
     total = sum(len(_boxes(s, e)) for s, e in zip(shapes, edges))
     bar = None
-    if progress_bar or (progress_bar is None and _auto_bar_wanted()):
+    if progress_bar or (progress_bar is None and auto_bar_wanted()):
         try:
             from tqdm.auto import tqdm
 

@@ -1371,7 +1371,7 @@ def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids
     float32 arithmetic with compensated (Kahan) sums. ``float16``/``uint8`` apply the
     conventional ``over`` operator in that buffer precision, for comparison.
 
-    ``marker`` (a float64, float32 or int64 zero, ``grid._MARKERS``) picks the
+    ``marker`` (a float64, float32 or int64 zero, ``frame.MARKERS``) picks the
     precision at compile time: only that precision's loop (``_march_plain``, or
     ``_march_in`` for the mip-map) is compiled; float16 and uint8 share the emulated one
     (``_marker_precision``). ``light`` is 0 (unshaded) or the lighting tuple
@@ -1411,7 +1411,7 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
 
     Tiles of ``tile x tile`` rays walk nearly the same bricks, so they stay in cache
     (a row of rays sweeps a whole slab of the volume). Lane ``l`` renders tiles
-    ``l, l + lanes, ...``, one lane per thread (``grid._lanes``): each thread's work
+    ``l, l + lanes, ...``, one lane per thread (``frame.tile_lanes``): each thread's work
     is spread evenly over the image (balanced without dynamic scheduling, which numba
     0.56 lacks), and the tile it renders next lies a few tiles on along the row, where
     most of the last one's bricks are still in cache.

@@ -29,8 +29,8 @@ from ..params import RenderOptions
 from ..image.hdr import HDRImage
 from ..rays.camera import Rays, as_camera, ray_box_spans
 from .._validate import as_size
-from .grid import (GridPlan, _check_progress_bar, _progress_bar, collected_warnings, render_volume,
-                   resolve_transfer_function, warn_empty)
+from .grid import GridPlan, collected_warnings, render_volume, resolve_transfer_function, warn_empty
+from .frame import check_progress_bar, tqdm_bar
 from .tets import TetPlan, render_tets
 
 
@@ -148,10 +148,10 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else unit_spacing
     camera = as_camera(camera, bounds)
     rays = camera if isinstance(camera, Rays) else camera.rays(as_size(size))
-    _check_progress_bar(progress_bar)
+    check_progress_bar(progress_bar)
     weights = np.array([v.values.size for v in volumes], dtype=np.float64)
     start = np.concatenate([[0.0], np.cumsum(weights)]) / weights.sum()
-    bar = _progress_bar(progress_bar, 1000) if progress_bar else None
+    bar = tqdm_bar(progress_bar, 1000) if progress_bar else None
     images = []
     try:
         with collected_warnings() as reasons:
@@ -244,10 +244,10 @@ def render_mixed_blocks(blocks, mesh, tf=None, camera=None, size=(512, 512), opt
     ends = np.concatenate([enter_sorted, np.full((1, enter.shape[1]), np.inf)])
     open_gaps = (ends > starts) & np.isfinite(starts)
     gaps = [j for j in range(len(boxes) + 1) if open_gaps[j].any()]
-    _check_progress_bar(progress_bar)
+    check_progress_bar(progress_bar)
     weights = np.array([v.values.size for v in volumes] + [mesh.n_cells] * len(gaps), dtype=np.float64)
     start = np.concatenate([[0.0], np.cumsum(weights)]) / weights.sum()
-    bar = _progress_bar(progress_bar, 1000) if progress_bar else None
+    bar = tqdm_bar(progress_bar, 1000) if progress_bar else None
     images, entries = [], []
     try:
         with collected_warnings() as reasons:

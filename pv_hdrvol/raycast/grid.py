@@ -4,7 +4,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
-import sys
 import threading
 import time
 from typing import NamedTuple
@@ -15,25 +14,18 @@ from ..data.grid import GridVolume, as_volume, content_digest, volume_from_array
 from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction, auto_transfer_function,
                              scale_forward, table_entry_span)
 from ..image.hdr import HDRImage
-from .._validate import as_real, as_size
+from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
-from ..rays.camera import Camera, Rays, as_camera, check_window
+from ..rays.camera import Camera, Rays, as_camera
 from ..rays.clip import has_clip, ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
 from .memory import check_memory
+from .frame import (MARKERS, TILE, check_lod, check_progress_bar, device_runner, pixel_rows,
+                    run_frame, run_in_chunks, tile_lanes, windowed)
 from .shading import shading_arrays, shading_metadata
 
-# Rays are cast in square tiles of this many pixels a side (cache locality).
-_TILE = 8
-# Renders expected to take longer than this (seconds) run in chunks of about
-# _CHUNK_SECONDS, so that Ctrl-C stops them soon; progress_bar=None then shows a bar on a
-# terminal or in a notebook.
-_AUTO_BAR_SECONDS = 1.0
-_CHUNK_SECONDS = 0.25
-# the clock that times the first chunk (tests replace it)
-_clock = time.perf_counter
 # empty-space structures kept per volume (one per transfer function and block mask)
 _SKIP_CACHE = 4
 
@@ -178,10 +170,6 @@ def resolve_transfer_function(data, tf=None, *, cmap=None, clim=None, opacity=No
     if not isinstance(tf, TransferFunction):
         raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
     return tf
-
-
-#: The compositing marker of each precision: its type picks the one loop ``render_tiles`` compiles.
-_MARKERS = {"float64": np.float64(0.0), "float32": np.float32(0.0), "float16": np.int64(0), "uint8": np.int64(0)}
 
 
 class EmptyRenderWarning(RuntimeWarning):
@@ -585,31 +573,6 @@ def render_volume(volume, tf=None, camera=None, size=(512, 512), options=None, *
                         progress_bar=progress_bar)
 
 
-def _windowed(camera, rays, far, window, width, height):
-    """``(rays, far, width, height)`` of a render of ``width x height`` cut to ``window``
-    (``None``: the whole image): ``far`` checked and flat, cut to the window too; the
-    window's rays (a camera makes them; given rays are cut)."""
-    far = _check_far(far, width, height)
-    if window is not None:
-        if far.size:
-            col, row, w, h = check_window(window, width, height)
-            far = np.ascontiguousarray(far.reshape(height, width)[row:row + h, col:col + w]).reshape(-1)
-        rays = camera.rays((width, height), window) if rays is None else _window_rays(rays, window)
-        width, height = rays.width, rays.height
-    return rays, far, width, height
-
-
-def _window_rays(rays, window):
-    """The rays of ``window = (col, row, width, height)``, a rectangle of ``rays``' image."""
-    col, row, w, h = check_window(window, rays.width, rays.height)
-
-    def cut(a, k):
-        return np.ascontiguousarray(a.reshape(rays.height, rays.width, k)[row:row + h, col:col + w].reshape(-1, k))
-
-    lod = None if rays.lod is None else cut(np.asarray(rays.lod), 1).reshape(-1)
-    return Rays(cut(rays.origins, 3), cut(rays.directions, 3), w, h, lod)
-
-
 class _Prepared(NamedTuple):
     """What a :class:`GridPlan` builds on its first execution (cached on the volume)."""
 
@@ -784,8 +747,8 @@ class GridPlan:
             rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
         width, height = (rays.width, rays.height) if rays is not None else as_size(size)
         image_size = (width, height)  # a window's render culls for the whole image's rays (its own among them)
-        rays, far, width, height = _windowed(camera, rays, far, window, width, height)
-        lod = _check_lod(rays) if rays is not None else None
+        rays, far, width, height = windowed(camera, rays, far, window, width, height)
+        lod = check_lod(rays) if rays is not None else None
         # clipping planes, a crop box and far: one [near, far] per pixel (rays/clip.py)
         span = ray_spans(rays if rays is not None else camera, (width, height), opts, far)
         check_rectilinear(self.source, **{"Rays with a level of detail (Rays.lod)": lod is not None or None})
@@ -854,7 +817,7 @@ class GridPlan:
             reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
         if piece is None:  # a piece may well be empty where the whole is not
             warn_empty(reason)
-        lanes = _lanes()
+        lanes = tile_lanes()
 
         # shading alone lights the plain loop (render_tiles); the rest takes the extended kernels
         extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
@@ -879,7 +842,7 @@ class GridPlan:
 
         # the precision's marker and the lighting (0: none): each kernel compiles that
         # precision's loop, lit or not, only
-        marker = _MARKERS[prec]
+        marker = MARKERS[prec]
         light = _light(volume, opts, prec, piece) if not flat else 0
         warp = warp_arrays(volume, None if piece is None or nominal is None else nominal[1])
 
@@ -889,28 +852,28 @@ class GridPlan:
                 pass
             elif not extended:
                 K.render_tiles(marker, bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
-                               dims, cam, origins, directions, span, width, height, _TILE, rows, lanes, lo, hi,
+                               dims, cam, origins, directions, span, width, height, TILE, rows, lanes, lo, hi,
                                piece_box, params, light, warp, rgba, depth, samples)
             elif value is not None:
                 a = kernel_args
                 KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
-                                     a.sigmas, a.axes, origins, directions, span, width, height, _TILE, rows, lanes, lo,
+                                     a.sigmas, a.axes, origins, directions, span, width, height, TILE, rows, lanes, lo,
                                      hi, params, a.e, value, rgba, depth, samples)
             elif a_lens_only:
                 a = kernel_args
                 KX.render_lens(marker, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo,
                                a.e.n_levels, a.lods, a.tables, sigma, a.level_tables, a.level_steps, origins,
-                               directions, span, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, rgba,
+                               directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box, params, rgba,
                                depth, samples)
             else:
                 a = kernel_args
                 KX.render_ext(marker, light, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr,
                               a.pgeo, a.lods, a.gbricks, a.slots, a.modes, a.tables, a.sigmas, a.axes, origins,
-                              directions, span, width, height, _TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
+                              directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
                               depth, samples)
             return pixel_rows(tile_rows, height)
 
-        _check_progress_bar(progress_bar)
+        check_progress_bar(progress_bar)
         t_start = time.perf_counter()
         device_meta = {"name": opts.device}
         if on_device and not flat:
@@ -971,35 +934,6 @@ class GridPlan:
         if value is not None:
             value = value.reshape(height, width)
         return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
-
-
-#: Renderers on other devices than the CPU, registered by later stages: device name
-#: (``RenderOptions.device``) -> a function of no arguments that returns a runner with
-#: ``frame()`` (a context manager holding the runner for one frame), the frame makers
-#: ``composite_frame(...)``, ``projection_frame(...)`` and ``tet_frame(...)`` (each
-#: returns ``(cast, finish)``: see :func:`run_frame`), and ``describe()``, the frame's
-#: ``metadata["device"]`` (``pv_hdrvol.gpu`` registers ``"cuda"`` when imported).
-DEVICE_RUNNERS = {}
-
-
-def device_runner(device):
-    """A new runner of ``device`` from :data:`DEVICE_RUNNERS`."""
-    make = DEVICE_RUNNERS.get(device)
-    if make is None:
-        raise ValueError(f"device={device!r} has no renderer registered: import pv_hdrvol.gpu")
-    return make()
-
-
-def run_frame(cast, finish, height, progress, progress_bar, chunk_seconds):
-    """A device frame: one ``cast`` over every row of tiles (chunks would leave the
-    device idle between launches), or :func:`run_in_chunks` when progress is watched
-    (``progress``, a bar), so that it reports and can be cancelled; then ``finish()``,
-    which copies the image back."""
-    if progress is None and not progress_bar:
-        cast(np.arange(-(-height // _TILE), dtype=np.int64))
-    else:
-        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
-    finish()
 
 
 def _check_device(opts, volume, labels):
@@ -1144,22 +1078,6 @@ def _check_piece(piece, volume, opts, ghosts):
     return np.concatenate([lo, hi, offset]).astype(np.float64), (whole - 1).astype(np.float64), origin, None
 
 
-def _check_far(far, width, height, name="far"):
-    """``far`` (or another per-pixel distance, ``name``) as a flat float64 array (empty
-    for ``None``), checked."""
-    if far is None:
-        return np.empty(0)
-    a = np.asarray(far)
-    if a.dtype.kind not in "fiu":
-        raise TypeError(f"{name} must be a numeric array; got dtype {a.dtype}")
-    if a.shape != (height, width):
-        raise ValueError(f"{name} must have the image's shape (rows, cols) = {(height, width)}; got {a.shape}")
-    a = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
-    if np.isnan(a).any() or (a < 0).any():
-        raise ValueError(f"{name} must hold distances >= 0 (inf: no limit); got NaN or negative values")
-    return a
-
-
 def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=None):
     """``{what: bytes}``: what :func:`render_volume` will allocate for these arguments
     (``rays``: the Rays it is given; ``lod``: their level of detail), not counting
@@ -1214,18 +1132,6 @@ def _memory_advice(volume, prec, width, height):
     if prec == "float64":
         advice.append("precision='float32'")
     return "try " + ", ".join(advice[:-1]) + " or " + advice[-1]
-
-
-def _check_lod(rays):
-    """The rays' level of detail as a contiguous float64 array, or None when all are 0."""
-    if rays.lod is None:
-        return None
-    lod = np.ascontiguousarray(rays.lod, dtype=np.float64).reshape(-1)
-    if lod.size != rays.width * rays.height:
-        raise ValueError(f"Rays.lod must have one value per ray ({rays.width * rays.height}); got {lod.size}")
-    if not np.all(np.isfinite(lod)) or lod.min() < 0:
-        raise ValueError("Rays.lod must be finite and >= 0")
-    return lod if lod.max() > 0 else None
 
 
 class _Extended(NamedTuple):
@@ -1551,136 +1457,3 @@ def _quantize_u8(values, tf):
     return out
 
 
-def _lanes():
-    """Lanes of the tile kernels: one per thread. Lane ``l`` of ``n`` renders tiles
-    ``l, l + n, ...``, so each thread walks the image in small steps: the tile it renders
-    next lies ``n`` tiles on along the row (two, 16 pixels, on two threads) and finds
-    most of its bricks (or cells) still in cache, while every thread still gets an even
-    share of every part of the image."""
-    import numba
-
-    return numba.get_num_threads()
-
-
-def run_in_chunks(cast, height, progress=None, progress_bar=None, chunk_seconds=None):
-    """Call ``cast(tile_rows)`` (which renders those rows of ``_TILE``-pixel tiles and
-    returns how many pixel rows it did) over all rows of tiles, with progress.
-
-    The middle row of tiles goes first, then the others in chunks that double in size
-    until an eighth of the rows is done, each limited to about ``_CHUNK_SECONDS`` at
-    the rate measured so far; then the rest in chunks of that limit (all of it, for a
-    quick render). A kernel call cannot be interrupted, so Ctrl-C (KeyboardInterrupt)
-    takes effect when the chunk running ends: within about ``_CHUNK_SECONDS``,
-    whatever ``progress_bar`` says. ``progress``/``progress_bar=True`` get at least as
-    many reports as a quarter of the tile rows (<= 64). The rows are taken in
-    bit-reversed order, so every chunk is spread over the image; tile rows are
-    rendered independently, so the chunks change no pixel.
-
-    ``progress_bar=None`` shows a tqdm bar for a slow render only on a terminal or in a
-    Jupyter kernel (:func:`_auto_bar_wanted`). ``progress(fraction)`` returning
-    ``False`` raises ``RuntimeError("render aborted")``; any exception (KeyboardInterrupt
-    too) closes the bar and propagates. ``chunk_seconds`` replaces ``_CHUNK_SECONDS``
-    (a chunk is never less than one row of tiles).
-    """
-    chunk_seconds = _CHUNK_SECONDS if chunk_seconds is None else as_real("chunk_seconds", chunk_seconds, low=0.0,
-                                                                         low_open=True)
-    tile_count_y = -(-height // _TILE)
-    bar = _progress_bar(progress_bar, height) if progress_bar else None
-    done = 0
-
-    def report(rows):
-        nonlocal done
-        done += rows
-        if bar is not None:
-            bar.update(rows)
-        if progress is not None and progress(done / height) is False:
-            raise RuntimeError("render aborted")
-
-    try:
-        t_start = _clock()
-        middle = tile_count_y // 2
-        report(cast(np.array([middle], dtype=np.int64)))
-        rest = _spread_order(np.delete(np.arange(tile_count_y, dtype=np.int64), middle))
-        # a watched render reports at least as often as it always did: after a quarter
-        # of the tile rows (<= 64 reports)
-        most = -(-rest.size // max(1, min(tile_count_y // 4, 64) - 1)) \
-            if progress is not None or bar is not None else rest.size
-        start, size, rows_done = 0, 1, 1
-        t_first = _clock()  # the first call may have compiled the kernel: not a rate
-        while start < rest.size:
-            # seconds a row of tiles, so far
-            rate = (t_first - t_start) if rows_done == 1 else (_clock() - t_first) / (rows_done - 1)
-            if bar is None and progress_bar is None and rate * tile_count_y > _AUTO_BAR_SECONDS \
-                    and _auto_bar_wanted():
-                bar = _progress_bar(True, height, quiet_without_tqdm=True)
-                if bar is not None:
-                    bar.update(done)
-            fits = max(1, int(chunk_seconds / rate)) if rate > 0 else rest.size
-            # double the chunks until an eighth of the rows is timed (the middle row
-            # alone may be cheap), and keep each to about chunk_seconds
-            size = min(fits if 8 * rows_done >= tile_count_y else 2 * size, fits, most)
-            # in image order inside a chunk: neighbouring rows share bricks (cells) in cache
-            part = np.sort(rest[start:start + size])
-            report(cast(part))
-            start += part.size
-            rows_done += part.size
-    finally:
-        if bar is not None:
-            bar.close()
-
-
-def pixel_rows(tile_rows, height):
-    """How many pixel rows of an image ``height`` rows high the rows of tiles
-    ``tile_rows`` cover (the last row of tiles may be cut short)."""
-    return int(np.minimum((tile_rows + 1) * _TILE, height).sum() - (tile_rows * _TILE).sum())
-
-
-def _spread_order(rows):
-    """``rows`` in bit-reversed (van der Corput) order of their positions: any run of
-    consecutive entries is spread evenly over the image."""
-    n = rows.size
-    if n < 3:
-        return rows
-    bits = int(n - 1).bit_length()
-    i = np.arange(n, dtype=np.int64)
-    rev = np.zeros(n, dtype=np.int64)
-    for b in range(bits):
-        rev |= ((i >> b) & 1) << (bits - 1 - b)
-    return rows[np.argsort(rev, kind="stable")]
-
-
-def _auto_bar_wanted():
-    """Whether ``progress_bar=None`` may show a bar: when stderr is a terminal or the code
-    runs in a Jupyter (IPython) kernel; never into a log file or a pipe, where tqdm's
-    carriage-return lines would pile up."""
-    try:
-        if sys.stderr is not None and sys.stderr.isatty():
-            return True
-    except (AttributeError, ValueError, OSError):  # a replaced or closed stderr
-        pass
-    ipython = sys.modules.get("IPython")  # never imported here: only if already in use
-    if ipython is None:
-        return False
-    try:
-        shell = ipython.get_ipython()
-    except Exception:  # noqa: BLE001 - any failure means: not in a kernel
-        return False
-    return shell is not None and getattr(shell, "kernel", None) is not None
-
-
-def _check_progress_bar(value):
-    if value not in (True, False, None):
-        raise TypeError(f"progress_bar must be True, False or None (after 1 s); got {value!r}")
-
-
-def _progress_bar(enabled, total, quiet_without_tqdm=False):
-    """A tqdm bar over ``total`` rows when ``enabled`` (None without tqdm if ``quiet_without_tqdm``)."""
-    if not enabled:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        if quiet_without_tqdm:
-            return None  # the automatic bar is a convenience: no tqdm, no bar
-        raise ImportError("progress_bar=True needs tqdm (pip install tqdm)") from None
-    return tqdm(total=total, desc="Rendering", unit="rows")

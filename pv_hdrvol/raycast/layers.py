@@ -19,79 +19,8 @@ import numpy as np
 
 from .._validate import as_int, as_real, as_size
 from ..data.tets import as_tetmesh, is_unstructured
+from ..image.upsample import DepthLayers  # re-exported: the layers' type lives with their reader
 from ..rays.camera import Camera
-
-
-class DepthLayers:
-    """Per pixel, the first ``k`` depths (world distance along the ray; ``inf`` where a
-    pixel has fewer) and, for a mesh, the length of the ray inside it.
-
-    Attributes
-    ----------
-    depth : ndarray (k, rows, cols) float64
-    counts : ndarray (rows, cols) int
-        How many layers each pixel has in all (may exceed ``k``).
-    thickness : ndarray (rows, cols) float64 or None
-        Meshes: the world length of each pixel's ray inside the mesh, from all its
-        boundary crossings (exits minus entries), not only the ``k`` kept; 0 where
-        the ray misses. ``None`` for the reference depth of an image volume.
-    seconds : float
-        Time taken to compute them.
-    """
-
-    def __init__(self, depth, counts, seconds=0.0, source="", thickness=None):
-        self.depth = depth
-        self.counts = counts
-        self.thickness = thickness
-        self.seconds = seconds
-        self.source = source
-
-    @property
-    def n_layers(self):
-        return int(self.depth.shape[0])
-
-    @property
-    def shape(self):
-        return self.depth.shape[1:]
-
-    @property
-    def layers_needed(self):
-        """The most layers any pixel has: peeling more finds nothing new."""
-        return int(self.counts.max()) if self.counts.size else 0
-
-    def normalized(self, missing=2.0, layer_first=False):
-        """The layers as a float64 guide: depths scaled to [0, 1] over the finite range,
-        ``missing`` (default 2, far from every surface) where a pixel has no such layer;
-        (rows, cols, k), or (k, rows, cols) with ``layer_first``."""
-        from ..image._upsample_kernels import normalize_depths
-
-        d = np.ascontiguousarray(self.depth, dtype=np.float64)
-        out = np.empty(d.shape)
-        normalize_depths(d.reshape(-1), float(missing), out.reshape(-1))
-        return out if layer_first else np.ascontiguousarray(np.moveaxis(out, 0, -1))
-
-    def normalized_thickness(self):
-        """:attr:`thickness` divided by its largest value (all zeros stay zeros), float64
-        (rows, cols): the guide of ``upsample(guide="thickness")``."""
-        if self.thickness is None:
-            raise ValueError(f"these layers have no thickness (they are the {self.source}); only a mesh's "
-                             "boundary layers do")
-        top = float(self.thickness.max()) if self.thickness.size else 0.0
-        return self.thickness / top if top > 0.0 else np.array(self.thickness, dtype=np.float64)
-
-    def __repr__(self):
-        rows, cols = self.shape
-        return (f"DepthLayers({cols}x{rows}, {self.n_layers} layers kept, {self.layers_needed} needed, "
-                f"{self.seconds * 1e3:.1f} ms, {self.source})")
-
-
-def mesh_layers(mesh, size, counts, t, thickness, t0):
-    """:class:`DepthLayers` of ``tets.boundary_layers``' flat ``counts``, layers ``t``
-    (k, pixels) and ``thickness`` of ``mesh`` at ``size``, begun at ``t0``
-    (``time.perf_counter``)."""
-    width, height = size
-    return DepthLayers(t.reshape(len(t), height, width), counts.reshape(height, width), time.perf_counter() - t0,
-                       f"boundary of {mesh.n_cells} tets", thickness=thickness.reshape(height, width))
 
 
 def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=None, preference="point",
@@ -124,7 +53,7 @@ def depth_layers(data, camera=None, size=(512, 512), *, max_layers=4, scalars=No
     max_layers = as_int("max_layers", max_layers, low=1)
     t0 = time.perf_counter()
     if is_unstructured(data):
-        from .tets import boundary_layers
+        from .tets import boundary_layers, mesh_layers
 
         if isovalue is not None or tf is not None:
             raise ValueError("isovalue= and tf= pick a reference for image volumes; a mesh's reference is its "

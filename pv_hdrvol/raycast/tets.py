@@ -15,6 +15,7 @@ from ..data.grid import content_digest
 from ..data.tets import as_tetmesh
 from ..data.transfer import SCALE_CODES, _scale_inverse
 from ..image.hdr import HDRImage
+from ..image.upsample import DepthLayers
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES, RenderOptions
 from ..rays.camera import Camera, as_camera, ray_box_spans
@@ -22,8 +23,9 @@ from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import (_MARKERS, _TILE, _check_far, _check_progress_bar, _lanes, _visible, cached, device_runner,
-                   empty_render_reason, pixel_rows, resolve_transfer_function, run_frame, run_in_chunks, warn_empty)
+from .grid import _visible, cached, empty_render_reason, resolve_transfer_function, warn_empty
+from .frame import (MARKERS, TILE, check_far, check_progress_bar, device_runner, pixel_rows, run_frame, run_in_chunks,
+                    tile_lanes)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
 
@@ -199,11 +201,11 @@ class TetPlan:
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a Camera, a view name or a PyVista/VTK camera (not Rays: a tetrahedral "
                             f"render makes its own rays); got {type(camera).__name__}")
-        _check_progress_bar(progress_bar)
+        check_progress_bar(progress_bar)
         width, height = as_size(size)
-        far = _check_far(far, width, height)
+        far = check_far(far, width, height)
         if near is not None:
-            near = _check_far(near, width, height, "near")
+            near = check_far(near, width, height, "near")
         span = ray_spans(camera, (width, height), opts, far, near)  # clip planes, crop box, far (rays/clip.py)
         own = np.empty((0, 2))
         if piece is not None:  # the span of each ray in the owned box
@@ -234,7 +236,7 @@ class TetPlan:
         cells = np.zeros(n_pix, dtype=np.int64)
         pieces = np.zeros(n_pix, dtype=np.int64)
         guard = np.zeros(n_pix, dtype=np.bool_)
-        lanes = _lanes()
+        lanes = tile_lanes()
         cells_i, cells_f = _cell_records(mesh)
         # a cell's gradient is constant: its light depends only on the ray's direction
         grads = cell_gradients(mesh) if opts.shade else np.zeros((1, 3))
@@ -242,10 +244,10 @@ class TetPlan:
 
         def cast(tile_rows):
             rows = np.ascontiguousarray(tile_rows)
-            TK.render_tiles(_MARKERS[opts.precision], mesh.points, cells_i, cells_f, active,
+            TK.render_tiles(MARKERS[opts.precision], mesh.points, cells_i, cells_f, active,
                             mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
                             hits.offsets,
-                            hits.t, hits.face, hits.entering, cam, own, span, width, height, _TILE, rows, lanes,
+                            hits.t, hits.face, hits.entering, cam, own, span, width, height, TILE, rows, lanes,
                             params, rgba, depth, cells, pieces, guard)
             return pixel_rows(tile_rows, height)
 
@@ -347,7 +349,6 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
     """``render_tets(upsample=factor)``: low-resolution render (I), full-resolution
     reference layers (R), joint bilateral upsampling (U)."""
     from ..image.upsample import upsample
-    from .layers import mesh_layers
 
     width, height = as_size(size)
     if width % factor or height % factor:
@@ -481,6 +482,15 @@ def boundary_crossings(mesh, camera, size, cam=None, view=None):
     entering = np.empty(total, dtype=np.bool_)
     LK.rasterize_hits(*geometry, cam, width, height, bands, lanes, False, offsets, counts, t, face, entering)
     return BoundaryHits(offsets, t, face, entering, width, height)
+
+
+def mesh_layers(mesh, size, counts, t, thickness, t0):
+    """:class:`~pv_hdrvol.image.upsample.DepthLayers` of :func:`boundary_layers`' flat ``counts``, layers ``t``
+    (k, pixels) and ``thickness`` of ``mesh`` at ``size``, begun at ``t0``
+    (``time.perf_counter``)."""
+    width, height = size
+    return DepthLayers(t.reshape(len(t), height, width), counts.reshape(height, width), time.perf_counter() - t0,
+                       f"boundary of {mesh.n_cells} tets", thickness=thickness.reshape(height, width))
 
 
 def boundary_layers(mesh, camera, size, k, cam=None, view=None):

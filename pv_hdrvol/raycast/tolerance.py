@@ -232,7 +232,7 @@ def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, w
     """``GridPlan.execute`` for a plan whose options carry a ``tolerance``: choose the
     knobs on a pilot, then render with them."""
     from ..rays.camera import Rays, as_camera, check_window
-    from .grid import GridPlan, _check_far, _window_rays
+    from .frame import check_far, window_rays
 
     opts, tol = plan.options, plan.options.tolerance
     t0 = time.perf_counter()
@@ -243,12 +243,12 @@ def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, w
         rays = camera
     else:
         rays = camera.rays(size)
-    far_all = _check_far(far, rays.width, rays.height).reshape(-1)
+    far_all = check_far(far, rays.width, rays.height).reshape(-1)
     if window is not None:
         col, row, w, h = check_window(window, rays.width, rays.height)
         if far_all.size:
             far_all = far_all.reshape(rays.height, rays.width)[row:row + h, col:col + w].reshape(-1)
-        rays = _window_rays(rays, window)
+        rays = window_rays(rays, window)
     s = pilot_stride(rays.width, rays.height)
     rows = np.arange(s // 2, rays.height, s)
     cols = np.arange(s // 2, rays.width, s)
@@ -261,7 +261,7 @@ def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, w
 
     def child(tf, step, termination):
         o = opts.replace(tolerance=None, step=step, termination=termination, precision="float64")
-        return GridPlan(plan.source, tf, o, labels=plan.labels, label_styles=plan.label_styles)
+        return type(plan)(plan.source, tf, o, labels=plan.labels, label_styles=plan.label_styles)
 
     def pilot_rgb(tf, step, termination):
         samples = pick.size * diagonal / step
@@ -298,8 +298,7 @@ def execute_mesh(plan, camera, size, *, progress=None, progress_bar=None, view=N
     at a coarser size), then render. Returns ``(image, view)``."""
     from .._validate import as_size
     from ..rays.camera import Camera, as_camera
-    from .grid import _check_far
-    from .tets import TetPlan
+    from .frame import check_far
 
     opts, tol = plan.options, plan.options.tolerance
     t0 = time.perf_counter()
@@ -308,7 +307,7 @@ def execute_mesh(plan, camera, size, *, progress=None, progress_bar=None, view=N
         raise TypeError(f"camera must be a Camera, a view name or a PyVista/VTK camera (not Rays: a tetrahedral "
                         f"render makes its own rays); got {type(camera).__name__}")
     width, height = as_size(size)
-    far_all = _check_far(far, width, height)
+    far_all = check_far(far, width, height)
     s = pilot_stride(width, height)
     pilot_size = (max(1, width // s), max(1, height // s))
     pilot_far = None
@@ -319,7 +318,7 @@ def execute_mesh(plan, camera, size, *, progress=None, progress_bar=None, view=N
 
     def child(tf, tau, termination):
         o = opts.replace(tolerance=None, termination=termination, precision="float64")
-        return TetPlan(plan.mesh, tf, o, tau_max=tau)
+        return type(plan)(plan.mesh, tf, o, tau_max=tau)
 
     def pilot_rgb(tf, tau, termination):
         with _threads(1):  # a few thousand rays: one thread (see PILOT_SERIAL_SAMPLES)

@@ -3,7 +3,7 @@
 While the camera or the transfer function changes, each request renders a coarse
 frame (the image at a fraction of its size, upsampled bilinearly) and then starts the
 full render. A newer request cancels the render in flight at the end of the chunk of
-rows of 8-pixel tiles running (``raycast.grid.run_in_chunks``; chunks of about
+rows of 8-pixel tiles running (``raycast.frame.run_in_chunks``; chunks of about
 :data:`CHUNK_SECONDS`, at least one row of tiles), so a window never waits for a frame
 nobody will see. The full frame is
 the plan's own render: equal, bit for bit, to :func:`pv_hdrvol.render` of the same

@@ -175,9 +175,8 @@ class Culling:
     method: str = "conservative"
 
     def __post_init__(self):
-        from .pof import PlenopticOpacity
-
-        if not isinstance(self.pof, PlenopticOpacity):
+        # what a PlenopticOpacity offers (pof.py imports this module: no isinstance)
+        if not all(callable(getattr(self.pof, name, None)) for name in ("block_opacity", "check_volume")):
             raise TypeError(f"cull needs a PlenopticOpacity; got {type(self.pof).__name__}")
         object.__setattr__(self, "threshold",
                            as_real("threshold", self.threshold, low=0, high=1, low_open=True, high_open=True))

@@ -8,11 +8,9 @@ from __future__ import annotations
 import dataclasses
 import numbers
 import time
-import traceback
 import weakref
 from typing import NamedTuple
 
-from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
 from vtkmodules.vtkCommonCore import vtkOutputWindow
 from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
@@ -24,6 +22,7 @@ from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_func
 from ..params import RenderOptions, as_clip_planes
 from ..rays.camera import Camera, Rays, as_camera
 from . import VolumeCache, _content_key
+from .vtk_base import ReportingAlgorithm, request_whole_extent
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -65,57 +64,7 @@ def _bool_option_methods(field, meaning):
     return setter, getter, on, off
 
 
-class _ReportingAlgorithm(VTKPythonAlgorithmBase):
-    """A Python VTK algorithm whose pipeline passes report their exceptions.
-
-    VTK drops the Python traceback when any Python observer sees the error (PyVista
-    installs one on import), so an exception raised by a pipeline pass is also written
-    to the VTK output window, as VTK formats errors (``"<Class> (0x...): <Type>:
-    <message>"``, the class named by :attr:`REPORT_NAME` or the object's own class), and
-    kept for :meth:`GetLastError`; then it is raised again, so that VTK fails the update
-    (``Update()`` returns ``False``, an ``ErrorEvent`` fires). Subclasses implement
-    ``_execute(inInfo, outInfo)``, which ``RequestData`` runs.
-    """
-
-    #: The class name in error messages (``None``: the object's own class).
-    REPORT_NAME = None
-
-    def __init__(self, **ports):
-        super().__init__(**ports)
-        self._last_error = None
-
-    def GetLastError(self):
-        """``"<Type>: <message>"`` of the exception that made the last execution fail, else ``None``."""
-        return self._last_error
-
-    def _reporting(self, step, *args):
-        try:
-            return step(*args)
-        except Exception as exc:
-            self._last_error = f"{type(exc).__name__}: {exc}"
-            # VTK's own message format, so that PyVista's logging and ParaView parse it
-            where = traceback.extract_tb(exc.__traceback__)[-1]
-            address = self.GetAddressAsString("vtkObject").replace("Addr=", "")
-            vtkOutputWindow.GetInstance().DisplayErrorText(
-                f"ERROR: In {where.filename}, line {where.lineno}\n"
-                f"{self.REPORT_NAME or type(self).__name__} ({address}): {self._last_error}\n\n")
-            raise
-
-    def RequestData(self, request, inInfo, outInfo):
-        self._last_error = None
-        return self._reporting(self._execute, inInfo, outInfo)
-
-    def _execute(self, inInfo, outInfo):
-        raise NotImplementedError
-
-
-def _request_whole_extent(info):
-    """Ask an image input for all of it (a no-op for datasets without extents)."""
-    if info.Has(_SDDP.WHOLE_EXTENT()):
-        info.Set(_SDDP.UPDATE_EXTENT(), info.Get(_SDDP.WHOLE_EXTENT()), 6)
-
-
-class HDRVolumeRenderer(_ReportingAlgorithm):
+class HDRVolumeRenderer(ReportingAlgorithm):
     """Volume render a ``vtkImageData``, a ``vtkRectilinearGrid``, a curvilinear
     ``vtkStructuredGrid``, a tetrahedral ``vtkUnstructuredGrid`` or a composite dataset of
     those into a 2-D float RGBA ``vtkImageData``.
@@ -784,7 +733,7 @@ class HDRVolumeRenderer(_ReportingAlgorithm):
             return 1
         if _output_piece(outInfo) != 0:
             return 1
-        _request_whole_extent(info)
+        request_whole_extent(info)
         info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
         info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
         return 1

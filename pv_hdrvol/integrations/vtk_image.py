@@ -32,7 +32,7 @@ from ..image.hdr import HDRImage
 from ..image.io import EXR_MAGIC, EXR_TYPES
 from ..image.tonemap import OPERATORS, _encoding, make_operator, tonemap
 from ..image.upsample import GUIDES, METHODS, SPATIAL, upsample
-from .vtk_algorithm import _ReportingAlgorithm, _request_whole_extent
+from .vtk_base import ReportingAlgorithm, request_whole_extent
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -112,7 +112,7 @@ def _check_file_name(path):
 
 
 # -- tone mapping ----------------------------------------------------------------------------------
-class HDRToneMapper(_ImageOutput, _ReportingAlgorithm):
+class HDRToneMapper(_ImageOutput, ReportingAlgorithm):
     """Tone map a 2-D HDR ``vtkImageData`` into 8-bit display colours.
 
     Input port 0: a 2-D ``vtkImageData`` (the layout of :meth:`HDRImage.to_vtk
@@ -273,7 +273,7 @@ class HDRToneMapper(_ImageOutput, _ReportingAlgorithm):
 
 
 # -- files -----------------------------------------------------------------------------------------
-class HDRImageReader(_ImageOutput, _ReportingAlgorithm):
+class HDRImageReader(_ImageOutput, ReportingAlgorithm):
     """Read an HDR image file (``.exr``, ``.hdr``, ``.npy``) as a 2-D ``vtkImageData``.
 
     Reads as :func:`pv_hdrvol.load` does, and outputs :meth:`HDRImage.to_vtk
@@ -394,7 +394,7 @@ def _add_exr_channels(image, path):
             image.GetPointData().AddArray(arr)
 
 
-class HDRImageWriter(_ReportingAlgorithm):
+class HDRImageWriter(ReportingAlgorithm):
     """Write a 2-D HDR ``vtkImageData`` to ``.exr``, ``.hdr``, ``.npy`` or ``.png``.
 
     Input port 0: the layout of :meth:`HDRImage.to_vtk <pv_hdrvol.HDRImage.to_vtk>`
@@ -497,7 +497,7 @@ class HDRImageWriter(_ReportingAlgorithm):
 
 
 # -- upsampling ------------------------------------------------------------------------------------
-class HDRUpsampler(_ImageOutput, _ReportingAlgorithm):
+class HDRUpsampler(_ImageOutput, ReportingAlgorithm):
     """Upsample a low-resolution render, guided by the rendered dataset at full resolution.
 
     Input port 0: a render's image (the layout of :meth:`HDRImage.to_vtk
@@ -611,7 +611,7 @@ class HDRUpsampler(_ImageOutput, _ReportingAlgorithm):
     def RequestUpdateExtent(self, request, inInfo, outInfo):
         for port in (0, 1):
             if inInfo[port].GetNumberOfInformationObjects():
-                _request_whole_extent(inInfo[port].GetInformationObject(0))
+                request_whole_extent(inInfo[port].GetInformationObject(0))
         return 1
 
     def _execute(self, inInfo, outInfo):

@@ -26,7 +26,7 @@ from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from .._validate import as_int
-from .vtk_algorithm import _ReportingAlgorithm
+from .vtk_base import ReportingAlgorithm
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -108,7 +108,7 @@ def level_image(store, level):
     return image
 
 
-class MultiscaleReader(_ReportingAlgorithm):
+class MultiscaleReader(ReportingAlgorithm):
     """Read one level of a multiresolution store (``*.ome.zarr``) as ``vtkImageData``.
 
     ``SetFileName``: the store's directory (or its ``zarr.json``). ``SetLevel``: the

@@ -51,7 +51,7 @@ def main(size=384):
     pp = ProxyPass(volume, tf, 16, [])
     skin = [i for i in range(16) if p.edges[i + 1] <= 85 and p.edges[i] >= 20]
     fade = {i: 0.05 for i in skin}
-    k = hv.proxy.generate.as_scale(fade, 16)
+    k = hv.proxy.proxies.as_scale(fade, 16)
     truth_fade = pp.run(p.camera.rays(p.size), k)[0].reshape(size, size, 4)
     turned = S.rotated_camera(p.camera, (30, 0))
     truth_turn = hv.render(volume, tf, turned, size, precision="float64", termination=0.0, progress_bar=False)

@@ -15,7 +15,7 @@ import pytest
 
 import pv_hdrvol as hv
 from pv_hdrvol.proxy.generate import ProxyPass, make_proxies
-from pv_hdrvol.proxy.generate import as_scale
+from pv_hdrvol.proxy.proxies import as_scale
 from pv_hdrvol.proxy.model import propagate, propagate_corrected
 from pv_hdrvol.raycast.grid import default_transfer_function
 

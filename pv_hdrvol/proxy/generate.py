@@ -30,9 +30,7 @@ from ..raycast.grid import as_volume, resolve_transfer_function
 from ..rays.camera import Camera, Rays
 from ..rays.lenses import Lens
 from . import _kernels as PK
-
-#: bins of the radiality histogram (methods.md B.1.9): 18 of 5 degrees over [0, 90]
-RADIALITY_BINS = np.linspace(0.0, 90.0, 19)
+from .proxies import RADIALITY_BINS, ProxySet, as_scale, mp_camera
 
 
 @dataclass(frozen=True)
@@ -109,19 +107,6 @@ def proxy_camera(camera, bounds):
     return replace(camera, position=tuple(position.tolist()))
 
 
-def mp_camera(camera, pole_scale):
-    """The camera whose image the multi-perspective proxies fill: ``camera`` with a view
-    widened so that its distorted rays cover what ``camera`` shows.
-
-    A ray tilted by ``atan(1 / s)`` from the pixel at distance ``d`` from the pole has
-    come ``z / s`` closer to the pole at depth ``z``; at the focal point's depth ``D``
-    the rays cover the camera's view (half height ``h``) when ``d`` reaches
-    ``h + D / s``: the pixels around the ring ``d = D / s`` look at the focal point from
-    all sides."""
-    depth = float(np.dot(np.asarray(camera.focal_point) - np.asarray(camera.position), camera.basis()[2]))
-    return replace(camera, parallel_scale=camera.parallel_scale + max(depth, 0.0) / pole_scale)
-
-
 def interval_edges(tf, intervals):
     """The ``intervals + 1`` value edges of uniform intervals on ``tf``'s axis."""
     a0, a1 = tf.axis_range
@@ -185,28 +170,6 @@ class ProxyPass:
             PK.march_proxies(self.values, self.table, self.sigma, self.params, scale, self.isovalues, origins,
                              directions, lo, hi, rgba, atten, optical, entry, layers)
         return rgba, atten, optical, entry, layers
-
-
-def as_scale(spec, intervals, name="opacity_scale"):
-    """An extinction scale per interval from a dict ``{interval: k}``, a sequence of
-    ``intervals`` numbers or ``None`` (all 1)."""
-    out = np.ones(intervals)
-    if spec is None:
-        return out
-    if isinstance(spec, dict):
-        for key, k in spec.items():
-            i = as_int(f"{name} interval", key)
-            if not 0 <= i < intervals:
-                raise ValueError(f"{name}: interval {key!r} is out of range; these proxies have intervals "
-                                 f"0..{intervals - 1}")
-            out[i] = as_real(f"{name}[{key}]", k, low=0.0)
-        return out
-    arr = np.asarray(spec, dtype=np.float64).reshape(-1)
-    if arr.shape != (intervals,):
-        raise ValueError(f"{name} must be a dict {{interval: k}} or {intervals} numbers; got {len(arr)} numbers")
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise ValueError(f"{name} must hold finite numbers >= 0; got {arr.tolist()}")
-    return arr
 
 
 def training_scales(training, intervals, seed=0):
@@ -301,7 +264,6 @@ def make_proxies(data, camera=None, size=(512, 512), tf=None, *, intervals=16, l
     ProxySet
     """
     from ..data.tets import is_unstructured
-    from .proxies import ProxySet
 
     t_start = time.perf_counter()
     if is_unstructured(data):  # the proxy pass marches voxels (proxy/_kernels.py): no tetrahedral version

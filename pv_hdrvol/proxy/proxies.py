@@ -12,15 +12,16 @@ import json
 import math
 import os
 import pathlib
+from dataclasses import replace
 
 import numpy as np
 
+from .._validate import as_int, as_real
 from ..data.transfer import TransferFunction
 from ..image.hdr import HDRImage
 from ..params import Light
 from ..rays.camera import Camera
 from . import synthesis as S
-from .generate import RADIALITY_BINS, as_scale
 
 FORMAT = "pv_hdrvol proxies"
 VERSION = 1
@@ -34,6 +35,45 @@ MP_LAYER_GROUPS = ("mp_depth", "mp_dist")
 #: 45-degree rays of the distortion camera reach surfaces up to about 45 degrees beyond
 #: it (docs/proxy.md has the measured correlation per angle)
 MAX_ROTATION = {"single": 30.0, "multi": 60.0}
+
+
+#: bins of the radiality histogram (methods.md B.1.9): 18 of 5 degrees over [0, 90]
+RADIALITY_BINS = np.linspace(0.0, 90.0, 19)
+
+
+def mp_camera(camera, pole_scale):
+    """The camera whose image the multi-perspective proxies fill: ``camera`` with a view
+    widened so that its distorted rays cover what ``camera`` shows.
+
+    A ray tilted by ``atan(1 / s)`` from the pixel at distance ``d`` from the pole has
+    come ``z / s`` closer to the pole at depth ``z``; at the focal point's depth ``D``
+    the rays cover the camera's view (half height ``h``) when ``d`` reaches
+    ``h + D / s``: the pixels around the ring ``d = D / s`` look at the focal point from
+    all sides."""
+    depth = float(np.dot(np.asarray(camera.focal_point) - np.asarray(camera.position), camera.basis()[2]))
+    return replace(camera, parallel_scale=camera.parallel_scale + max(depth, 0.0) / pole_scale)
+
+
+def as_scale(spec, intervals, name="opacity_scale"):
+    """An extinction scale per interval from a dict ``{interval: k}``, a sequence of
+    ``intervals`` numbers or ``None`` (all 1)."""
+    out = np.ones(intervals)
+    if spec is None:
+        return out
+    if isinstance(spec, dict):
+        for key, k in spec.items():
+            i = as_int(f"{name} interval", key)
+            if not 0 <= i < intervals:
+                raise ValueError(f"{name}: interval {key!r} is out of range; these proxies have intervals "
+                                 f"0..{intervals - 1}")
+            out[i] = as_real(f"{name}[{key}]", k, low=0.0)
+        return out
+    arr = np.asarray(spec, dtype=np.float64).reshape(-1)
+    if arr.shape != (intervals,):
+        raise ValueError(f"{name} must be a dict {{interval: k}} or {intervals} numbers; got {len(arr)} numbers")
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise ValueError(f"{name} must hold finite numbers >= 0; got {arr.tolist()}")
+    return arr
 
 
 class ProxyFormatError(ValueError):
@@ -101,9 +141,7 @@ class ProxySet:
 
     @property
     def mp_camera(self):
-        """The camera of the multi-perspective images (a wider view: ``generate.mp_camera``)."""
-        from .generate import mp_camera
-
+        """The camera of the multi-perspective images (a wider view: :func:`mp_camera`)."""
         return mp_camera(self.camera, self.pole_scale) if self.multi_perspective else None
 
     @property

@@ -9,7 +9,7 @@ import pytest
 
 import pv_hdrvol as hv
 from pv_hdrvol.editor import presets as P
-from pv_hdrvol.editor.model import (GLOBAL_ALPHA_DECADES, UNDO_DEPTH, TransferFunctionModel,
+from pv_hdrvol.editor.model import (GLOBAL_ALPHA_DECADES, UNDO_DEPTH, TransferFunctionModel, paraview_preset,
                                     global_alpha_from_slider, slider_from_global_alpha)
 
 pytestmark = pytest.mark.core
@@ -248,7 +248,7 @@ def test_colormap_presets_replace_the_colours_only():
 # -- ParaView presets (ParaView's own reading of them: tests/paraview/pv_presets.py) --------
 def test_a_linear_function_goes_to_paraview_and_back_exactly():
     tf = hv.TransferFunction.ramp(-2.0, 7.0, cmap="viridis", opacity=(0.0, 0.1, 0.6))
-    preset = P.paraview_preset(tf, "mine")
+    preset = paraview_preset(tf, "mine")
     assert P.export_error(tf, preset) == (0.0, 0.0) or max(P.export_error(tf, preset)) < 1e-15
     del preset["pv_hdrvol"]  # as ParaView writes it: its points only
     back = TransferFunctionModel.from_paraview_preset([preset]).transfer_function()
@@ -257,13 +257,13 @@ def test_a_linear_function_goes_to_paraview_and_back_exactly():
 
 def test_a_log_function_is_sampled_for_paraview_within_the_tolerance():
     tf = _log_tf()
-    preset = P.paraview_preset(tf, "log")
+    preset = paraview_preset(tf, "log")
     color_error, opacity_error = P.export_error(tf, preset)
     assert max(color_error, opacity_error) <= P.EXPORT_TOLERANCE
     assert len(preset["RGBPoints"]) // 4 <= P.EXPORT_MAX_POINTS
     # our own state rides along: read back here, exactly
     model = TransferFunctionModel(tf)
-    assert TransferFunctionModel.from_paraview_preset(P.paraview_preset(model, "log")).to_dict() == model.to_dict()
+    assert TransferFunctionModel.from_paraview_preset(paraview_preset(model, "log")).to_dict() == model.to_dict()
 
 
 def test_an_edited_preset_is_read_from_its_points_not_from_the_stale_state(tmp_path):
@@ -278,7 +278,7 @@ def test_an_edited_preset_is_read_from_its_points_not_from_the_stale_state(tmp_p
 
 def test_hdr_colours_are_divided_by_the_brightest_for_paraview():
     tf = hv.TransferFunction([0.0, 1.0], [[0, 0, 0], [4.0, 2.0, 0.0]], [0.0, 1.0])
-    preset = P.paraview_preset(tf)
+    preset = paraview_preset(tf)
     assert max(preset["RGBPoints"][5:8]) == 1.0 and preset["RGBPoints"][5:8] == [1.0, 0.5, 0.0]
 
 

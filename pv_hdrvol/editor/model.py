@@ -23,6 +23,8 @@ from .._validate import as_choice, as_int, as_real
 from ..data.transfer import (COLOR_SPACES, DEFAULT_TABLE_SIZE, SCALES, TransferFunction, TransferFunctionFamily,
                              _scale_inverse, colormap_rgb, scale_forward)
 from .axis import Focus, FocusContextAxis, ValueAxis
+from .presets import (_export_points, _pick, _simplify, data_range, read_json, read_paraview_presets,
+                      transfer_function_from_preset, write_paraview_presets)
 
 #: Colormaps offered as presets (any matplotlib name works in :meth:`~TransferFunctionModel.apply_colormap`).
 PRESETS = ("magma", "inferno", "viridis", "plasma", "cividis", "turbo", "coolwarm", "gray")
@@ -63,34 +65,6 @@ def slider_from_global_alpha(alpha, decades=GLOBAL_ALPHA_DECADES):
     """The log slider's position of global opacity ``alpha`` (clipped to the slider)."""
     alpha = as_real("global_alpha", alpha, low=0.0, high=1.0, low_open=True)
     return min(max(1.0 + math.log10(alpha) / decades, 0.0), 1.0)
-
-
-def _simplify(axis, values, tolerance):
-    """Indices of the points of the piecewise-linear ``values`` (rows) over ``axis`` to
-    keep: an interior point goes when the line between the last kept point and the next
-    one reproduces it, and every point dropped since, within ``tolerance`` (the ends
-    stay)."""
-    values = values.reshape(axis.size, -1)
-    keep = [0]
-    for i in range(1, axis.size - 1):
-        j, k = keep[-1], i + 1
-        f = ((axis[j + 1:k] - axis[j]) / (axis[k] - axis[j]))[:, None]
-        line = values[j] * (1.0 - f) + values[k] * f
-        if np.max(np.abs(line - values[j + 1:k])) > tolerance:
-            keep.append(i)
-    keep.append(axis.size - 1)
-    return np.array(keep)
-
-
-def read_json(path, fix):
-    """The JSON of the file at ``path``; a file that is not JSON (truncated, say, or not
-    text) is a ``ValueError`` naming it, with ``fix`` (what the user can do) in it."""
-    name = os.fspath(path)
-    with open(name, encoding="utf-8") as fh:
-        try:
-            return json.load(fh)
-        except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError: name the file, not only the line
-            raise ValueError(f"{name!r} is not valid JSON ({fix}): {exc}") from None
 
 
 def coarsest_values(volume):
@@ -757,8 +731,6 @@ class TransferFunctionModel:
     def save_paraview_preset(self, path, name="pv_hdrvol"):
         """Write the function as a ParaView preset file (see
         :mod:`pv_hdrvol.editor.presets`; ParaView: ``ImportPresets(path)``)."""
-        from .presets import paraview_preset, write_paraview_presets
-
         write_paraview_presets(path, paraview_preset(self, name))
 
     @classmethod
@@ -776,8 +748,6 @@ class TransferFunctionModel:
         in data units already). ``True``: rescale any preset onto ``values``' range;
         ``False``: keep the stored range; ``(low, high)``: rescale onto that range.
         """
-        from .presets import _own_state, _pick, data_range, read_paraview_presets, transfer_function_from_preset
-
         preset = _pick(read_paraview_presets(source), name)
         if rescale is None or isinstance(rescale, (bool, np.bool_)):
             if rescale is False or (rescale is None and (values is None or _own_state(preset) is not None)):
@@ -789,7 +759,8 @@ class TransferFunctionModel:
                 target = data_range(values)
         else:
             target = rescale
-        tf, state = transfer_function_from_preset(preset, rescale=target)
+        tf, stored = transfer_function_from_preset(preset, rescale=target)
+        state = None if stored is None else _own_state(preset)
         return cls.from_dict(state, values) if state is not None else cls(tf, values)
 
     def __repr__(self):
@@ -797,3 +768,53 @@ class TransferFunctionModel:
         return (f"TransferFunctionModel({len(s.color_values)} colour points, {len(s.opacity_values)} opacity points, "
                 f"range [{s.color_values[0]:.6g}, {s.color_values[-1]:.6g}], scale={s.scale!r}, "
                 f"global_alpha={s.global_alpha:g}, foci={len(self.axis.foci)})")
+
+
+def paraview_preset(source, name="pv_hdrvol"):
+    """``source`` (a :class:`~pv_hdrvol.TransferFunction` or a
+    :class:`TransferFunctionModel`) as one ParaView preset dict (see
+    :mod:`pv_hdrvol.editor.presets` for the format and the accuracy on log axes); the
+    editor's state rides along under ``pv_hdrvol``."""
+    if isinstance(source, TransferFunctionModel):
+        model = source
+    elif isinstance(source, TransferFunction):
+        model = TransferFunctionModel(source)
+    else:
+        raise TypeError(f"expected a TransferFunction or TransferFunctionModel; got {type(source).__name__}")
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"name must be a non-empty string; got {name!r}")
+    tf = model.transfer_function()
+    if tf.scale == "linear":
+        # the colour and opacity points as edited, each list on its own (as ParaView keeps them)
+        cx, cc = model.color_points
+        ox, oa = model.opacity_points
+    else:
+        x = _export_points(tf)
+        cx, cc, ox, oa = x, tf.color_at(x), x, tf.opacity_at(x)
+    peak = float(cc.max())
+    if peak > 1.0:
+        cc = cc / peak
+    space = "HSV" if tf.color_space == "hsv" and tf.scale == "linear" else "RGB"
+    preset = {
+        "Name": name,
+        "ColorSpace": space,
+        "RGBPoints": np.column_stack([cx, cc]).reshape(-1).tolist(),
+        "Points": np.column_stack([ox, oa, np.full(ox.size, 0.5), np.zeros(ox.size)]).reshape(-1).tolist(),
+        "pv_hdrvol": model.to_dict(),
+    }
+    return preset
+
+
+def _own_state(preset):
+    """The editor state this package stored in ``preset``, if the preset's points are
+    still the ones written from it (not edited since, in ParaView or by hand)."""
+    state = preset.get("pv_hdrvol")
+    if not hasattr(state, "keys"):
+        return None
+    try:
+        again = paraview_preset(TransferFunctionModel.from_dict(state), preset.get("Name") or "x")
+    except (TypeError, ValueError):
+        return None
+    same = all(np.array_equal(np.asarray(again[k], dtype=np.float64),
+                              np.asarray(preset.get(k, []), dtype=np.float64)) for k in ("RGBPoints", "Points"))
+    return state if same and again["ColorSpace"] == preset.get("ColorSpace", "RGB") else None

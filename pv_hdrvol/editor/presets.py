@@ -36,7 +36,6 @@ import numpy as np
 
 from .._validate import as_int
 from ..data.transfer import TransferFunction, _scale_inverse
-from .model import TransferFunctionModel, _simplify, read_json
 
 #: Points sampled over the range for colour spaces and opacity curves read through VTK.
 SAMPLES = 4096
@@ -49,6 +48,34 @@ EXPORT_TOLERANCE = 1e-3
 EXPORT_MAX_POINTS = 4097
 _EXACT_SPACES = {"RGB": "rgb", "HSV": "hsv"}
 _VTK_SPACES = ("Lab", "Diverging", "Lab/CIEDE2000", "Step")
+
+
+def _simplify(axis, values, tolerance):
+    """Indices of the points of the piecewise-linear ``values`` (rows) over ``axis`` to
+    keep: an interior point goes when the line between the last kept point and the next
+    one reproduces it, and every point dropped since, within ``tolerance`` (the ends
+    stay)."""
+    values = values.reshape(axis.size, -1)
+    keep = [0]
+    for i in range(1, axis.size - 1):
+        j, k = keep[-1], i + 1
+        f = ((axis[j + 1:k] - axis[j]) / (axis[k] - axis[j]))[:, None]
+        line = values[j] * (1.0 - f) + values[k] * f
+        if np.max(np.abs(line - values[j + 1:k])) > tolerance:
+            keep.append(i)
+    keep.append(axis.size - 1)
+    return np.array(keep)
+
+
+def read_json(path, fix):
+    """The JSON of the file at ``path``; a file that is not JSON (truncated, say, or not
+    text) is a ``ValueError`` naming it, with ``fix`` (what the user can do) in it."""
+    name = os.fspath(path)
+    with open(name, encoding="utf-8") as fh:
+        try:
+            return json.load(fh)
+        except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError: name the file, not only the line
+            raise ValueError(f"{name!r} is not valid JSON ({fix}): {exc}") from None
 
 
 def read_paraview_presets(source):
@@ -144,9 +171,11 @@ def transfer_function_from_preset(preset, *, samples=SAMPLES, rescale=None):
     (ParaView's default). ``rescale=(low, high)`` maps the preset's range (its first
     to its last point, colour or opacity) affinely onto ``[low, high]`` first, as
     ParaView's ``ApplyPreset`` does onto the data's range; ``None`` keeps the stored
-    points. Returns ``(tf, editor_state)``: ``editor_state`` is the dict this package
-    stored under ``pv_hdrvol`` when the points are still the ones written from it
-    (``None`` for ParaView's own presets, after an edit there, or once rescaled)."""
+    points. Returns ``(tf, stored_state)``: ``stored_state`` is the dict this package
+    stored under ``pv_hdrvol`` (``None`` for ParaView's own presets or once rescaled),
+    not checked here against the points (an edit in ParaView keeps the key but changes
+    the points): :meth:`~pv_hdrvol.editor.model.TransferFunctionModel.from_paraview_preset`
+    takes it only when the points are still the ones written from it."""
     samples = as_int("samples", samples, low=2, high=1 << 20)
     if preset.get("IndexedColors") is not None or preset.get("Annotations") is not None:
         if "RGBPoints" not in preset:
@@ -164,7 +193,8 @@ def transfer_function_from_preset(preset, *, samples=SAMPLES, rescale=None):
     hi = colors[-1, 0] if opacity is None else max(colors[-1, 0], opacity[-1, 0])
     if not hi > lo:
         raise ValueError(f"preset {preset.get('Name')!r} spans no range: its points all lie at {lo!r}")
-    state = _own_state(preset)
+    stored = preset.get("pv_hdrvol")
+    state = stored if hasattr(stored, "keys") else None
     if rescale is not None:
         new_lo, new_hi = _check_range(rescale)
         if (new_lo, new_hi) != (lo, hi):
@@ -236,21 +266,6 @@ def data_range(values):
     return (low - 0.5, high + 0.5) if high == low else (low, high)
 
 
-def _own_state(preset):
-    """The editor state this package stored in ``preset``, if the preset's points are
-    still the ones written from it (not edited since, in ParaView or by hand)."""
-    state = preset.get("pv_hdrvol")
-    if not hasattr(state, "keys"):
-        return None
-    try:
-        again = paraview_preset(TransferFunctionModel.from_dict(state), preset.get("Name") or "x")
-    except (TypeError, ValueError):
-        return None
-    same = all(np.array_equal(np.asarray(again[k], dtype=np.float64),
-                              np.asarray(preset.get(k, []), dtype=np.float64)) for k in ("RGBPoints", "Points"))
-    return state if same and again["ColorSpace"] == preset.get("ColorSpace", "RGB") else None
-
-
 def _export_points(tf, tolerance=EXPORT_TOLERANCE, most=EXPORT_MAX_POINTS):
     """Data positions at which ``tf`` is written: its own points on a linear axis; on a
     log/symlog axis, evenly spaced positions along that axis (plus its points), doubled
@@ -277,40 +292,6 @@ def _export_points(tf, tolerance=EXPORT_TOLERANCE, most=EXPORT_MAX_POINTS):
         if error <= tolerance or x.size >= most:
             return x
         n = 2 * n - 1
-
-
-def paraview_preset(source, name="pv_hdrvol"):
-    """``source`` (a :class:`~pv_hdrvol.TransferFunction` or a
-    :class:`~pv_hdrvol.editor.model.TransferFunctionModel`) as one ParaView preset dict
-    (see the module's docstring)."""
-    if isinstance(source, TransferFunctionModel):
-        model = source
-    elif isinstance(source, TransferFunction):
-        model = TransferFunctionModel(source)
-    else:
-        raise TypeError(f"expected a TransferFunction or TransferFunctionModel; got {type(source).__name__}")
-    if not isinstance(name, str) or not name:
-        raise TypeError(f"name must be a non-empty string; got {name!r}")
-    tf = model.transfer_function()
-    if tf.scale == "linear":
-        # the colour and opacity points as edited, each list on its own (as ParaView keeps them)
-        cx, cc = model.color_points
-        ox, oa = model.opacity_points
-    else:
-        x = _export_points(tf)
-        cx, cc, ox, oa = x, tf.color_at(x), x, tf.opacity_at(x)
-    peak = float(cc.max())
-    if peak > 1.0:
-        cc = cc / peak
-    space = "HSV" if tf.color_space == "hsv" and tf.scale == "linear" else "RGB"
-    preset = {
-        "Name": name,
-        "ColorSpace": space,
-        "RGBPoints": np.column_stack([cx, cc]).reshape(-1).tolist(),
-        "Points": np.column_stack([ox, oa, np.full(ox.size, 0.5), np.zeros(ox.size)]).reshape(-1).tolist(),
-        "pv_hdrvol": model.to_dict(),
-    }
-    return preset
 
 
 def write_paraview_presets(path, presets):
@@ -344,5 +325,5 @@ def export_error(tf, preset):
     return color, opacity
 
 
-__all__ = ["EXPORT_TOLERANCE", "SAMPLES", "export_error", "paraview_preset", "read_paraview_presets",
+__all__ = ["EXPORT_TOLERANCE", "SAMPLES", "export_error", "read_json", "read_paraview_presets",
            "transfer_function_from_preset", "write_paraview_presets"]

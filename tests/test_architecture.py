@@ -1,0 +1,140 @@
+"""The package's import graph: stages import earlier stages only.
+
+Read from the source with ``ast`` (nothing is imported): every ``import`` and
+``from ... import`` statement of every module under ``pv_hdrvol/``, at module level and
+inside functions alike. ``from .pkg import name`` is an edge to the module
+``pv_hdrvol.pkg.name`` when that is a module, else to ``pv_hdrvol.pkg``; the
+initialisation of parent packages that Python runs on the way is not an edge (it is the
+same for every module). docs/development.md draws the stages.
+"""
+import ast
+import pathlib
+
+import pytest
+
+pytestmark = pytest.mark.core
+
+PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "pv_hdrvol"
+FACE = "pv_hdrvol"
+#: the front ends, which may use the package's face (``import pv_hdrvol as hv``)
+FRONT_ENDS = ("pv_hdrvol.integrations", "pv_hdrvol.viewer")
+
+
+def _modules(root=PACKAGE):
+    """``{dotted name: path}`` of every module of the package."""
+    out = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = list(path.relative_to(root.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def import_graph(root=PACKAGE):
+    """``{module: set of the package's modules it imports}`` (see the module docstring)."""
+    modules = _modules(root)
+    graph = {}
+    for name, path in modules.items():
+        is_package = path.name == "__init__.py"
+        here = name.split(".") if is_package else name.split(".")[:-1]
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = here[:len(here) - (node.level - 1)] + ([node.module] if node.module else [])
+                    base = ".".join(base)
+                else:
+                    base = node.module or ""
+                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names]
+            else:
+                continue
+            edges.update(t for t in targets if t in modules and t != name)
+        graph[name] = edges
+    return graph
+
+
+def cycles(graph):
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+    counter = [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return sorted(found)
+
+
+def _is_front_end(module):
+    return module.startswith(FRONT_ENDS) or module.endswith("__main__")
+
+
+def test_the_import_graph_has_no_cycle():
+    graph = import_graph()
+    assert len(graph) > 100  # the whole package was read
+    assert cycles(graph) == []
+
+
+def test_nothing_below_the_front_ends_imports_the_face():
+    graph = import_graph()
+    importers = sorted(m for m, edges in graph.items() if FACE in edges and not _is_front_end(m))
+    assert importers == []
+
+
+def test_the_face_defines_nothing_but_re_exports():
+    """``pv_hdrvol/__init__.py`` holds imports, ``__version__``, ``__all__`` and the lazy
+    ``__getattr__`` of an optional name only: the logic behind ``render`` and ``view``
+    lives in :mod:`pv_hdrvol.dispatch`."""
+    tree = ast.parse((PACKAGE / "__init__.py").read_text(encoding="utf-8"))
+    kinds = []
+    for node in tree.body:
+        if isinstance(node, (ast.Import, ast.ImportFrom)) or (isinstance(node, ast.Expr)
+                                                               and isinstance(node.value, ast.Constant)):
+            continue
+        if isinstance(node, ast.Assign):
+            kinds.append(("assign", [t.id for t in node.targets]))
+        elif isinstance(node, ast.FunctionDef):
+            kinds.append(("def", node.name))
+        else:
+            kinds.append((type(node).__name__, None))
+    expected = [("def", "__getattr__"), ("assign", ["__version__"]), ("assign", ["__all__"])]
+    assert sorted(map(repr, kinds)) == sorted(map(repr, expected))
+
+
+def test_the_graph_reader_finds_cycles_and_face_imports(tmp_path):
+    """The checks above can fail: a scratch package with a cycle through a function-local
+    import and a stage importing the face."""
+    pkg = tmp_path / "pv_hdrvol"
+    (pkg / "stage").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("from .stage.a import f\n")
+    (pkg / "stage" / "__init__.py").write_text("")
+    (pkg / "stage" / "a.py").write_text("from . import b\n\ndef f():\n    return b.g()\n")
+    (pkg / "stage" / "b.py").write_text("def g():\n    from .a import f\n    from .. import f as face\n    return f, face\n")
+    graph = import_graph(pkg)
+    assert graph["pv_hdrvol.stage.a"] == {"pv_hdrvol.stage.b"}
+    assert graph["pv_hdrvol.stage.b"] == {"pv_hdrvol.stage.a", "pv_hdrvol"}
+    assert cycles(graph) == [["pv_hdrvol", "pv_hdrvol.stage.a", "pv_hdrvol.stage.b"]]

@@ -13,6 +13,7 @@ from .outofcore.render import MultiscaleVolume, open_multiscale
 from .proxy.proxies import ProxySet, load_proxies
 from .raycast.grid import render_volume
 from .raycast.tets import render_tets
+from .rays.camera import fit_camera
 from .settings import register_renderer
 
 
@@ -31,7 +32,11 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
     :func:`pv_hdrvol.raycast.blocks.render_blocks`); ``scalars``/``preference`` pick the
     array of a dataset, and ``labels`` may name another of its arrays.
     Without ``tf``, the transfer function is chosen from the data; ``cmap``, ``clim``,
-    ``opacity`` (PyVista's meanings) and ``scale`` replace single choices of it.
+    ``opacity`` (PyVista's meanings) and ``scale`` replace single choices of it
+    (:func:`~pv_hdrvol.raycast.grid.resolve_render_options`, as in every front end). A
+    view name (default ``"iso"``) frames the dataset's bounds
+    (:func:`~pv_hdrvol.rays.camera.fit_camera`: the corners of its cells, also for cell
+    data), as PyVista and ParaView frame it.
     ``block_mask``, ``cull``, ``lens``, ``labels`` and ``label_styles`` are for image
     volumes only.
     """
@@ -42,10 +47,10 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
             if value is not None:
                 raise ValueError(f"{name}= is not supported for out-of-core volumes (MultiscaleVolume) yet")
         frame = {k: option_kwargs.pop(k) for k in ("screen_error", "wait", "occlusion") if k in option_kwargs}
-        return data.render(tf, camera, size, options=options, lens=lens, progress_bar=progress_bar, progress=progress,
+        return data.render(tf, fit_camera(data, camera), size, options=options, lens=lens, progress_bar=progress_bar, progress=progress,
                            **frame, **tf_keywords, **option_kwargs)
     from .data.blocks import is_composite
-    from .data.tets import is_unstructured
+    from .data.tets import as_tetmesh, is_unstructured
     from .raycast.grid import as_volume
 
     composite = is_composite(data)
@@ -61,9 +66,11 @@ def render(data, tf=None, camera=None, size=(512, 512), *, scalars=None, prefere
         return render_blocks(data, tf, camera, size, options, scalars=scalars, preference=preference,
                              progress_bar=progress_bar, progress=progress, **tf_keywords, **option_kwargs)
     if is_unstructured(data):
-        return render_tets(data, tf, camera, size, options, scalars=scalars, preference=preference,
-                           progress_bar=progress_bar, progress=progress, **tf_keywords, **option_kwargs)
+        mesh = as_tetmesh(data, scalars=scalars, preference=preference)  # its checks before the framing's
+        return render_tets(mesh, tf, fit_camera(data, camera), size, options, progress_bar=progress_bar,
+                           progress=progress, **tf_keywords, **option_kwargs)
     volume = as_volume(data, scalars=scalars, preference=preference)
+    camera = fit_camera(data, camera)
     if isinstance(labels, str):
         if isinstance(data, (GridVolume, np.ndarray)):
             raise TypeError(f"labels may name an array of a dataset only; got the name {labels!r} with a "

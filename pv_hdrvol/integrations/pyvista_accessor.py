@@ -10,7 +10,7 @@ from __future__ import annotations
 import pyvista as pv
 
 from ..data.kinds import BLOCKS, GRID, MESH, data_kind
-from ..rays.camera import as_camera
+from ..rays.camera import fit_camera
 from . import VolumeCache
 
 
@@ -71,8 +71,9 @@ class HDRVolAccessor:
             ``TypeError``.
         camera : None, str, Camera, pyvista.Plotter, pyvista.Camera or vtkCamera
             A view name (``"iso"`` (default), ``"xy"``, ``"xz"``, ``"yz"``, ``"yx"``,
-            ``"zx"``, ``"zy"``) frames the dataset; a Plotter or camera renders what
-            that window shows.
+            ``"zx"``, ``"zy"``) frames the dataset's bounds
+            (:func:`~pv_hdrvol.rays.camera.fit_camera`, as ``hv.render`` does); a
+            Plotter or camera renders what that window shows.
         size : int or (width, height)
             Pixels.
         preference : {"point", "cell"}
@@ -135,20 +136,19 @@ class HDRVolAccessor:
         if kind == BLOCKS:
             from ..raycast.blocks import render_blocks
 
-            cam = as_camera(camera, self._dataset.bounds)
-            return render_blocks(self._dataset, tf, cam, size, scalars=scalars, preference=preference,
+            return render_blocks(self._dataset, tf, camera, size, scalars=scalars, preference=preference,
                                  progress_bar=progress_bar, progress=progress, **tf_keywords, **options)
         if kind == MESH:
             from ..data.tets import check_has_cells
             from ..raycast.tets import render_tets
 
             check_has_cells(self._dataset)  # before its (unset) bounds frame a camera
-            cam = as_camera(camera, self._dataset.bounds)
             mesh = self._volumes.get(self._dataset, scalars, preference)
+            cam = fit_camera(self._dataset, camera)
             return render_tets(mesh, tf, cam, size, progress_bar=progress_bar, progress=progress, **tf_keywords,
                                **options)
-        cam = as_camera(camera, self._dataset.bounds)
         volume = self._volumes.get(self._dataset, scalars, preference)
+        cam = fit_camera(self._dataset, camera)  # the dataset's bounds: a volume of cell data spans its centres
         if isinstance(labels, str):
             from ..data.grid import labels_from_dataset
 

@@ -40,11 +40,11 @@ import time
 import numpy as np
 
 from .._validate import as_real, as_size
-from ..data.transfer import SCALE_CODES, TF_KEYWORDS, TransferFunction, auto_transfer_function
+from ..data.transfer import SCALE_CODES, auto_transfer_function
 from ..image.hdr import HDRImage
-from ..params import PRECISION_CODES, RenderOptions
+from ..params import PRECISION_CODES
 from ..raycast import _kernels as K
-from ..raycast.grid import VolumePiece, _visible, dilate, leap_radius
+from ..raycast.grid import VolumePiece, _visible, dilate, leap_radius, resolve_render_options
 from ..raycast.frame import MARKERS, TILE, check_progress_bar, pixel_rows, run_in_chunks, tile_lanes, windowed
 from ..rays.camera import Camera, Rays, as_camera
 from ..rays.clip import ray_spans, with_clip
@@ -216,7 +216,9 @@ class MultiscalePlan:
                  **option_kwargs):
         if not isinstance(volume, MultiscaleVolume):
             raise TypeError(f"volume must be a MultiscaleVolume (pv_hdrvol.open_multiscale); got {type(volume).__name__}")
-        opts = RenderOptions.from_kwargs(options, **option_kwargs)
+        self.default_tf = tf is None
+        tf, opts = resolve_render_options(volume, tf, options, cmap=cmap, clim=clim, opacity=opacity, scale=scale,
+                                          **option_kwargs)
         refused = [name for name, on in (("shade=True", opts.shade), ("gradient_opacity=", opts.gradient_opacity),
                                          (f"blending={opts.blending!r}", opts.blending != "composite"),
                                          ("tolerance=", opts.tolerance is not None),
@@ -225,17 +227,6 @@ class MultiscalePlan:
         if refused:
             raise ValueError(f"an out-of-core volume renders composite blending of values in float64, float32 or "
                              f"float16; {', '.join(refused)} is not supported for it yet")
-        given = [n for n, v in zip(TF_KEYWORDS, (cmap, clim, opacity, scale)) if v is not None]
-        if tf is None:
-            tf = volume.default_transfer_function(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
-            self.default_tf = True
-        elif given:
-            raise TypeError(f"pass either tf= or {', '.join(n + '=' for n in given)}, not both: a TransferFunction "
-                            "sets colour, opacity, range and axis already")
-        elif not isinstance(tf, TransferFunction):
-            raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
-        else:
-            self.default_tf = False
         self.volume, self.tf, self.options = volume, tf, opts
         prec = opts.precision
         self.dtype = np.float64 if prec == "float64" and volume.store.dtype == np.float64 else np.float32

@@ -20,16 +20,16 @@ scenes, each rendered here:
 from __future__ import annotations
 
 import dataclasses
+from typing import NamedTuple
 
 import numpy as np
 
 from ..data.blocks import prepare_blocks
 from ..data.transfer import auto_transfer_function
-from ..params import RenderOptions
 from ..image.hdr import HDRImage
-from ..rays.camera import Rays, as_camera, ray_box_spans
+from ..rays.camera import Rays, as_camera, fit_camera, ray_box_spans
 from .._validate import as_size
-from .grid import GridPlan, collected_warnings, render_volume, resolve_transfer_function, warn_empty
+from .grid import GridPlan, collected_warnings, render_volume, resolve_render_options, warn_empty
 from .frame import check_progress_bar, tqdm_bar
 from .tets import TetPlan, render_tets
 
@@ -108,6 +108,7 @@ def render_blocks(data, tf=None, camera=None, size=(512, 512), options=None, *, 
     {'kind': 'grid', 'rendered': ['Block-00', 'Block-01']}
     """
     scene = prepare_blocks(data, scalars=scalars, preference=preference)
+    camera = fit_camera(data, camera, scalars=scalars, preference=preference)  # the rendered blocks' bounds
     keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     if scene.kind == "mesh":
         image = render_tets(scene.mesh, tf, camera, size, options, progress=progress, progress_bar=progress_bar,
@@ -136,15 +137,14 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     volumes = [b.volume(name) for b in blocks]
     boxes = [(np.array(v.bounds[0::2]), np.array(v.bounds[1::2])) for v in volumes]
     _check_disjoint(blocks, boxes)
-    opts = RenderOptions.from_kwargs(options, **option_kwargs)
-    _check_part_by_part(opts, "these grid blocks are rendered one by one (not on one lattice, or too sparse to "
-                              "gather)", "resample the blocks onto one lattice")
     unit_spacing = min(_cell_width(v) for v in volumes)
     lo = np.min([b[0] for b in boxes], axis=0)
     hi = np.max([b[1] for b in boxes], axis=0)
     bounds = tuple(float(x) for pair in zip(lo, hi) for x in pair)
-    tf = _union_transfer_function(volumes, bounds, unit_spacing, tf, dict(cmap=cmap, clim=clim, opacity=opacity,
-                                                                         scale=scale))
+    tf, opts = resolve_render_options(_BlockUnion(volumes, bounds, unit_spacing), tf, options, cmap=cmap, clim=clim,
+                                      opacity=opacity, scale=scale, **option_kwargs)
+    _check_part_by_part(opts, "these grid blocks are rendered one by one (not on one lattice, or too sparse to "
+                              "gather)", "resample the blocks onto one lattice")
     unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else unit_spacing
     camera = as_camera(camera, bounds)
     rays = camera if isinstance(camera, Rays) else camera.rays(as_size(size))
@@ -218,15 +218,14 @@ def render_mixed_blocks(blocks, mesh, tf=None, camera=None, size=(512, 512), opt
     boxes = [(np.array(v.bounds[0::2]), np.array(v.bounds[1::2])) for v in volumes]
     _check_disjoint(blocks, boxes)
     _check_outside(mesh, blocks, boxes)
-    opts = RenderOptions.from_kwargs(options, **option_kwargs)
-    _check_part_by_part(opts, "this scene of grid and mesh blocks is rendered part by part",
-                        "each part alone (hv.render(dataset[...]))")
     unit_spacing = min(_cell_width(v) for v in volumes)
     lo = np.minimum(np.min([b[0] for b in boxes], axis=0), np.asarray(mesh.bounds[0::2]))
     hi = np.maximum(np.max([b[1] for b in boxes], axis=0), np.asarray(mesh.bounds[1::2]))
     bounds = tuple(float(x) for pair in zip(lo, hi) for x in pair)
-    tf = _union_transfer_function(volumes, bounds, unit_spacing, tf, dict(cmap=cmap, clim=clim, opacity=opacity,
-                                                                         scale=scale), mesh)
+    tf, opts = resolve_render_options(_BlockUnion(volumes, bounds, unit_spacing, mesh), tf, options, cmap=cmap,
+                                      clim=clim, opacity=opacity, scale=scale, **option_kwargs)
+    _check_part_by_part(opts, "this scene of grid and mesh blocks is rendered part by part",
+                        "each part alone (hv.render(dataset[...]))")
     unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None else unit_spacing
     camera = as_camera(camera, bounds)
     if isinstance(camera, Rays):
@@ -346,13 +345,24 @@ def _check_disjoint(blocks, boxes):
                     f"resample the blocks onto one lattice")
 
 
-def _union_transfer_function(volumes, bounds, unit_spacing, tf, keywords, mesh=None):
-    """``tf``, or the default transfer function of all blocks' values together (each
-    weighted by the volume of its cell, so a finely sampled block does not outweigh a
-    coarse one; a mesh's values by the volume each stands for), for a ray as long as the
-    union box's diagonal."""
-    if tf is not None or not volumes:
-        return resolve_transfer_function(volumes[0], tf, **keywords)
+class _BlockUnion(NamedTuple):
+    """The blocks of a scene rendered part by part, as :func:`resolve_render_options`
+    chooses their default transfer function: :func:`_union_transfer_function`."""
+
+    volumes: list
+    bounds: tuple
+    unit_spacing: float
+    mesh: object = None
+
+    def default_transfer_function(self, **keywords):
+        return _union_transfer_function(self.volumes, self.bounds, self.unit_spacing, keywords, self.mesh)
+
+
+def _union_transfer_function(volumes, bounds, unit_spacing, keywords, mesh=None):
+    """The default transfer function of all blocks' values together (each weighted by
+    the volume of its cell, so a finely sampled block does not outweigh a coarse one; a
+    mesh's values by the volume each stands for), for a ray as long as the union box's
+    diagonal."""
     values = [v.values.reshape(-1) for v in volumes]
     weights = [np.full(v.values.size, float(np.prod(v.spacing))) for v in volumes]
     if mesh is not None:

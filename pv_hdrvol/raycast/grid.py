@@ -158,18 +158,90 @@ def check_rectilinear(volume, **features):
 
 def resolve_transfer_function(data, tf=None, *, cmap=None, clim=None, opacity=None, scale=None):
     """``tf`` itself, or the default transfer function of ``data`` (a
-    :class:`GridVolume` or :class:`~pv_hdrvol.TetMesh`) shaped by the keywords
-    (:func:`default_transfer_function`). Giving ``tf`` and a keyword is a ``TypeError``:
-    a transfer function sets colour, opacity, range and axis already."""
+    :class:`GridVolume` or :class:`~pv_hdrvol.TetMesh`: :func:`default_transfer_function`;
+    anything else with a ``default_transfer_function(cmap=, clim=, opacity=, scale=)``
+    method, such as a :class:`~pv_hdrvol.MultiscaleVolume`: that method) shaped by the
+    keywords. Giving ``tf`` and a keyword is a ``TypeError``: a transfer function sets
+    colour, opacity, range and axis already."""
     given = [name for name, value in zip(TF_KEYWORDS, (cmap, clim, opacity, scale)) if value is not None]
     if tf is not None and given:
         raise TypeError(f"pass either tf= or {', '.join(n + '=' for n in given)}, not both: a TransferFunction "
                         "sets colour, opacity, range and axis already")
     if tf is None:
-        return default_transfer_function(data, cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+        own = getattr(data, "default_transfer_function", None)  # a later stage's data (out of core) brings its own
+        make = own if callable(own) else lambda **keywords: default_transfer_function(data, **keywords)
+        return make(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     if not isinstance(tf, TransferFunction):
         raise TypeError(f"tf must be a TransferFunction; got {type(tf).__name__}")
     return tf
+
+
+def resolve_render_options(data, tf=None, options=None, *, cmap=None, clim=None, opacity=None, scale=None,
+                           **option_kwargs):
+    """The transfer function and :class:`~pv_hdrvol.RenderOptions` of a render, from the
+    keywords every front end takes: the one place they get their meaning.
+
+    ``hv.render``, ``dataset.hdrvol.render``, ``plotter.hdrvol.add_volume``, ``hv.view``
+    and the notebook editor, the progressive renderer, the VTK algorithm (and the
+    ParaView filter over it) and both command lines reach their transfer function and
+    options through this function (the render plans call it), so a keyword means the
+    same in each of them.
+
+    Parameters
+    ----------
+    data : GridVolume, TetMesh, or an object with a ``default_transfer_function`` method
+        What the default transfer function is chosen from: the volume or mesh made of a
+        dataset (:func:`~pv_hdrvol.data.kinds.as_renderable`), a
+        :class:`~pv_hdrvol.MultiscaleVolume` (its coarsest level), ... Read only when
+        ``tf`` is ``None``.
+    tf : TransferFunction, optional
+        Used as given. Default: the data's default transfer function
+        (:func:`resolve_transfer_function`).
+    options : RenderOptions, optional
+        The options ``option_kwargs`` change (default ``RenderOptions()``).
+    cmap, clim, opacity, scale : optional
+        PyVista's ``add_volume`` words, with its meanings, each replacing one choice of
+        the default transfer function (:func:`default_transfer_function`): a matplotlib
+        colormap name; the range ``(low, high)`` the colours and opacity span (a number
+        ``c`` is ``(-c, c)``, an end ``None`` stays the default's); a PyVista opacity
+        curve name (``"linear"``, ``"sigmoid"``, ``"geom_r"``, ...), one opacity or
+        opacities spread over the range; and the axis (``"linear"``, ``"log"``,
+        ``"symlog"``). Not together with ``tf``.
+    **option_kwargs
+        :class:`~pv_hdrvol.RenderOptions` fields (``step=``, ``precision=``,
+        ``global_alpha=``, ``shade=``, ...), replacing those of ``options``.
+
+    Returns
+    -------
+    tf : TransferFunction
+    options : RenderOptions
+        Validated once; the plans take both as they are.
+
+    Raises
+    ------
+    TypeError
+        An unknown keyword (the message names it and the allowed ones), ``tf`` with a
+        word of the default transfer function, a ``tf`` that is not a
+        :class:`~pv_hdrvol.TransferFunction`, ``options`` that are not
+        :class:`~pv_hdrvol.RenderOptions`.
+    ValueError
+        A value out of its range (the message names the value and the range).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> volume = volume_from_array(np.linspace(0.0, 1.0, 64).reshape(4, 4, 4))
+    >>> tf, options = resolve_render_options(volume, clim=(0.2, 0.8), cmap="bone", step=0.25)
+    >>> (tf.vmin, tf.vmax, options.step)
+    (0.2, 0.8, 0.25)
+    """
+    fields = {f.name for f in dataclasses.fields(RenderOptions)}
+    unknown = sorted(set(option_kwargs) - fields)
+    if unknown:
+        raise TypeError(f"unknown render option(s) {unknown}; allowed: {sorted(fields)} and the transfer "
+                        f"function's {', '.join(TF_KEYWORDS)}")
+    opts = RenderOptions.from_kwargs(options, **option_kwargs)
+    return resolve_transfer_function(data, tf, cmap=cmap, clim=clim, opacity=opacity, scale=scale), opts
 
 
 class EmptyRenderWarning(RuntimeWarning):
@@ -623,9 +695,9 @@ class GridPlan:
     def __init__(self, volume, tf=None, options=None, *, labels=None, label_styles=None, cmap=None, clim=None,
                  opacity=None, scale=None, **option_kwargs):
         volume = as_volume(volume)
-        opts = RenderOptions.from_kwargs(options, **option_kwargs)
         self.default_tf = tf is None
-        tf = resolve_transfer_function(volume, tf, cmap=cmap, clim=clim, opacity=opacity, scale=scale)
+        tf, opts = resolve_render_options(volume, tf, options, cmap=cmap, clim=clim, opacity=opacity, scale=scale,
+                                          **option_kwargs)
         if opts.precision == "uint8" and labels is not None:
             raise ValueError("labels need a floating-point precision; precision='uint8' quantises the data to one "
                              "transfer function")

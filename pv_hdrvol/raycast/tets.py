@@ -17,13 +17,13 @@ from ..data.transfer import SCALE_CODES, _scale_inverse
 from ..image.hdr import HDRImage
 from ..image.upsample import DepthLayers
 from .._validate import as_int, as_real, as_size
-from ..params import PRECISION_CODES, RenderOptions
+from ..params import PRECISION_CODES
 from ..rays.camera import Camera, as_camera, ray_box_spans
 from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import _visible, cached, empty_render_reason, resolve_transfer_function, warn_empty
+from .grid import _visible, cached, empty_render_reason, resolve_render_options, warn_empty
 from .frame import (MARKERS, TILE, check_far, check_progress_bar, device_runner, pixel_rows, run_frame, run_in_chunks,
                     tile_lanes)
 from .memory import check_memory
@@ -99,9 +99,8 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     upsample = as_int("upsample", upsample, low=1)
     keywords = dict(cmap=cmap, clim=clim, opacity=opacity, scale=scale)
     if upsample > 1:
-        tf = resolve_transfer_function(mesh, tf, **keywords)
-        return _render_upsampled(mesh, tf, camera, size, options, upsample, tau_max, progress, progress_bar,
-                                 option_kwargs)
+        tf, options = resolve_render_options(mesh, tf, options, **keywords, **option_kwargs)
+        return _render_upsampled(mesh, tf, camera, size, options, upsample, tau_max, progress, progress_bar)
     plan = TetPlan(mesh, tf, options, tau_max=tau_max, **keywords, **option_kwargs)
     return plan.execute(camera, size, progress=progress, progress_bar=progress_bar)
 
@@ -129,7 +128,9 @@ class TetPlan:
     def __init__(self, mesh, tf=None, options=None, *, tau_max=TAU_MAX, scalars=None, preference="point",
                  cmap=None, clim=None, opacity=None, scale=None, **option_kwargs):
         mesh = as_tetmesh(mesh, scalars=scalars, preference=preference)
-        opts = RenderOptions.from_kwargs(options, **option_kwargs)
+        default_tf = tf is None
+        tf, opts = resolve_render_options(mesh, tf, options, cmap=cmap, clim=clim, opacity=opacity, scale=scale,
+                                          **option_kwargs)
         if opts.blending != "composite":
             raise ValueError(f"tetrahedral meshes support blending='composite' only; got {opts.blending!r}")
         if opts.gradient_opacity is not None:
@@ -138,8 +139,6 @@ class TetPlan:
         if opts.tolerance is not None and self.tau_max != TAU_MAX:
             raise ValueError(f"tolerance= chooses tau_max: leave it at its default or drop tolerance; got "
                              f"tau_max={tau_max!r}")
-        default_tf = tf is None
-        tf = resolve_transfer_function(mesh, tf, cmap=cmap, clim=clim, opacity=opacity, scale=scale)
         prec = opts.precision
         self.mesh, self.tf, self.options = mesh, tf, opts
         self.unit = opts.opacity_unit_distance if opts.opacity_unit_distance is not None \
@@ -345,7 +344,7 @@ def _table(tf, prec, global_alpha, unit):
     return table, sigma
 
 
-def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress, progress_bar, option_kwargs):
+def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress, progress_bar):
     """``render_tets(upsample=factor)``: low-resolution render (I), full-resolution
     reference layers (R), joint bilateral upsampling (U)."""
     from ..image.upsample import upsample
@@ -355,11 +354,11 @@ def _render_upsampled(mesh, tf, camera, size, options, factor, tau_max, progress
         raise ValueError(f"size {width}x{height} must be a multiple of upsample={factor}")
     camera = as_camera(camera, mesh.bounds)
     # the low render checks its own arrays; these are the full-size layers and output
-    out_item = 8 if RenderOptions.from_kwargs(options, **option_kwargs).precision == "float64" else 4
+    out_item = 8 if options.precision == "float64" else 4
     check_memory({"full-size thickness guide and upsampled image": width * height * (16 + 32 + 4 * out_item + 8)},
                  _MEMORY_ADVICE.format(width=width, height=height))
     t0 = time.perf_counter()
-    low, view = TetPlan(mesh, tf, options, tau_max=tau_max, **option_kwargs).execute_with_view(
+    low, view = TetPlan(mesh, tf, options, tau_max=tau_max).execute_with_view(
         camera, (width // factor, height // factor), progress=progress, progress_bar=progress_bar)
     t1 = time.perf_counter()
     # the thickness guides the filter: no layers are kept. The boundary's view-plane

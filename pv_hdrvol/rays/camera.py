@@ -333,3 +333,116 @@ def as_camera(camera, bounds):
         raise TypeError(
             "camera must be None, a view name such as 'iso' or 'xy', a pv_hdrvol Camera or Rays, a "
             f"pyvista.Plotter, a pyvista.Camera or a vtkCamera; got {type(camera).__name__}") from None
+
+
+def data_bounds(data, scalars=None, preference="point"):
+    """``(xmin, xmax, ymin, ymax, zmin, zmax)`` that a view name frames: the dataset's
+    geometric bounds, as PyVista's ``reset_camera`` and ParaView frame a dataset.
+
+    A grid's bounds are its points' (the corners of its cells), also when the array
+    rendered is cell data, whose values sit half a cell inside, at the cell centres. A
+    composite dataset's are the union of the bounds of the blocks rendered: those with
+    volume (not surfaces) that have the array ``scalars``.
+
+    Parameters
+    ----------
+    data : dataset, GridVolume, TetMesh, MultiscaleVolume, ndarray or 6 numbers
+        A VTK dataset or composite dataset, PyVista's included (``GetBounds``);
+        anything with ``.bounds`` (:class:`~pv_hdrvol.GridVolume`,
+        :class:`~pv_hdrvol.TetMesh`, :class:`~pv_hdrvol.MultiscaleVolume`: their
+        points); a 3-D array ``(z, y, x)``, whose points lie at unit spacing from the
+        origin (as :func:`~pv_hdrvol.volume_from_array` places them); or the six
+        numbers.
+    scalars, preference
+        A composite dataset's array, as :func:`pv_hdrvol.render` takes them: which
+        blocks are rendered (:func:`~pv_hdrvol.data.blocks.choose_block_scalars`).
+
+    Returns
+    -------
+    tuple of 6 float
+
+    Raises
+    ------
+    ValueError
+        The dataset has no points (VTK's bounds are then "unset", min > max).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> data_bounds(np.zeros((4, 3, 2)))
+    (0.0, 1.0, 0.0, 2.0, 0.0, 3.0)
+    """
+    what = type(data).__name__
+    if callable(getattr(data, "IsA", None)) and data.IsA("vtkCompositeDataSet"):
+        bounds = _blocks_bounds(data, scalars, preference)
+    elif callable(getattr(data, "GetBounds", None)):
+        bounds = data.GetBounds()
+    elif hasattr(data, "bounds"):
+        bounds = data.bounds
+    elif isinstance(data, np.ndarray) and data.ndim == 3:
+        nz, ny, nx = data.shape
+        bounds, what = (0.0, nx - 1.0, 0.0, ny - 1.0, 0.0, nz - 1.0), "array"
+    else:
+        bounds, what = data, "bounds"
+    b = as_vector("bounds", bounds, 6)
+    if np.any(b[1::2] < b[0::2]):
+        raise ValueError(f"the {what} has no points to frame: its bounds are {tuple(b.tolist())} (min > max)")
+    return tuple(float(x) for x in b)
+
+
+def _blocks_bounds(data, scalars, preference):
+    """The union of the bounds of the blocks of a composite dataset that are rendered
+    (as :func:`~pv_hdrvol.data.blocks.prepare_blocks` keeps them, without its warnings);
+    VTK's bounds of all blocks where none is."""
+    from ..data.blocks import SURFACE_CLASSES, choose_block_scalars, flatten
+
+    volumetric = [leaf for leaf in flatten(data)[0] if leaf.class_name not in SURFACE_CLASSES]
+    kept = choose_block_scalars(volumetric, scalars, preference)[2] if volumetric else []
+    if not kept:
+        bounds = [0.0] * 6  # VTK's Python wrapping fills a list for a composite dataset
+        data.GetBounds(bounds)
+        return bounds
+    boxes = np.array([leaf.dataset.GetBounds() for leaf in kept], dtype=np.float64)
+    return np.column_stack([boxes[:, 0::2].min(axis=0), boxes[:, 1::2].max(axis=0)]).reshape(-1)
+
+
+def fit_camera(data, camera=None, *, scalars=None, preference="point", zoom=1.0, parallel_projection=False):
+    """The camera a front end renders ``data`` with: a view name frames the data's
+    geometric bounds (:func:`data_bounds`); any other camera is used as given.
+
+    Every front end (``hv.render``, the PyVista accessor, ``plotter.hdrvol.add_volume``,
+    the viewers, the VTK algorithm and the command lines) frames its default view
+    through this function, so one dataset is framed alike everywhere.
+
+    Parameters
+    ----------
+    data : dataset, GridVolume, TetMesh, MultiscaleVolume, ndarray or 6 numbers
+        As :func:`data_bounds`. Pass the dataset, not the volume made of it: a volume
+        of cell data spans the cell centres only.
+    camera : None, str, Camera, Rays, pyvista.Plotter, pyvista.Camera or vtkCamera
+        ``None`` is ``"iso"``; a view name (``"iso"``, ``"xy"``, ``"xz"``, ...) is
+        :meth:`Camera.fit` of the bounds; the rest as :func:`as_camera`.
+    scalars, preference
+        A composite dataset's array (:func:`data_bounds`).
+    zoom : float
+        A view name's zoom (> 1 moves closer).
+    parallel_projection : bool
+        Whether a view name makes an orthographic camera.
+
+    Returns
+    -------
+    Camera or Rays
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> fit_camera(np.zeros((4, 3, 2)), "xy") == Camera.fit((0, 1, 0, 2, 0, 3), "xy")
+    True
+    """
+    if camera is None:
+        camera = "iso"
+    if isinstance(camera, str):
+        as_choice("view", camera, tuple(_VIEWS))  # named before the data is read
+        return Camera.fit(data_bounds(data, scalars, preference), camera, zoom=zoom,
+                          parallel_projection=parallel_projection)
+    return as_camera(camera, None)

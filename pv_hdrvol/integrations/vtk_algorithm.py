@@ -20,7 +20,7 @@ from ..data.kinds import BLOCKS, IMAGE_CLASSES, MESH, SUPPORTED, as_renderable, 
 from ..parallel.comm import PointToPointComm
 from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
 from ..params import RenderOptions, as_clip_planes
-from ..rays.camera import Camera, Rays, as_camera
+from ..rays.camera import Camera, Rays, as_camera, fit_camera
 from . import VolumeCache, _content_key
 from .vtk_base import ReportingAlgorithm, request_whole_extent
 
@@ -674,8 +674,7 @@ class HDRVolumeRenderer(ReportingAlgorithm):
             given = {} if tf is not None else {k: v for k, v in self._tf_keywords.items()}
             self._multiscale_plan = (key, MultiscalePlan(volume, tf, self._options, **given))
         plan = self._multiscale_plan[1]
-        camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
-                           volume.bounds)
+        camera = fit_camera(volume, Camera(**self._camera) if isinstance(self._camera, dict) else self._camera)
         self._last_camera = camera
         self._last_tolerance = None
 
@@ -820,8 +819,9 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         store = self._store_input(inp, scalars, preference)
         if store is not None:
             return self._execute_multiscale(store[0], out)
-        camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
-                           _bounds(inp))
+        # a view name frames the input's bounds (its rendered blocks'), as hv.render frames it
+        camera = fit_camera(inp, Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
+                            scalars=scalars, preference=preference)
         self._last_camera = camera
         tf = self._transfer_function()
         self._last_tolerance = None
@@ -1067,7 +1067,7 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         value: 0.6 s for engine). The same pixels as ``render_volume``/``render_tets``,
         which resolve the transfer function, make a plan and execute it once."""
         from ..data.tets import TetMesh
-        from ..raycast.grid import resolve_transfer_function
+        from ..raycast.grid import resolve_render_options
 
         opts = self._options if options is None else options
         if data is not None:  # prepared by the caller (a rectilinear piece)
@@ -1076,15 +1076,16 @@ class HDRVolumeRenderer(ReportingAlgorithm):
             data = as_renderable(inp, scalars=scalars, preference=preference)
         else:
             data = self._volumes.get(inp, scalars, preference)
-        if tf is None:
-            keywords = tuple((name, None if value is None else default_transfer_function_keyword(name, value))
-                             for name, value in self._tf_keywords.items())
-            made = self._default_tf
-            if made is None or made[0] is not data or made[1] != keywords:
-                made = self._default_tf = (data, keywords, resolve_transfer_function(data, None, **self._tf_keywords))
-            tf = made[2]
-        else:  # a transfer function and a keyword: the same TypeError as everywhere
-            resolve_transfer_function(data, tf, **self._tf_keywords)
+        keywords = tuple((name, None if value is None else default_transfer_function_keyword(name, value))
+                         for name, value in self._tf_keywords.items())
+        made = self._default_tf
+        if tf is None and made is not None and made[0] is data and made[1] == keywords:
+            tf = made[2]  # the data's default function, kept
+        else:  # as every front end: a transfer function and a keyword are the same TypeError
+            given = tf
+            tf, opts = resolve_render_options(data, tf, opts, **self._tf_keywords)
+            if given is None:
+                self._default_tf = (data, keywords, tf)
         labels = None if self._labels is None else (self._labels, id(self._label_styles))
         if self._plan is not None:
             old = self._plan[0]  # the data and the transfer function by identity, the rest by value
@@ -1110,16 +1111,6 @@ class HDRVolumeRenderer(ReportingAlgorithm):
             plan = GridPlan(data, tf, opts, labels=label_array, label_styles=self._label_styles)
         self._plan = ((data, tf, opts, labels), plan)
         return plan
-
-
-def _bounds(data):
-    """``GetBounds()`` of a dataset or a composite dataset (whose wrapped method fills a
-    list)."""
-    if data.IsA("vtkCompositeDataSet"):
-        bounds = [0.0] * 6
-        data.GetBounds(bounds)
-        return tuple(bounds)
-    return data.GetBounds()
 
 
 def _blocks_are_meshes(data):
@@ -1236,11 +1227,9 @@ class HDRProxyWriter(HDRVolumeRenderer):
         data = self._volumes.get(inp, scalars, preference)
         camera = Camera(**self._camera) if isinstance(self._camera, dict) else self._camera
         camera = as_proxy_camera(camera, inp.GetBounds())
-        tf = self._transfer_function()
-        if tf is None:
-            from ..raycast.grid import resolve_transfer_function
+        from ..raycast.grid import resolve_render_options
 
-            tf = resolve_transfer_function(data, None, **self._tf_keywords)
+        tf = resolve_render_options(data, self._transfer_function(), **self._tf_keywords)[0]
         self.SetProgressText("casting proxies")
         proxies = make_proxies(data, camera, self._size, tf, step=self._options.step,
                                opacity_unit_distance=self._options.opacity_unit_distance, progress_bar=False,

@@ -36,7 +36,7 @@ import numpy as np
 from ..editor.model import PRESETS, TransferFunctionModel
 from ..image.tonemap import EXPOSURE_PARAMETERS
 from ..image.tonemap import tonemap as _tonemap
-from ..rays.camera import Camera
+from ..rays.camera import Camera, fit_camera
 from .progressive import ProgressiveRenderer, level_text
 
 TONEMAPS = {name: EXPOSURE_PARAMETERS[name] for name in ("reinhard", "drago", "linear")}
@@ -104,8 +104,13 @@ class TransferFunctionEditor:
     live : bool
         Render on a worker thread as the widgets change (default). ``False``: only
         :meth:`refresh` renders (scripts, tests).
+    scalars, preference
+        Which array of a dataset, as :func:`pv_hdrvol.render`.
     **render_kwargs
-        Render options (``precision=``...).
+        As :func:`pv_hdrvol.render`: render options (``precision=``...) and PyVista's
+        ``cmap=``, ``clim=``, ``opacity=``, ``scale=``, which shape the default
+        transfer function the editor starts from
+        (:func:`~pv_hdrvol.raycast.grid.resolve_render_options`).
 
     Attributes
     ----------
@@ -116,17 +121,21 @@ class TransferFunctionEditor:
         The last render shown.
     """
 
-    def __init__(self, data, tf=None, *, size=(512, 384), live=True, **render_kwargs):
+    def __init__(self, data, tf=None, *, size=(512, 384), live=True, scalars=None, preference="point",
+                 **render_kwargs):
         import ipywidgets as w
 
-        self.model = TransferFunctionModel.for_data(data, tf)
         self.size = (int(size[0]), int(size[1]))
         self.live = bool(live)
         self._lock = threading.Lock()
-        self.renderer = ProgressiveRenderer(data, self.model.transfer_function(),
-                                            on_frame=self._on_frame if live else None,
-                                            global_alpha=self.model.global_alpha, **render_kwargs)
-        self._base = Camera.fit(self.renderer.data.bounds, "iso")
+        # the renderer resolves tf, the transfer function's words and the options; the editor
+        # starts from that function and renders what it holds
+        self.renderer = ProgressiveRenderer(data, tf, on_frame=self._on_frame if live else None, scalars=scalars,
+                                            preference=preference, **render_kwargs)
+        self.model = TransferFunctionModel.for_data(self.renderer.data, self.renderer.tf,
+                                                    global_alpha=self.renderer.options.global_alpha)
+        self.renderer.set_scene(self.model.transfer_function())
+        self._base = fit_camera(self.renderer.bounds, "iso")  # the dataset's bounds, as hv.render frames it
         self.hdr = self.level = None
         self.said = ()  # the renderer's warnings of the frame shown
         self.operator, self.exposure = "reinhard", 0.0

@@ -49,11 +49,10 @@ from ..data.tets import is_unstructured
 from ..image.hdr import HDRImage
 from ..image.upsample import upsample
 from ..outofcore.render import MultiscaleVolume
-from ..params import RenderOptions
 from ..raycast.grid import EmptyRenderWarning, GridPlan, collected_warnings
 from ..data.kinds import as_renderable
 from ..raycast.tets import TetPlan
-from ..rays.camera import as_camera
+from ..rays.camera import data_bounds, fit_camera
 
 #: Coarse factors tried, smallest first (full-size pixels per coarse pixel, per axis).
 FACTORS = (2, 3, 4, 6, 8, 12, 16)
@@ -124,7 +123,11 @@ class ProgressiveRenderer:
     tf : TransferFunction, optional
         The default is the renderer's default for the data.
     options : RenderOptions, optional
-        And ``**option_kwargs``: as :func:`pv_hdrvol.render`.
+        And ``**option_kwargs``: as :func:`pv_hdrvol.render`: RenderOptions fields, and
+        ``cmap``, ``clim``, ``opacity``, ``scale`` shaping the default transfer function
+        (:func:`~pv_hdrvol.raycast.grid.resolve_render_options`, as every front end).
+    scalars, preference
+        Which array of a dataset, as :func:`pv_hdrvol.render`.
     coarse_seconds : float
         The coarse frame's time budget (default :data:`COARSE_SECONDS`).
     factor : int
@@ -164,10 +167,12 @@ class ProgressiveRenderer:
                 raise ValueError("screen_error= is the level of detail of an out-of-core volume (MultiscaleVolume); "
                                  f"this is a {type(data).__name__}")
             self.data = as_renderable(data, scalars=scalars, preference=preference)
+        #: what a view name frames: the bounds of the data given (:func:`~pv_hdrvol.rays.camera.data_bounds`;
+        #: a dataset's cell corners, where the volume made of cell data spans the cell centres)
+        self.bounds = data_bounds(data, scalars, preference)
         self.screen_error = 1.0 if screen_error is None else as_real("screen_error", screen_error, low=0.0,
                                                                         low_open=True)
         self.tets = not self.multiscale and is_unstructured(self.data)
-        self.options = RenderOptions.from_kwargs(options, **option_kwargs)
         self.coarse_seconds = as_real("coarse_seconds", coarse_seconds, low=0.0, low_open=True)
         if factor not in FACTORS:
             raise ValueError(f"factor must be one of {FACTORS}; got {factor!r}")
@@ -177,7 +182,9 @@ class ProgressiveRenderer:
                 raise TypeError(f"{name} must be callable; got {type(f).__name__}")
         self.on_frame, self.on_error = on_frame, on_error
         self._lock = threading.Condition()
-        self._plan = self._make_plan(tf, self.options)
+        # the plan resolves tf, the transfer function's words and the options (resolve_render_options)
+        self._plan = self._make_plan(tf, options, **option_kwargs)
+        self.options = self._plan.options
         self._generation = 0
         self._pending = None  # (generation, camera, size, lens, plan, far, unoccluded) of the latest request
         self._thread = None
@@ -185,8 +192,8 @@ class ProgressiveRenderer:
         #: the last frame delivered by the worker (None before the first)
         self.last_frame: Optional[Frame] = None
 
-    def _make_plan(self, tf, options):
-        return TetPlan(self.data, tf, options) if self.tets else GridPlan(self.data, tf, options)
+    def _make_plan(self, tf, options, **option_kwargs):
+        return (TetPlan if self.tets else GridPlan)(self.data, tf, options, **option_kwargs)
 
     @property
     def tf(self):
@@ -218,6 +225,7 @@ class ProgressiveRenderer:
         instead (one frame)."""
         size = as_size(size)
         self._check_lens(lens)
+        camera = fit_camera(self.bounds, camera)
         with self._lock:
             plan = self._plan
         out = list(self._sequence(plan, camera, size, lens, 0, lambda: False, far, unoccluded, coarse, refine))
@@ -342,7 +350,7 @@ class ProgressiveRenderer:
             raise ValueError("request() needs on_frame= (the frames go there); frames() renders synchronously")
         size = as_size(size)
         self._check_lens(lens)
-        camera = as_camera(camera, self.data.bounds)
+        camera = fit_camera(self.bounds, camera)
         with self._lock:
             if self._closed:
                 raise RuntimeError("the renderer is closed")

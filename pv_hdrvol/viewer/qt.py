@@ -431,8 +431,13 @@ class HDRViewer(QtWidgets.QMainWindow):
     tf : TransferFunction, optional
         Default: the renderer's default for the data.
     title : str
+    scalars, preference
+        Which array of a dataset, as :func:`pv_hdrvol.render`.
     **render_kwargs
-        Render options (``precision=``, ``step=``...).
+        As :func:`pv_hdrvol.render`: render options (``precision=``, ``step=``...) and
+        PyVista's ``cmap=``, ``clim=``, ``opacity=``, ``scale=``, which shape the
+        default transfer function the editor starts from
+        (:func:`~pv_hdrvol.raycast.grid.resolve_render_options`).
     """
 
     def __init__(self, data, tf=None, *, title="pv_hdrvol", scalars=None, preference="point", **render_kwargs):
@@ -440,25 +445,24 @@ class HDRViewer(QtWidgets.QMainWindow):
 
         super().__init__()
         self.setWindowTitle(title)
-        from ..data.kinds import BLOCKS, data_kind
         from ..outofcore.render import MultiscaleVolume
 
         #: whether the data is a MultiscaleVolume (rendered out of core: see the module)
         self.multiscale = isinstance(data, MultiscaleVolume)
-        if self.multiscale:
-            if scalars is not None:
-                raise ValueError(f"scalars= picks an array of a dataset; a multiresolution store holds one: got "
-                                 f"{scalars!r}")
-        elif scalars is not None or data_kind(data) == BLOCKS:  # blocks: gathered or merged once, here
-            data, scalars = _select(data, scalars, preference), None
-        self.data = data
-        self.model = TransferFunctionModel.for_data(data, tf)
         self.plotter = QtInteractor(self)
         self.setCentralWidget(self.plotter)
         self.plotter.set_background("black")
-        # the editor beside the view is the colour bar (and its opacity), so no scalar bar
-        self.actor = add_hdr_volume(self.plotter, data, self.model.transfer_function(), progressive=True,
-                                    show_scalar_bar=False, global_alpha=self.model.global_alpha, **render_kwargs)
+        # the editor beside the view is the colour bar (and its opacity), so no scalar bar. The
+        # scene gets the dataset itself (blocks gathered or merged there, once), so that its box
+        # and the view names frame the dataset's bounds, as hv.render does
+        self.actor = add_hdr_volume(self.plotter, data, tf, progressive=True, show_scalar_bar=False,
+                                    scalars=scalars, preference=preference, **render_kwargs)
+        renderer = self.actor.renderer
+        #: the volume or mesh rendered (a MultiscaleVolume as given)
+        self.data = renderer.data
+        # the editor starts from the function tf= or the words made, and renders what it holds
+        self.model = TransferFunctionModel.for_data(self.data, renderer.tf, global_alpha=renderer.options.global_alpha)
+        self.actor.set_transfer_function(self.model.transfer_function())
         self.plotter.view_isometric()
         self.editor = TransferFunctionEditorWidget(self.model)
         self.panel = ToneMapPanel(self)
@@ -682,14 +686,6 @@ class HDRViewer(QtWidgets.QMainWindow):
             self.data.close()  # the loader threads and the chunk cache (made again if it is used again)
         self.plotter.close()
         super().closeEvent(event)
-
-
-def _select(data, scalars, preference):
-    """The dataset as the volume or mesh of array ``scalars``
-    (:func:`~pv_hdrvol.data.kinds.as_renderable`: blocks gathered or merged)."""
-    from ..data.kinds import as_renderable
-
-    return as_renderable(data, scalars=scalars, preference=preference)
 
 
 def view(data, tf=None, *, block=None, **kwargs):

@@ -189,8 +189,9 @@ class HDRVolumeActor:
         window.AddRenderer(self._overlay)
         _first_of_its_layer(window, self._overlay)
         self._annotations = []  # the scene's 2-D props, hidden while it renders, drawn on the overlay
-        # the volume's box, invisible, so that reset_camera() and the clipping range see it
-        self._box = _bounds_actor(self.renderer.data.bounds)
+        # the volume's box, invisible, so that reset_camera() and the clipping range see it: the
+        # dataset's bounds, which hv.render's view names frame too (fit_camera)
+        self._box = _bounds_actor(self.renderer.bounds)
         self.scene.AddActor(self._box)
         self._start_observer = self.scene.AddObserver("StartEvent", self._scene_starts)
         self._observer = self.scene.AddObserver("EndEvent", self._scene_rendered)
@@ -635,11 +636,13 @@ def _value_at(data, point):
 def _bounds_actor(bounds):
     """An actor over ``bounds`` that draws nothing (opacity 0, no depth) but counts in
     the renderer's bounds: ``reset_camera`` frames the volume, the clipping range keeps it."""
+    from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm
     from vtkmodules.vtkFiltersSources import vtkOutlineSource
     from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
 
     source = vtkOutlineSource()
     source.SetBounds(*bounds)
+    source.SetOutputPointsPrecision(vtkAlgorithm.DOUBLE_PRECISION)  # float32 corners framed 1e-7 off
     mapper = vtkPolyDataMapper()
     mapper.SetInputConnection(source.GetOutputPort())
     actor = vtkActor()
@@ -659,11 +662,16 @@ def add_hdr_volume(plotter, data, tf=None, *, tonemap="reinhard", tonemap_params
     ----------
     plotter : pyvista.Plotter or pyvistaqt.BackgroundPlotter
     data, tf, scalars, preference, **render_kwargs
-        As :func:`pv_hdrvol.render` (``precision=``, ``global_alpha=``, ``step=``...). A
-        :class:`~pv_hdrvol.MultiscaleVolume` (a store larger than memory) renders out of
-        core: with a window, coarse levels while the camera moves and finer ones as
-        chunks arrive; off screen, converged at once (``screen_error=`` sets its level
-        of detail).
+        As :func:`pv_hdrvol.render`: RenderOptions fields (``precision=``,
+        ``global_alpha=``, ``step=``...) and PyVista's ``cmap=``, ``clim=``,
+        ``opacity=`` (a name such as ``"sigmoid"``, a number or opacities) and the axis
+        ``scale=``, which shape the default transfer function with the same meaning as
+        in ``hv.render`` (:func:`~pv_hdrvol.raycast.grid.resolve_render_options`). The
+        volume's box, which ``reset_camera`` and the view names frame, is the dataset's
+        bounds, as ``hv.render`` frames it. A :class:`~pv_hdrvol.MultiscaleVolume` (a
+        store larger than memory) renders out of core: with a window, coarse levels
+        while the camera moves and finer ones as chunks arrive; off screen, converged
+        at once (``screen_error=`` sets its level of detail).
     tonemap : str or callable
         The operator that maps the HDR render to the screen (:func:`pv_hdrvol.tonemap`),
         with ``tonemap_params``.

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import hashlib
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -47,6 +47,12 @@ class GridVolume:
         ``origin`` is then the first coordinates and ``spacing`` the *nominal* spacing
         ``(last - first) / (n - 1)``, so that ``bounds`` and cameras read it as they
         read a uniform grid's; the kernels sample the true cells (``raycast/grid.py``).
+    dataset_bounds : tuple of 6 float or None
+        The bounds of the dataset the volume was made of, where they are not
+        :attr:`bounds`: a volume of cell data holds the values at the cell centres,
+        half a cell inside the dataset's bounds (its cells' corners). What a view name
+        frames (:func:`~pv_hdrvol.rays.camera.fit_camera`), as PyVista and ParaView
+        frame the dataset. ``None``: :attr:`bounds`.
     """
 
     values: np.ndarray
@@ -58,6 +64,7 @@ class GridVolume:
     any_finite: bool = True
     integer: bool = False
     axes: tuple = None
+    dataset_bounds: tuple = None
     #: Derived arrays (bricks, block ranges) built on first render and reused.
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
@@ -316,15 +323,24 @@ def cached_volume_from_dataset(dataset, scalars=None, preference="point"):
                content_digest(arr, *axes))
         volume = _VOLUME_CACHE.lookup(dataset, key)
         if volume is None:
-            volume = _VOLUME_CACHE.store(dataset, key, volume_from_rectilinear(arr, *axes, name=name))
+            volume = _VOLUME_CACHE.store(dataset, key,
+                                         _framed(volume_from_rectilinear(arr, *axes, name=name), dataset))
         return volume
     arr, spacing, origin, name = _image_array(dataset, scalars, preference)
     key = (int(dataset.GetMTime()), scalars, preference, name, arr.__array_interface__["data"][0],
            tuple(spacing.tolist()), tuple(origin.tolist()), content_digest(arr))
     volume = _VOLUME_CACHE.lookup(dataset, key)
     if volume is None:
-        volume = _VOLUME_CACHE.store(dataset, key, volume_from_array(arr, spacing, origin, name=name))
+        volume = _VOLUME_CACHE.store(dataset, key, _framed(volume_from_array(arr, spacing, origin, name=name), dataset))
     return volume
+
+
+def _framed(volume, dataset):
+    """``volume`` of ``dataset``'s cell data with the dataset's bounds, which a view frames
+    (:attr:`GridVolume.dataset_bounds`); a volume of its point data as it is."""
+    if volume.dims == tuple(int(d) for d in dataset.GetDimensions()):
+        return volume
+    return replace(volume, dataset_bounds=tuple(float(b) for b in dataset.GetBounds()))
 
 
 _VOLUME_CACHE = DatasetCache(4)
@@ -342,14 +358,15 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
         Which association to prefer when the name exists in both. Cell data is
         rendered as a point field at the cell centres (the domain shrinks by half a
         cell on every side; on a rectilinear grid the centres are the midpoints of
-        its coordinates).
+        its coordinates); the volume keeps the dataset's bounds, which a view name
+        frames (:attr:`GridVolume.dataset_bounds`).
     """
     if _is_rectilinear(dataset):
         arr, axes, scalars = _rectilinear_array(dataset, scalars, preference)
-        return volume_from_rectilinear(arr, *axes, name=scalars)
+        return _framed(volume_from_rectilinear(arr, *axes, name=scalars), dataset)
     arr, spacing, origin, scalars = _image_array(dataset, scalars, preference)
     # np.asarray of a VTK array is a view: volume_from_array copies before any change.
-    return volume_from_array(arr, spacing, origin, name=scalars)
+    return _framed(volume_from_array(arr, spacing, origin, name=scalars), dataset)
 
 
 def labels_from_dataset(dataset, name, preference="point"):

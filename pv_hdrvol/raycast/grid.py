@@ -16,7 +16,7 @@ from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction,
 from ..image.hdr import HDRImage
 from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
-from ..rays.camera import Camera, Rays, as_camera
+from ..rays.camera import Camera, Rays, as_camera, fit_camera
 from ..rays.clip import has_clip, ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _kernels as K
@@ -804,7 +804,8 @@ class GridPlan:
                 raise ValueError("a piece of a distributed volume renders without labels, cull= and block_mask=")
             ghosts = 1 if (opts.shade or opts.gradient_opacity is not None) else 0
             piece_box, whole_hi, whole_origin, nominal = _check_piece(piece, self.source, opts, ghosts)
-        camera = as_camera(camera, self.source.bounds if piece is None else piece.bounds(self.source.spacing))
+        camera = fit_camera(self.source, camera) if piece is None else as_camera(camera,
+                                                                                  piece.bounds(self.source.spacing))
         if lens is not None:
             if not callable(getattr(lens, "rays", None)):
                 raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")

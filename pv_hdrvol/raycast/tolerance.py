@@ -231,12 +231,12 @@ def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, w
                  chunk_seconds=None, far=None):
     """``GridPlan.execute`` for a plan whose options carry a ``tolerance``: choose the
     knobs on a pilot, then render with them."""
-    from ..rays.camera import Rays, as_camera, check_window
+    from ..rays.camera import Rays, check_window, fit_camera
     from .frame import check_far, window_rays
 
     opts, tol = plan.options, plan.options.tolerance
     t0 = time.perf_counter()
-    camera = as_camera(camera, plan.source.bounds)
+    camera = fit_camera(plan.source, camera)  # as the plan frames it
     if lens is not None:
         rays = lens.rays(camera, size)
     elif isinstance(camera, Rays):

@@ -350,7 +350,8 @@ def data_bounds(data, scalars=None, preference="point"):
         A VTK dataset or composite dataset, PyVista's included (``GetBounds``);
         anything with ``.bounds`` (:class:`~pv_hdrvol.GridVolume`,
         :class:`~pv_hdrvol.TetMesh`, :class:`~pv_hdrvol.MultiscaleVolume`: their
-        points); a 3-D array ``(z, y, x)``, whose points lie at unit spacing from the
+        points; a GridVolume made of cell data: the dataset's bounds it keeps,
+        ``dataset_bounds``); a 3-D array ``(z, y, x)``, whose points lie at unit spacing from the
         origin (as :func:`~pv_hdrvol.volume_from_array` places them); or the six
         numbers.
     scalars, preference
@@ -377,6 +378,8 @@ def data_bounds(data, scalars=None, preference="point"):
         bounds = _blocks_bounds(data, scalars, preference)
     elif callable(getattr(data, "GetBounds", None)):
         bounds = data.GetBounds()
+    elif getattr(data, "dataset_bounds", None) is not None:  # a GridVolume of a dataset's cell data
+        bounds = data.dataset_bounds
     elif hasattr(data, "bounds"):
         bounds = data.bounds
     elif isinstance(data, np.ndarray) and data.ndim == 3:
@@ -417,8 +420,9 @@ def fit_camera(data, camera=None, *, scalars=None, preference="point", zoom=1.0,
     Parameters
     ----------
     data : dataset, GridVolume, TetMesh, MultiscaleVolume, ndarray or 6 numbers
-        As :func:`data_bounds`. Pass the dataset, not the volume made of it: a volume
-        of cell data spans the cell centres only.
+        As :func:`data_bounds`. A volume made of a dataset's cell data keeps the
+        dataset's bounds; for a composite dataset pass the dataset (a volume gathered
+        from blocks of cell data spans their cell centres).
     camera : None, str, Camera, Rays, pyvista.Plotter, pyvista.Camera or vtkCamera
         ``None`` is ``"iso"``; a view name (``"iso"``, ``"xy"``, ``"xz"``, ...) is
         :meth:`Camera.fit` of the bounds; the rest as :func:`as_camera`.

@@ -86,6 +86,40 @@ def _add_render_options(p):
                    help="show a progress bar (default: when stderr is a terminal)")
 
 
+def add_transfer_function_options(parser):
+    """Add ``--cmap``, ``--clim``, ``--opacity`` and ``--scale`` to ``parser``: the Python
+    API's ``cmap=``, ``clim=``, ``opacity=``, ``scale=`` (:func:`transfer_function_words`
+    reads them), shared by ``pv-hdrvol render`` and ``python -m pv_hdrvol.parallel render``."""
+    tf = parser.add_argument_group("transfer function (default: chosen from the data, as the Python API chooses; "
+                                   "each option replaces one choice; the Python API's cmap=, clim=, opacity=, "
+                                   "scale=)")
+    tf.add_argument("--cmap", default=None, help="matplotlib colormap name (default magma, without its black end)")
+    tf.add_argument("--clim", nargs=2, default=None, metavar=("LOW", "HIGH"),
+                    help="where colours and opacity start and end; 'auto' keeps the default's end (default: past "
+                         "the histogram's background mode, to the 99.9th percentile)")
+    tf.add_argument("--opacity", nargs="+", default=None, metavar="A",
+                    help="opacity over one voxel: one number, numbers spread evenly from LOW to HIGH, or a "
+                         "PyVista curve name (linear, sigmoid, geom_r, ...) (default: 0, rising to what keeps "
+                         "the densest rays readable)")
+    tf.add_argument("--scale", choices=SCALES, default=None,
+                    help="axis (default: log when the positive data span > 3 decades)")
+
+
+def transfer_function_words(args):
+    """``--cmap``, ``--clim``, ``--opacity``, ``--scale`` (:func:`add_transfer_function_options`)
+    as the keywords ``cmap=``, ``clim=``, ``opacity=``, ``scale=`` of
+    :func:`~pv_hdrvol.raycast.grid.resolve_render_options` (``None`` where not given),
+    which gives them their meaning.
+
+    Raises
+    ------
+    ValueError
+        A ``--clim`` end (other than ``auto``) or an ``--opacity`` among several that is
+        not a number, named with its option.
+    """
+    return {"cmap": args.cmap, "clim": _clim(args.clim), "opacity": _opacity(args.opacity), "scale": args.scale}
+
+
 def _add_preview_options(p, png_option):
     g = p.add_argument_group(f"PNG preview ({png_option})")
     g.add_argument("--tonemap", choices=sorted(OPERATORS), default=None, metavar="NAME",
@@ -121,18 +155,7 @@ def build_parser():
                    help="also write an 8-bit preview (auto exposure, or --tonemap)")
     _add_render_options(p)
     _add_preview_options(p, "--png")
-    tf = p.add_argument_group("transfer function (default: chosen from the data, as the Python API chooses; "
-                              "each option replaces one choice; the Python API's cmap=, clim=, opacity=, scale=)")
-    tf.add_argument("--cmap", default=None, help="matplotlib colormap name (default magma, without its black end)")
-    tf.add_argument("--clim", nargs=2, default=None, metavar=("LOW", "HIGH"),
-                    help="where colours and opacity start and end; 'auto' keeps the default's end (default: past "
-                         "the histogram's background mode, to the 99.9th percentile)")
-    tf.add_argument("--opacity", nargs="+", default=None, metavar="A",
-                    help="opacity over one voxel: one number, numbers spread evenly from LOW to HIGH, or a "
-                         "PyVista curve name (linear, sigmoid, geom_r, ...) (default: 0, rising to what keeps "
-                         "the densest rays readable)")
-    tf.add_argument("--scale", choices=SCALES, default=None,
-                    help="axis (default: log when the positive data span > 3 decades)")
+    add_transfer_function_options(p)
     p.set_defaults(handler=_cmd_render, subparser=p)
     g = p.add_argument_group("visibility culling (image volumes; an orthographic camera; docs/culling.md)")
     g.add_argument("--pof", default=None, metavar="FILE.npz",
@@ -314,17 +337,16 @@ def _cmd_render(args):
         option = "--colorbar" if args.colorbar else "--tonemap"
         raise UserError(f"{option} styles the PNG preview; add --png OUT.png")
     volume = _read_volume(path, args)
-    tf = _transfer_function(args, volume)
-    cull = None
+    try:
+        words = transfer_function_words(args)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    tf = cull = None
     if args.pof is not None:
-        tf, cull = _culling(args, volume, tf)
+        tf, cull = _culling(args, volume, words)
     elif args.k is not None:
         raise UserError("--k weighs the bases of --pof; give --pof FILE.npz")
-    if tf is None and args.colorbar:  # the bar needs the function the core would choose
-        from ..raycast.grid import default_transfer_function
-
-        tf = default_transfer_function(volume)
-    image = _render(args, volume, tf, default_view="iso", cull=cull)
+    image, tf = _render(args, volume, tf, default_view="iso", cull=cull, words=words)  # tf: the colour bar's
     image.metadata["source_file"] = str(path)
     _write(image, output, png, args, tf, volume.name.strip())
     shape = f"{volume.n_cells} tets" if hasattr(volume, "n_cells") else "x".join(map(str, volume.dims))
@@ -419,7 +441,7 @@ def _cmd_demo(args):
     tf = demo_transfer_function(vmax=float(grid["probability_density"].max()))
     # the side view shows the nodal cones of the default 3d_z2 orbital as dark wedges;
     # zoom: the cube's corners hold almost nothing visible
-    image = _render(args, grid, tf, default_view="xz", zoom=1.5)
+    image, _ = _render(args, grid, tf, default_view="xz", zoom=1.5)
     image.metadata["source"] = f"pv_hdrvol.datasets.hydrogen_orbital(n={n}, l={l}, m={m}, size={args.grid})"
     _write(image, out_dir / "demo.exr", out_dir / "demo.png", args, tf, "probability density")
     _print_stats(image, f"hydrogen orbital n={n} l={l} m={m} on {args.grid}^3 points")
@@ -595,25 +617,11 @@ def _existing_file(name):
     return path
 
 
-def _transfer_function(args, volume):
-    """The core's default transfer function with the options given replacing its
-    choices, or ``None`` (the core's default itself) when none is given."""
-    from ..raycast.grid import default_transfer_function
-
-    given = {"cmap": args.cmap, "clim": _clim(args.clim), "opacity": _opacity(args.opacity), "scale": args.scale}
-    if all(v is None for v in given.values()):
-        return None
-    try:
-        return default_transfer_function(volume, **given)
-    except (ValueError, TypeError) as exc:
-        raise UserError(str(exc)) from None
-
-
 def _number(option, text):
     try:
         return float(text)
     except ValueError:
-        raise UserError(f"{option}: {text!r} is not a number") from None
+        raise ValueError(f"{option}: {text!r} is not a number") from None
 
 
 def _clim(ends):
@@ -649,12 +657,12 @@ def _lens(args):
     return None
 
 
-def _culling(args, volume, tf):
+def _culling(args, volume, words):
     """``(family, pof)`` of ``--pof`` and ``--k``."""
     from ..culling.pof import PlenopticOpacity
     from ..data.transfer import TransferFunction
 
-    if tf is not None:
+    if any(value is not None for value in words.values()):
         raise UserError("--pof renders the family of its bases: leave out --cmap, --clim, --opacity and --scale")
     if hasattr(volume, "n_cells"):
         raise UserError("--pof culls blocks of image data; tetrahedral meshes have none")
@@ -668,9 +676,16 @@ def _culling(args, volume, tf):
     return family, pof
 
 
-def _render(args, volume, tf, default_view, zoom=1.0, cull=None):
-    from .. import Camera, render
+def _render(args, volume, tf, default_view, zoom=1.0, cull=None, words=None):
+    """``(image, tf)``: ``volume`` rendered as the options say, and the transfer function
+    it was rendered with. ``tf``, the transfer function's ``words`` and the render
+    options become the function and ``RenderOptions`` through
+    :func:`~pv_hdrvol.raycast.grid.resolve_render_options`, and ``--view`` frames the
+    data through :func:`~pv_hdrvol.rays.camera.fit_camera`, as in ``hv.render``."""
+    from .. import render
+    from ..raycast.grid import resolve_render_options
     from ..raycast.memory import RenderMemoryError
+    from ..rays.camera import fit_camera
 
     names = ("step", "precision", "tolerance", "global_alpha", "blending", "shade", "ambient", "diffuse", "specular",
              "specular_power", "device")
@@ -684,14 +699,11 @@ def _render(args, volume, tf, default_view, zoom=1.0, cull=None):
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         size = _size(args.size)
+        tf, options = resolve_render_options(volume, tf, **(words or {}), **options)
         # culling's visibility order and block opacities are the orthographic ones
-        camera = Camera.fit(volume.bounds, args.view or default_view, zoom=zoom, parallel_projection=cull is not None)
-        lens = _lens(args)
-        if lens is not None:
-            options["lens"] = lens
-        if cull is not None:
-            options["cull"] = cull
-        return render(volume, tf, camera, size, progress_bar=progress, **options)
+        camera = fit_camera(volume, args.view or default_view, zoom=zoom, parallel_projection=cull is not None)
+        image = render(volume, tf, camera, size, options=options, lens=_lens(args), cull=cull, progress_bar=progress)
+        return image, tf
     except (ValueError, TypeError, RenderMemoryError) as exc:  # a too large --size is a user error too
         raise UserError(str(exc)) from None
 

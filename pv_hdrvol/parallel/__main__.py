@@ -41,6 +41,9 @@ import sys
 
 import numpy as np
 
+from ..integrations.cli import add_transfer_function_options, transfer_function_words
+from ..rays.camera import fit_camera
+
 #: Views of ``--view`` (``Camera.fit``), as ``pv-hdrvol render``'s.
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
 #: Image formats ``render -o`` writes (``.npy`` keeps no render settings).
@@ -108,8 +111,23 @@ def build_parser():
     r.add_argument("--serial", action="store_true", help="no MPI (comm=None)")
     r.add_argument("-o", "--output", default="frame.exr", metavar="OUT",
                    help=f"image to write, one of {', '.join(OUTPUTS)} (default frame.exr)")
+    add_transfer_function_options(r)  # pv-hdrvol render's --cmap, --clim, --opacity, --scale, without --tf
     r.set_defaults(subparser=r)
     return parser
+
+
+def _words(args):
+    """``cmap=``, ``clim=``, ``opacity=``, ``scale=`` of the command line (``None`` where
+    not given); refused beside ``--tf`` and ``--pof``, which set the transfer function."""
+    try:
+        words = transfer_function_words(args)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    given = [f"--{name}" for name, value in words.items() if value is not None]
+    for option, value in (("--tf", args.tf), ("--pof", args.pof)):
+        if value and given:
+            raise UserError(f"{option} sets the transfer function: leave out {', '.join(given)}")
+    return words
 
 
 def main(argv=None):
@@ -142,10 +160,11 @@ def main(argv=None):
     from ..raycast.memory import RenderMemoryError
     from .render import render_parallel
 
-    volume, tf, pof, camera, size, output = job
+    volume, tf, pof, camera, size, output, words = job
     try:
+        # the plan gives the words their meaning (resolve_render_options), as in hv.render
         image = render_parallel(volume, tf, camera, size, pof=pof, comm=comm, curve=args.curve,
-                                precision=args.precision)
+                                precision=args.precision, **words)
     except (ValueError, TypeError, RenderMemoryError) as exc:  # raised alike on every rank, before any exchange
         _fail(args, comm, str(exc))
     if image is not None:
@@ -187,9 +206,10 @@ def _multiblock_options(args):
     except (TypeError, ValueError):
         raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
     output = _output(args.output, OUTPUTS)
+    words = _words(args)
     tf = _read_tf("--tf", args.tf) if args.tf else None
     _existing_file("", name)
-    return size, output, tf
+    return size, output, tf, words
 
 
 def _render_multiblock(args, comm):
@@ -197,10 +217,8 @@ def _render_multiblock(args, comm):
     blocks' union volume, and rank 0 composites them (:mod:`pv_hdrvol.parallel.multiblock`)."""
     import time
 
-    import pv_hdrvol as hv
-
     from ..data.blocks import Leaf, choose_block_scalars, gather_images, image_blocks
-    from ..raycast.grid import resolve_transfer_function
+    from ..raycast.grid import resolve_render_options
     from ..raycast.memory import RenderMemoryError
     from .comm import use_rank_threads
     from .multiblock import (SERIAL_HINT, BlockInfo, MultiblockError, assign_leaves, lattice_pieces, leaf_points,
@@ -210,9 +228,9 @@ def _render_multiblock(args, comm):
     vtm = args.volume
     hint = SERIAL_HINT.format(file=vtm)
     # 1. options; rank 0 reads the index and deals the leaves
-    plan = error = size = output = tf = None
+    plan = error = size = output = tf = words = None
     try:
-        size, output, tf = _multiblock_options(args)
+        size, output, tf, words = _multiblock_options(args)
         if comm.rank == 0:
             leaves = vtm_leaves(vtm)
             if not leaves:
@@ -273,14 +291,14 @@ def _render_multiblock(args, comm):
         if comm.rank == 0:
             try:
                 volume, _ = gather_images([b for batch in gathered for b in batch], name)
-                chosen = resolve_transfer_function(volume, None)
+                chosen = resolve_render_options(volume, None, **words)[0]
             except (ValueError, TypeError) as exc:
                 chosen = str(exc)
         chosen = comm.bcast(chosen, root=0)
         _agree(args, comm, chosen if isinstance(chosen, str) else None)
         tf = chosen
     spacing = np.asarray(every[0].spacing, dtype=np.float64)
-    camera = hv.Camera.fit(pieces[0].bounds(spacing), args.view)
+    camera = fit_camera(pieces[0].bounds(spacing), args.view)  # the union volume's bounds
 
     # 5. render this rank's blocks, composite on rank 0
     threads, reason, previous = use_rank_threads(comm)
@@ -323,6 +341,7 @@ def _render_store(args, comm):
 
     from .._validate import as_size
     from ..outofcore.parallel import render_multiscale_pieces
+    from ..raycast.grid import resolve_render_options
 
     started = time.perf_counter()
     volume = tf = size = output = error = None
@@ -339,15 +358,17 @@ def _render_store(args, comm):
         if not args.screen_error > 0:
             raise UserError(f"--screen-error must be > 0 pixels; got {args.screen_error}")
         output = _output(args.output, OUTPUTS)
+        words = _words(args)
         try:
             volume = hv.open_multiscale(args.volume, cache_bytes=args.cache_bytes)
-            tf = _read_tf("--tf", args.tf) if args.tf else volume.default_transfer_function()
-        except (ValueError, OSError, ImportError) as exc:
+            # the coarsest level's default function (the store's), shaped by the words
+            tf = resolve_render_options(volume, _read_tf("--tf", args.tf) if args.tf else None, **words)[0]
+        except (ValueError, TypeError, OSError, ImportError) as exc:
             raise UserError(f"{args.volume!r}: {exc}") from None
     except UserError as exc:
         error = str(exc)
     _agree(args, comm, error)
-    camera = hv.Camera.fit(volume.bounds, args.view)
+    camera = fit_camera(volume, args.view)
     try:
         image = render_multiscale_pieces(volume, tf, camera, size, comm=comm, screen_error=args.screen_error,
                                          precision=args.precision)
@@ -390,7 +411,7 @@ def _comm(args):
 
 
 def _prepare(args):
-    """``(volume, tf, pof, camera, size, output)`` from the command line, each checked."""
+    """``(volume, tf, pof, camera, size, output, words)`` from the command line, each checked."""
     import pv_hdrvol as hv
 
     from .._validate import as_size
@@ -400,6 +421,7 @@ def _prepare(args):
     except (TypeError, ValueError):
         raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
     output = _output(args.output, OUTPUTS)
+    words = _words(args)
     volume = _read_volume(args.volume, args.scalars)
     pof = tf = None
     if args.pof:
@@ -415,9 +437,9 @@ def _prepare(args):
         raise UserError("--k weighs the bases of --pof; give --pof FILE.npz")
     elif args.tf:
         tf = _read_tf("--tf", args.tf)
-    # pv-hdrvol render's camera; orthographic with culling, as its --pof
-    camera = hv.Camera.fit(volume.bounds, args.view, parallel_projection=pof is not None)
-    return volume, tf, pof, camera, size, output
+    # pv-hdrvol render's camera (the dataset's bounds, fit_camera); orthographic with culling, as its --pof
+    camera = fit_camera(volume, args.view, parallel_projection=pof is not None)
+    return volume, tf, pof, camera, size, output, words
 
 
 def _pof(args):

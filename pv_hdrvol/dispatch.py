@@ -95,7 +95,9 @@ def view(data, tf=None, **kwargs):
     ``.cube``, ...), read as it reads them (:func:`pv_hdrvol.integrations.files.read_volume`;
     ``scalars=`` picks the array). ``tf`` is a :class:`TransferFunction` or, as
     ``pv-hdrvol view --tf``, the path of the editor's JSON, a transfer function's JSON or
-    a ParaView preset file.
+    a ParaView preset file. The other keywords are :func:`render`'s, with its meanings:
+    ``scalars=``, PyVista's ``cmap=``, ``clim=``, ``opacity=``, ``scale=`` (the editor
+    starts from the function they make) and the render options.
 
     The path of a multiresolution store (a folder with a ``zarr.json``:
     :func:`write_multiscale`, ``pv-hdrvol convert``) opens it out of core

@@ -67,8 +67,9 @@ class HDRVolAccessor:
             reached over one ``opacity_unit_distance``; and the axis (``"linear"``,
             ``"log"``, ``"symlog"``). What is not given stays the default's (PyVista
             would take the data range and the ``"linear"`` opacity); ``hv.render``,
-            ``HDRVolumeRenderer`` and the CLI take the same. Giving ``tf`` too is a
-            ``TypeError``.
+            ``plotter.hdrvol.add_volume``, ``hv.view``, ``HDRVolumeRenderer`` and the
+            CLI take the same (:func:`~pv_hdrvol.raycast.grid.resolve_render_options`).
+            Giving ``tf`` too is a ``TypeError``.
         camera : None, str, Camera, pyvista.Plotter, pyvista.Camera or vtkCamera
             A view name (``"iso"`` (default), ``"xy"``, ``"xz"``, ``"yz"``, ``"yx"``,
             ``"zx"``, ``"zy"``) frames the dataset's bounds

@@ -51,7 +51,7 @@ SCENES = ("engine", "bonsai", "hydrogen", "m4", "ct_head", "tooth_shaded", "engi
 
 def scenes(hv, which):
     """``{name: (data, tf, extra options, kind)}``; kind is "grid" or "mesh"."""
-    from pv_hdrvol.integrations.files import read_volume
+    from pv_hdrvol.data.files import read_volume
 
     tfs = transfer_functions(hv)
     out = {}

@@ -90,9 +90,9 @@ def view(data, tf=None, **kwargs):
 
     ``data`` is anything :func:`render` takes (blocks that gather onto one volume or
     merge into one mesh: :func:`pv_hdrvol.data.kinds.as_renderable`), or the path of a
-    file ``pv-hdrvol view`` opens (``pv_hdrvol.integrations.files.READABLE``: ``.vti``,
+    file ``pv-hdrvol view`` opens (``pv_hdrvol.data.files.READABLE``: ``.vti``,
     ``.vtr``, ``.vts``, ``.vtu``, ``.vtm``, ``.vtpc``, ``.vtk``, ``.nrrd``, ``.mha``,
-    ``.cube``, ...), read as it reads them (:func:`pv_hdrvol.integrations.files.read_volume`;
+    ``.cube``, ...), read as it reads them (:func:`pv_hdrvol.data.files.read_volume`;
     ``scalars=`` picks the array). ``tf`` is a :class:`TransferFunction` or, as
     ``pv-hdrvol view --tf``, the path of the editor's JSON, a transfer function's JSON or
     a ParaView preset file. The other keywords are :func:`render`'s, with its meanings:
@@ -118,7 +118,7 @@ def view(data, tf=None, **kwargs):
     """
     if isinstance(data, (str, os.PathLike)):
         path = os.fspath(data)
-        from .integrations.files import is_store
+        from .data.files import is_store
 
         if is_store(path):
             if kwargs.pop("scalars", None) is not None:
@@ -130,7 +130,7 @@ def view(data, tf=None, **kwargs):
             data = load_proxies(path)  # names what a folder that is not a proxy folder lacks
             kwargs.setdefault("title", f"pv_hdrvol proxies: {path}")
         else:
-            from .integrations.files import read_volume
+            from .data.files import read_volume
 
             data = read_volume(path, scalars=kwargs.pop("scalars", None),
                                preference=kwargs.pop("preference", "point"))

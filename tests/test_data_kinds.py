@@ -11,7 +11,7 @@ import pyvista as pv
 import pv_hdrvol as hv
 from pv_hdrvol.data.kinds import BLOCKS, GRID, MESH, SUPPORTED, as_renderable, data_kind
 from pv_hdrvol.integrations.cli import main
-from pv_hdrvol.integrations.files import read_volume
+from pv_hdrvol.data.files import read_volume
 
 SIZE = (14, 12)
 OPTS = dict(precision="float64")

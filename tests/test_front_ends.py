@@ -10,7 +10,7 @@ import pv_hdrvol as hv
 from pv_hdrvol.integrations.cli import main
 from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
 from pv_hdrvol.data.kinds import SUPPORTED
-from pv_hdrvol.integrations.files import READABLE
+from pv_hdrvol.data.files import READABLE
 
 CASES = [
     # (keyword, value, CLI arguments, message)

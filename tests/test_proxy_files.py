@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import pv_hdrvol as hv
-from pv_hdrvol.integrations.files import IMAGE_FORMATS
+from pv_hdrvol.data.files import IMAGE_FORMATS
 from pv_hdrvol.integrations.cli import main
 
 pytest.importorskip("OpenEXR")

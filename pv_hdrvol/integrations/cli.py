@@ -27,7 +27,7 @@ from ..data.transfer import SCALES
 from ..image.tonemap import OPERATORS
 from ..params import BLENDINGS, DEVICES, PRECISIONS
 
-from .files import BLOCK_FORMATS, IMAGE_FORMATS, MESH_FORMATS, READABLE  # what render and view read; proxies: images
+from ..data.files import BLOCK_FORMATS, IMAGE_FORMATS, MESH_FORMATS, READABLE  # what render and view read; proxies: images
 
 VIEWS = ("iso", "xy", "yx", "xz", "zx", "yz", "zy")
 
@@ -357,7 +357,7 @@ def _cmd_render(args):
 
 def _readable_file(name, formats=READABLE):
     """``name`` as an existing path with an extension ``pyvista.read`` reads here."""
-    from .files import readable_path
+    from ..data.files import readable_path
 
     path = _existing_file(name)
     try:
@@ -368,8 +368,8 @@ def _readable_file(name, formats=READABLE):
 
 def _read_volume(path, args):
     """The image volume or tetrahedral mesh of array ``args.scalars`` in file ``path``
-    (:func:`pv_hdrvol.integrations.files.read_volume`, as ``pv_hdrvol.view(path)`` reads it)."""
-    from .files import read_volume
+    (:func:`pv_hdrvol.data.files.read_volume`, as ``pv_hdrvol.view(path)`` reads it)."""
+    from ..data.files import read_volume
 
     try:
         volume = read_volume(path, scalars=args.scalars)
@@ -394,7 +394,7 @@ def _open_store(path, args):
 
 
 def _cmd_view(args):
-    from .files import is_store
+    from ..data.files import is_store
 
     store = is_store(args.file)
     path = pathlib.Path(os.path.abspath(args.file)) if store else _readable_file(args.file)

@@ -207,7 +207,7 @@ def _raw_memmap(path, shape, dtype):
 
 def _read_file(path, shape, dtype, scalars):
     """The array (z, y, x), spacing, origin and name of a volume file: ``.raw`` (with
-    ``shape`` and ``dtype``) or one that :mod:`pv_hdrvol.integrations.files` reads."""
+    ``shape`` and ``dtype``) or one that :mod:`pv_hdrvol.data.files` reads."""
     p = os.fspath(path)
     if not os.path.exists(p):
         raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), p)
@@ -219,7 +219,7 @@ def _read_file(path, shape, dtype, scalars):
         raise ValueError(f"shape and dtype describe a .raw file or a function source; {p!r} has its own")
     from ..data.grid import _image_array
     from ..data.kinds import as_renderable
-    from ..integrations.files import IMAGE_FORMATS, READABLE, read_dataset
+    from ..data.files import IMAGE_FORMATS, READABLE, read_dataset
 
     dataset = read_dataset(p, READABLE)
     if getattr(dataset, "GetClassName", lambda: "")() in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
@@ -329,7 +329,7 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     source : array, np.memmap, zarr array, dataset, GridVolume, file path or function
         The level-0 values, (z, y, x). A path names a ``.raw`` file (x fastest, read
         through a read-only ``np.memmap``; needs ``shape`` and ``dtype``) or a file that
-        :mod:`pv_hdrvol.integrations.files` reads (``.vti``, ``.vtk``, ``.nrrd``, ...;
+        :mod:`pv_hdrvol.data.files` reads (``.vti``, ``.vtk``, ``.nrrd``, ...;
         an image's array keeps its dtype). A function ``f(box)`` returns the values of
         ``box = ((z0, z1), (y0, y1), (x0, x1))`` (procedural data, never held whole); it
         needs ``shape`` and ``dtype`` and may return any dtype of the same kind (cast).

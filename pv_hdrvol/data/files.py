@@ -52,7 +52,7 @@ def read_dataset(path, formats=READABLE):
     unstructured grid, or several blocks of those (:mod:`pv_hdrvol.data.kinds`)."""
     import pyvista as pv
 
-    from ..data.kinds import SUPPORTED, data_kind
+    from .kinds import SUPPORTED, data_kind
 
     p = readable_path(path, formats)
     try:
@@ -100,6 +100,6 @@ def read_volume(path, scalars=None, preference="point", formats=READABLE):
         (:class:`~pv_hdrvol.ScalarsError`, which names the arrays there are). The
         messages about the file itself name it.
     """
-    from ..data.kinds import as_renderable
+    from .kinds import as_renderable
 
     return as_renderable(read_dataset(path, formats), scalars=scalars, preference=preference)

@@ -364,6 +364,42 @@ def test_a_tetrahedral_mesh_opens_and_refines_to_its_direct_render(qtbot):
     window.close()
 
 
+def test_pyvistas_words_open_the_viewer_on_their_function_framed_as_hv_render_frames(qtbot):
+    """hv.view(data, cmap=, clim=, opacity=, scale=, global_alpha=): the editor starts from
+    the function hv.render makes of the words, and a CTH-like rectilinear grid of cell
+    data is framed on its bounds (the cells' corners), as hv.render frames it."""
+    import pyvista as pv
+
+    from pv_hdrvol.editor.model import TransferFunctionModel
+    from pv_hdrvol.raycast.grid import resolve_render_options
+    from pv_hdrvol.rays.camera import fit_camera
+
+    xs = np.cumsum(np.r_[0.0, np.linspace(0.2, 0.6, 15)])
+    ys = np.cumsum(np.r_[0.0, np.linspace(0.5, 0.25, 12)])
+    zs = np.linspace(0.0, 3.0, 10)
+    rect = pv.RectilinearGrid(xs, ys, zs)
+    cz, cy, cx = np.meshgrid(*(np.arange(n - 1) for n in (len(zs), len(ys), len(xs))), indexing="ij")
+    rect.cell_data["density"] = (np.cos(0.5 * cx) * np.sin(0.6 * cy) + 0.1 * cz).ravel()
+    words = dict(cmap="bone", clim=(-0.5, 1.0), opacity="sigmoid", scale="linear")
+    window = HDRViewer(rect, precision="float32", global_alpha=0.5, **words)
+    qtbot.addWidget(window)
+    window.resize(900, 700)
+    window.show()
+    qtbot.waitExposed(window)
+    _wait_full(qtbot, window)
+    tf, options = resolve_render_options(hv.volume_from_dataset(rect), **words, global_alpha=0.5)
+    assert window.model.to_dict() == TransferFunctionModel(tf, global_alpha=0.5).to_dict()
+    assert options.global_alpha == window.model.global_alpha == 0.5
+    camera, expected = hv.Camera.from_pyvista(window.plotter.camera), fit_camera(rect, "iso")
+    for name in ("position", "focal_point", "view_up"):
+        np.testing.assert_allclose(getattr(camera, name), getattr(expected, name), rtol=0, atol=1e-6)
+    direct = hv.render(rect, window.model.transfer_function(), camera, window.actor.scene.GetSize(),
+                       precision="float32", global_alpha=0.5)
+    np.testing.assert_array_equal(window.actor.hdr.rgba, direct.rgba)
+    assert window.actor.hdr.rgba[..., 3].max() > 0.05
+    window.close()
+
+
 def test_dragging_a_colour_intensity_brightens_that_colour(qtbot, viewer):
     """The orange diamond of a colour point sits at its largest channel on the colour
     axis; dragging it up scales the colour (hue kept) and the render follows."""

@@ -14,8 +14,8 @@ dataset's bounds (the cells' corners, as PyVista and ParaView frame it; a volume
 cell data spans the cell centres only), cameras equal within 1e-6, images equal. The
 parallel command line renders image data only, so it frames an image of cell data.
 
-The Qt viewer needs a display (tests/qt); it builds its editor and renderer as the
-notebook editor does.
+The Qt viewer needs a display: tests/qt/qt_viewer.py checks it with the same words and
+grid under Xvfb (tests/test_viewer_qt.py).
 """
 import dataclasses
 import re

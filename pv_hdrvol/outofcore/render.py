@@ -619,7 +619,7 @@ class MultiscalePlan:
         (the whole frame's lattice and step, samples whose midpoints it owns), composited
         per pixel in the order the ray enters the boxes, as a distributed render's."""
         from ..parallel.pieces import box_entries, split_boxes
-        from ..raycast.blocks import composite_in_order
+        from ..raycast.compositing import composite_in_order
 
         vol = self.volume
         cache = vol.cache(self.dtype)

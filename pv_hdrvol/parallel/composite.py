@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
+from ..raycast.compositing import composite_over
 
 
 def tile_grid(n, width, height):
@@ -31,16 +31,18 @@ def composite(tile, pieces, dtype):
 
     ``pieces``: ``(order, (col, row, w, h), rgba)`` with rgba (h, w, 4) premultiplied;
     composited by increasing ``order`` (ties keep their position in ``pieces``):
-    ``C += (1 - A) c``, ``A += (1 - A) a`` per pixel. Returns (h, w, 4) ``dtype``.
+    ``C += (1 - A) c``, ``A += (1 - A) a`` per pixel, with
+    :func:`~pv_hdrvol.raycast.compositing.composite_over` in ``dtype`` (the render's
+    precision, as this tile compositor always has). Returns (h, w, 4) ``dtype``.
     """
     col, row, w, h = tile
-    out = np.zeros((h, w, 4), dtype=dtype)
-    for _, rect, rgba in sorted(pieces, key=lambda p: p[0]):
-        part = clip(rect, tile)
-        if part is None:
-            continue
-        src = rgba[part[1] - rect[1]:part[1] - rect[1] + part[3], part[0] - rect[0]:part[0] - rect[0] + part[2]]
-        dst = out[part[1] - row:part[1] - row + part[3], part[0] - col:part[0] - col + part[2]]
-        keep = (1 - dst[..., 3:4])
-        dst += keep * src.astype(dtype, copy=False)
-    return out
+
+    def layers():
+        for _, rect, rgba in sorted(pieces, key=lambda p: p[0]):
+            part = clip(rect, tile)
+            if part is None:
+                continue
+            src = rgba[part[1] - rect[1]:part[1] - rect[1] + part[3], part[0] - rect[0]:part[0] - rect[0] + part[2]]
+            yield (slice(part[1] - row, part[1] - row + part[3]), slice(part[0] - col, part[0] - col + part[2])), src
+
+    return composite_over(layers(), (h, w), dtype, accumulate=dtype)

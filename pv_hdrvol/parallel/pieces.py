@@ -33,7 +33,7 @@ from .._validate import as_int, as_size
 from ..data.grid import volume_from_array, volume_from_rectilinear
 from ..params import RenderOptions
 from ..rays.camera import Rays, ray_box_spans
-from ..raycast.blocks import composite_in_order
+from ..raycast.compositing import composite_in_order
 from ..raycast.grid import GridPlan, VolumePiece, as_volume
 from .comm import WORLD, _communicator
 

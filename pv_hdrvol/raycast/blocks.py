@@ -26,10 +26,10 @@ import numpy as np
 
 from ..data.blocks import prepare_blocks
 from ..data.transfer import auto_transfer_function
-from ..image.hdr import HDRImage
 from ..rays.camera import Rays, as_camera, fit_camera, ray_box_spans
 from .._validate import as_size
 from .grid import GridPlan, collected_warnings, render_volume, resolve_render_options, warn_empty
+from .compositing import composite_in_order
 from .frame import check_progress_bar, tqdm_bar
 from .tets import TetPlan, render_tets
 
@@ -169,35 +169,6 @@ def render_image_blocks(blocks, tf=None, camera=None, size=(512, 512), options=N
     if len(reasons) == len(volumes):  # every block is bound to be empty: say why once
         warn_empty(str(reasons[0]))
     return image
-
-
-def composite_in_order(images, entries, dtype=None):
-    """Partial images composited per pixel, front to back in the order of ``entries``
-    (``(n_images, rows * cols)``: where each image's part of the ray begins; ``inf``:
-    it has none): ``C += (1 - A) c``, ``A += (1 - A) a`` in float64, then ``dtype``
-    (default: the images'). Depth: where the accumulated opacity first reaches the
-    first image's depth threshold (that image's own depth, or its entry). Returns an
-    HDRImage with the first image's metadata and the samples of all."""
-    h, w = images[0].rgba.shape[:2]
-    if any(im.rgba.shape[:2] != (h, w) for im in images) or entries.shape != (len(images), w * h):
-        raise ValueError("the partial images and their entries must all have one size")
-    n = w * h
-    order = np.argsort(entries, axis=0, kind="stable")
-    rgba = np.stack([np.asarray(im.rgba, dtype=np.float64).reshape(n, 4) for im in images])
-    depths = np.stack([np.asarray(im.depth, dtype=np.float64).reshape(n) for im in images])
-    pix = np.arange(n)
-    total = np.zeros((n, 4))
-    depth = np.full(n, np.inf)
-    threshold = images[0].metadata.get("depth_threshold", 0.5)
-    for j in range(len(images)):
-        k = order[j]
-        total += (1.0 - total[:, 3:4]) * rgba[k, pix]
-        crossed = (depth == np.inf) & (total[:, 3] >= threshold) & np.isfinite(entries[k, pix])
-        depth[crossed] = np.where(np.isfinite(depths[k, pix]), depths[k, pix], entries[k, pix])[crossed]
-    dtype = images[0].rgba.dtype if dtype is None else dtype
-    meta = dict(images[0].metadata)
-    meta["samples"] = int(sum(im.metadata.get("samples", 0) for im in images))
-    return HDRImage(total.astype(dtype).reshape(h, w, 4), depth.reshape(h, w), metadata=meta)
 
 
 def render_mixed_blocks(blocks, mesh, tf=None, camera=None, size=(512, 512), options=None, *, name="", progress=None,
@@ -379,4 +350,4 @@ def _union_transfer_function(volumes, bounds, unit_spacing, keywords, mesh=None)
                                   integer=integer, **keywords)
 
 
-__all__ = ["composite_in_order", "render_blocks", "render_image_blocks", "render_mixed_blocks"]
+__all__ = ["render_blocks", "render_image_blocks", "render_mixed_blocks"]

@@ -289,7 +289,6 @@ import sys  # noqa: E402
 import types  # noqa: E402
 
 from pv_hdrvol.raycast import frame as F  # noqa: E402
-from pv_hdrvol.raycast import grid as G  # noqa: E402
 
 
 class FakeCast:
@@ -456,12 +455,12 @@ def test_chunking_changes_no_pixel(monkeypatch, seconds_per_tick, sizes):
     ticks = itertools.count(0.0, seconds_per_tick)
     monkeypatch.setattr(F, "_clock", lambda: next(ticks))
     calls = []
-    run = G.run_in_chunks
+    run = F.run_in_chunks
 
     def spy(cast, *args):
         return run(lambda rows: calls.append(rows.tolist()) or cast(rows), *args)
 
-    monkeypatch.setattr(G, "run_in_chunks", spy)
+    monkeypatch.setattr(F, "run_in_chunks", spy)
     img = hv.render(vals, GRAY_TF, None, (40, 72), progress_bar=False, precision="float64")
     assert [len(c) for c in calls] == sizes
     np.testing.assert_array_equal(img.rgba, ref.rgba)

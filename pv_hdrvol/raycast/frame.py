@@ -14,8 +14,9 @@ import time
 
 import numpy as np
 
-from .._validate import as_real
-from ..rays.camera import Rays, check_window
+from .._validate import as_real, as_size
+from ..image.hdr import HDRImage
+from ..rays.camera import Camera, Rays, check_window
 
 # Rays are cast in square tiles of this many pixels a side (cache locality).
 TILE = 8
@@ -249,6 +250,109 @@ def run_frame(cast, finish, height, progress, progress_bar, chunk_seconds):
     finish()
 
 
-__all__ = ["AUTO_BAR_SECONDS", "CHUNK_SECONDS", "DEVICE_RUNNERS", "MARKERS", "TILE", "auto_bar_wanted", "check_far",
+def frame_rays(camera, size, lens=None):
+    """``(rays, width, height)`` of a frame: a lens's rays for ``camera`` (checked), the
+    given :class:`~pv_hdrvol.Rays`, or ``None`` when the camera's own rays are made in
+    the kernel (``Camera.kernel_array``); the image size is the rays' or ``size``."""
+    if lens is not None:
+        if not callable(getattr(lens, "rays", None)):
+            raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
+        if not isinstance(camera, Camera):
+            raise TypeError(f"a lens needs a Camera; got {type(camera).__name__}")
+        rays = lens.rays(camera, size)
+        if not isinstance(rays, Rays):
+            raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
+    elif isinstance(camera, Rays):
+        rays = camera
+    else:
+        rays = None
+    width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+    return rays, width, height
+
+
+def voxel_rays(camera, rays, width, height, origin, inv_spacing):
+    """The grid kernels' ray inputs ``(cam, origins, directions)`` in voxel coordinates
+    (t stays in world units): the camera array followed by ``origin`` and
+    ``inv_spacing`` when the kernel makes the camera's rays (``rays`` None; empty ray
+    arrays), else the rays moved and scaled (an empty camera array)."""
+    if rays is None:
+        cam = np.concatenate([camera.kernel_array((width, height)), origin, inv_spacing])
+        origins = directions = np.empty((0, 3))
+    else:
+        cam = np.empty(0)
+        origins = np.ascontiguousarray((rays.origins - origin) * inv_spacing)
+        directions = np.ascontiguousarray(rays.directions * inv_spacing)
+    return cam, origins, directions
+
+
+class FrameBuffers:
+    """A frame's outputs, flat (one row per pixel): ``rgba`` (premultiplied, float64 for
+    ``precision="float64"``, else float32, from transparent), ``depth`` (float64, inf
+    where the threshold is never met), ``counts`` (int64, the work per pixel: samples or
+    cells) and, for a projection, ``value`` (float64, NaN where nothing projects)."""
+
+    def __init__(self, width, height, precision, value=False):
+        n = width * height
+        self.width, self.height = width, height
+        self.rgba = np.zeros((n, 4), dtype=np.float64 if precision == "float64" else np.float32)
+        self.depth = np.full(n, np.inf, dtype=np.float64)
+        self.counts = np.zeros(n, dtype=np.int64)
+        self.value = np.full(n, np.nan) if value else None
+
+    def image(self, metadata):
+        """The :class:`~pv_hdrvol.HDRImage` of the buffers (rows, cols), row 0 at the top."""
+        h, w = self.height, self.width
+        value = None if self.value is None else self.value.reshape(h, w)
+        return HDRImage(self.rgba.reshape(h, w, 4), self.depth.reshape(h, w), metadata=metadata, value=value)
+
+
+class FramePlan:
+    """What every plan shares to run its frames: the device runner it keeps (its arrays
+    stay on the device between frames) and :meth:`run_frame`."""
+
+    _runner = None
+
+    def run_frame(self, cast, height, progress=None, progress_bar=None, chunk_seconds=None, device=None,
+                  device_frame=None):
+        """Render a frame: ``cast(tile_rows)`` over every row of tiles on the CPU
+        (:func:`run_in_chunks`), or, for a ``device`` other than ``"cpu"`` and a
+        ``device_frame(runner)`` that returns the runner's ``(cast, finish)``, on the
+        plan's runner of that device (made on first use from :data:`DEVICE_RUNNERS`),
+        one frame at a time on its arrays (:func:`run_frame`). Returns the runner's
+        ``describe()`` or ``None`` on the CPU."""
+        if device in (None, "cpu") or device_frame is None:
+            run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
+            return None
+        if self._runner is None:
+            self._runner = device_runner(device)
+        with self._runner.frame() as runner:  # one frame at a time on a plan's device arrays
+            on_device, finish = device_frame(runner)
+            run_frame(on_device, finish, height, progress, progress_bar, chunk_seconds)
+            return runner.describe()
+
+
+def frame_metadata(renderer, scalars, tf, camera, options, unit, settings, seconds, **keys):
+    """The metadata every frame carries, in this order: ``renderer``, ``scalars``,
+    ``precision``, then ``keys`` (the plan's own, e.g. ``step_voxels``), then
+    ``global_alpha``, ``opacity_unit_distance``, ``termination``, ``depth_threshold``,
+    ``transfer_function``, ``camera`` (its repr, or ``"rays"``), ``settings``
+    (:func:`~pv_hdrvol.settings.settings_metadata`) and ``render_seconds``."""
+    meta = {"renderer": renderer, "scalars": scalars, "precision": options.precision}
+    meta.update(keys)
+    meta.update({
+        "global_alpha": options.global_alpha,
+        "opacity_unit_distance": unit,
+        "termination": options.termination,
+        "depth_threshold": options.depth_threshold,
+        "transfer_function": repr(tf),
+        "camera": camera if isinstance(camera, str) else repr(camera) if isinstance(camera, Camera) else "rays",
+        "settings": settings,
+        "render_seconds": seconds,
+    })
+    return meta
+
+
+__all__ = ["AUTO_BAR_SECONDS", "CHUNK_SECONDS", "DEVICE_RUNNERS", "MARKERS", "TILE", "FrameBuffers", "FramePlan",
+           "frame_metadata", "frame_rays", "voxel_rays", "auto_bar_wanted", "check_far",
            "check_lod", "check_progress_bar", "device_runner", "pixel_rows", "run_frame", "run_in_chunks", "tile_lanes",
            "tqdm_bar", "window_rays", "windowed"]

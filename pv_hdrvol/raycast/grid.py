@@ -10,20 +10,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..data.grid import GridVolume, as_volume, content_digest, volume_from_array  # as_volume: re-exported
+from ..data.grid import GridVolume, as_volume, content_digest  # as_volume: re-exported
 from ..data.transfer import (SCALE_CODES, SCALES, TF_KEYWORDS, TransferFunction, auto_transfer_function,
                              scale_forward, table_entry_span)
-from ..image.hdr import HDRImage
-from .._validate import as_size
 from ..params import BLENDING_CODES, PRECISION_CODES, RenderOptions
-from ..rays.camera import Camera, Rays, as_camera, fit_camera
+from ..rays.camera import Camera, as_camera, fit_camera
 from ..rays.clip import has_clip, ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
 from .memory import check_memory
-from .frame import (MARKERS, TILE, check_lod, check_progress_bar, device_runner, pixel_rows,
-                    run_frame, run_in_chunks, tile_lanes, windowed)
+from .frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_lod, check_progress_bar, frame_metadata,
+                    frame_rays, pixel_rows, tile_lanes, voxel_rays, windowed)
 from .shading import shading_arrays, shading_metadata
 
 # empty-space structures kept per volume (one per transfer function and block mask)
@@ -658,7 +656,7 @@ class _Prepared(NamedTuple):
     flat: bool
 
 
-class GridPlan:
+class GridPlan(FramePlan):
     """A grid render validated and prepared once, executed many times.
 
     Construction takes what does not change between renders of one scene: the volume,
@@ -723,7 +721,6 @@ class GridPlan:
         self.unit, self.step_world = unit, step_world
         self.labels, self.label_styles = labels, label_styles
         self._prepared = None
-        self._runner = None
         if opts.device != "cpu":
             _check_device(opts, volume, labels)
 
@@ -806,19 +803,7 @@ class GridPlan:
             piece_box, whole_hi, whole_origin, nominal = _check_piece(piece, self.source, opts, ghosts)
         camera = fit_camera(self.source, camera) if piece is None else as_camera(camera,
                                                                                   piece.bounds(self.source.spacing))
-        if lens is not None:
-            if not callable(getattr(lens, "rays", None)):
-                raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
-            if not isinstance(camera, Camera):
-                raise TypeError(f"a lens needs a Camera; got {type(camera).__name__}")
-            rays = lens.rays(camera, size)
-            if not isinstance(rays, Rays):
-                raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
-        elif isinstance(camera, Rays):
-            rays = camera
-        else:
-            rays = None  # the kernel makes the camera's rays (Camera.kernel_array)
-        width, height = (rays.width, rays.height) if rays is not None else as_size(size)
+        rays, width, height = frame_rays(camera, size, lens)  # rays None: the kernel makes the camera's
         image_size = (width, height)  # a window's render culls for the whole image's rays (its own among them)
         rays, far, width, height = windowed(camera, rays, far, window, width, height)
         lod = check_lod(rays) if rays is not None else None
@@ -839,58 +824,14 @@ class GridPlan:
         # (a rectilinear piece: the whole grid's nominal spacing)
         inv_spacing = 1.0 / (volume.spacing if piece is None or nominal is None else nominal[0])
         ray_origin = volume.origin if piece is None else whole_origin
-        if rays is None:
-            cam = np.concatenate([camera.kernel_array((width, height)), ray_origin, inv_spacing])
-            origins = directions = np.empty((0, 3))
-        else:
-            cam = np.empty(0)
-            origins = np.ascontiguousarray((rays.origins - ray_origin) * inv_spacing)
-            directions = np.ascontiguousarray(rays.directions * inv_spacing)
+        cam, origins, directions = voxel_rays(camera, rays, width, height, ray_origin, inv_spacing)
         lo = np.zeros(3)
         hi = np.array(volume.dims, dtype=np.float64) - 1.0 if piece is None else whole_hi
         piece_box = np.concatenate([lo, hi, np.zeros(3)]) if piece is None else piece_box
-        mask = None
-        if block_mask is not None:
-            mask = np.asarray(block_mask)
-            if mask.shape != blocks.shape:
-                raise ValueError(f"block_mask must have shape {blocks.shape} (blocks along z, y, x); got {mask.shape}")
-            if mask.dtype != np.bool_:
-                raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
-            mask = mask.astype(np.uint8)
-        culling = None
-        if cull is not None:
-            if has_clip(opts):
-                raise ValueError("cull= hides blocks behind the whole volume, which clip_planes= and crop_box= may cut "
-                                 "away (the hidden blocks would show): render a clipped volume without cull=")
-            if not callable(getattr(cull, "mask_for", None)):
-                raise TypeError(f"cull must be a PlenopticOpacity, Culling or OcclusionBound; got {type(cull).__name__}")
-            if not isinstance(camera, Camera) or lens is not None or styles is not None:
-                raise ValueError("cull= needs a Camera (no Rays, no lens) and no label styles")
-            culled, culling = cull.mask_for(volume, tf, camera, image_size, opts, blocks.shape)
-            mask = culled.astype(np.uint8) if mask is None else mask & culled
+        mask, culling = self._frame_mask(block_mask, cull, volume, blocks, styles, camera, lens, image_size)
         active, leap = _skip_structure(volume, blocks, opts, styles, table, params, mask)
-
-        out_dtype = np.float64 if prec == "float64" else np.float32
-        rgba = np.zeros((height * width, 4), dtype=out_dtype)
-        depth = np.full(height * width, np.inf, dtype=np.float64)
-        samples = np.zeros(height * width, dtype=np.int64)
-
-        # an image bound to be empty says why. Label styles have tables of their own, and a
-        # projection keeps its value image (HDRImage.value) whatever the opacity; without a
-        # mask the skip structure already holds the visible blocks
-        if styles is not None or opts.blending != "composite":
-            visible = True
-        elif opts.skip_empty:  # the unmasked classification: whether the function shows anything at all
-            visible = bool(_base_active(volume, blocks, opts, styles, table, params).any())
-        else:
-            visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
-        reason = empty_render_reason(volume.value_range, volume.any_finite, tf, flat=flat, visible=visible,
-                                     default_tf=self.default_tf)
-        if reason is not None and not visible and prec == "uint8":
-            reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
         if piece is None:  # a piece may well be empty where the whole is not
-            warn_empty(reason)
-        lanes = tile_lanes()
+            warn_empty(self._empty_reason(volume, blocks, params, styles, flat))
 
         # shading alone lights the plain loop (render_tiles); the rest takes the extended kernels
         extended = opts.blending != "composite" or opts.gradient_opacity is not None or styles is not None \
@@ -903,88 +844,81 @@ class GridPlan:
         if extended and rays is None and not on_device:
             # the extended kernels take rays as arrays (the device kernels make a camera's own)
             rays = camera.rays((width, height))
-            origins = np.ascontiguousarray((rays.origins - ray_origin) * inv_spacing)
-            directions = np.ascontiguousarray(rays.directions * inv_spacing)
-        value = np.full(height * width, np.nan) if opts.blending != "composite" else None
-        # rays with a level of detail and nothing else extended: the plain loop, on the mip-map where lod > 0
-        a_lens_only = lod is not None and opts.blending == "composite" and opts.gradient_opacity is None \
-            and styles is None and not opts.shade
+            _, origins, directions = voxel_rays(camera, rays, width, height, ray_origin, inv_spacing)
+        out = FrameBuffers(width, height, prec, value=opts.blending != "composite")
+        kernel_args = None
         if extended and not flat:
             kernel_args = _extended_arguments(volume, opts, params, table, sigma, self.unit, blocks, active, leap, lod,
                                               styles, tf, prec, mask)
-
         # the precision's marker and the lighting (0: none): each kernel compiles that
         # precision's loop, lit or not, only
-        marker = MARKERS[prec]
         light = _light(volume, opts, prec, piece) if not flat else 0
-        warp = warp_arrays(volume, None if piece is None or nominal is None else nominal[1])
-
-        def cast(tile_rows):
-            rows = np.ascontiguousarray(tile_rows)
-            if flat:
-                pass
-            elif not extended:
-                K.render_tiles(marker, bricks.values, bricks.offsets, table.reshape(-1), sigma, leap, grids,
-                               dims, cam, origins, directions, span, width, height, TILE, rows, lanes, lo, hi,
-                               piece_box, params, light, warp, rgba, depth, samples)
-            elif value is not None:
-                a = kernel_args
-                KX.render_projection(bricks.values, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo, a.lods, a.tables,
-                                     a.sigmas, a.axes, origins, directions, span, width, height, TILE, rows, lanes, lo,
-                                     hi, params, a.e, value, rgba, depth, samples)
-            elif a_lens_only:
-                a = kernel_args
-                KX.render_lens(marker, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr, a.pgeo,
-                               a.e.n_levels, a.lods, a.tables, sigma, a.level_tables, a.level_steps, origins,
-                               directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box, params, rgba,
-                               depth, samples)
-            else:
-                a = kernel_args
-                KX.render_ext(marker, light, bricks.values, bricks.offsets, leap, a.leap_lod, grids, dims, a.pyr,
-                              a.pgeo, a.lods, a.gbricks, a.slots, a.modes, a.tables, a.sigmas, a.axes, origins,
-                              directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box, params, a.e, rgba,
-                              depth, samples)
-            return pixel_rows(tile_rows, height)
+        frame = _GridFrame(prec, MARKERS[prec], light, bricks, table, sigma, leap, grids, dims, cam, origins, directions, span,
+                           width, height, tile_lanes(), lo, hi, piece_box, params,
+                           warp_arrays(volume, None if piece is None or nominal is None else nominal[1]), kernel_args,
+                           _grid_kernel(flat, extended, opts, styles, lod), out)
 
         check_progress_bar(progress_bar)
         t_start = time.perf_counter()
-        device_meta = {"name": opts.device}
-        if on_device and not flat:
-            if self._runner is None:
-                self._runner = device_runner(opts.device)
-            with self._runner.frame() as runner:  # one frame at a time on a plan's device arrays
-                if value is None:
-                    on_gpu, finish = runner.composite_frame(prec, light, bricks, table, sigma, leap, grids, dims, cam,
-                                                            origins, directions, span, width, height, lo, hi,
-                                                            piece_box, params, rgba, depth, samples)
-                else:
-                    on_gpu, finish = runner.projection_frame(bricks, table, leap, grids, dims, kernel_args, cam,
-                                                             origins, directions, span, width, height, lo, hi, params,
-                                                             value, rgba, depth, samples)
-                run_frame(on_gpu, finish, height, progress, progress_bar, chunk_seconds)
-                device_meta = runner.describe()
-        else:
-            run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
+        device_meta = self.run_frame(lambda rows: _cast_grid(frame, rows), height, progress, progress_bar,
+                                     chunk_seconds, opts.device, None if flat else frame.on_device)
         elapsed = time.perf_counter() - t_start
+        settings = settings_metadata(tf, camera, (width, height), opts, lens=lens, labels=self.labels,
+                                     label_styles=self.label_styles, block_mask=block_mask, window=window, cull=cull)
+        meta = frame_metadata("pv_hdrvol grid ray caster", volume.name, tf, camera, opts, self.unit, settings, elapsed,
+                              step_voxels=opts.step, step_world=self.step_world)
+        meta["samples"] = int(out.counts.sum())
+        meta.update(self._mode_metadata(lens, piece, culling, styles, lod))
+        if on_device:
+            meta["device"] = device_meta if device_meta is not None else {"name": opts.device}
+        return out.image(meta)
 
-        meta = {
-            "renderer": "pv_hdrvol grid ray caster",
-            "scalars": volume.name,
-            "precision": prec,
-            "step_voxels": opts.step,
-            "step_world": self.step_world,
-            "global_alpha": opts.global_alpha,
-            "opacity_unit_distance": self.unit,
-            "termination": opts.termination,
-            "depth_threshold": opts.depth_threshold,
-            "transfer_function": repr(tf),
-            "camera": repr(camera) if isinstance(camera, Camera) else "rays",
-            "settings": settings_metadata(tf, camera, (width, height), opts, lens=lens, labels=self.labels,
-                                          label_styles=self.label_styles, block_mask=block_mask, window=window,
-                                          cull=cull),
-            "render_seconds": elapsed,
-            "samples": int(samples.sum()),
-        }
+    def _frame_mask(self, block_mask, cull, volume, blocks, styles, camera, lens, image_size):
+        """``(mask, culling)``: the blocks a frame may sample (uint8 per block, or None for
+        all) from ``block_mask`` and ``cull``, and the culling's metadata (or None)."""
+        mask = None
+        if block_mask is not None:
+            mask = np.asarray(block_mask)
+            if mask.shape != blocks.shape:
+                raise ValueError(f"block_mask must have shape {blocks.shape} (blocks along z, y, x); got {mask.shape}")
+            if mask.dtype != np.bool_:
+                raise TypeError(f"block_mask must be a bool array; got dtype {mask.dtype}")
+            mask = mask.astype(np.uint8)
+        culling = None
+        if cull is not None:
+            if has_clip(self.options):
+                raise ValueError("cull= hides blocks behind the whole volume, which clip_planes= and crop_box= may cut "
+                                 "away (the hidden blocks would show): render a clipped volume without cull=")
+            if not callable(getattr(cull, "mask_for", None)):
+                raise TypeError(f"cull must be a PlenopticOpacity, Culling or OcclusionBound; got {type(cull).__name__}")
+            if not isinstance(camera, Camera) or lens is not None or styles is not None:
+                raise ValueError("cull= needs a Camera (no Rays, no lens) and no label styles")
+            culled, culling = cull.mask_for(volume, self.tf, camera, image_size, self.options, blocks.shape)
+            mask = culled.astype(np.uint8) if mask is None else mask & culled
+        return mask, culling
+
+    def _empty_reason(self, volume, blocks, params, styles, flat):
+        """Why an image is bound to be empty, or None (:func:`empty_render_reason`). Label
+        styles have tables of their own, and a projection keeps its value image
+        (HDRImage.value) whatever the opacity; without a mask the skip structure already
+        holds the visible blocks."""
+        opts, table = self.options, self.table
+        if styles is not None or opts.blending != "composite":
+            visible = True
+        elif opts.skip_empty:  # the unmasked classification: whether the function shows anything at all
+            visible = bool(_base_active(volume, blocks, opts, styles, table, params).any())
+        else:
+            visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
+        reason = empty_render_reason(volume.value_range, volume.any_finite, self.tf, flat=flat, visible=visible,
+                                     default_tf=self.default_tf)
+        if reason is not None and not visible and opts.precision == "uint8":
+            reason += "; precision='uint8' rounds the opacity of each step to a multiple of 1/255"
+        return reason
+
+    def _mode_metadata(self, lens, piece, culling, styles, lod):
+        """The metadata of what this frame turned on (lens, piece, culling, blending,
+        gradient opacity, shading, label styles, level of detail)."""
+        opts, meta = self.options, {}
         if lens is not None:
             meta["lens"] = repr(lens)
         if piece is not None:
@@ -1002,11 +936,86 @@ class GridPlan:
             meta["label_styles"] = styles.describe()
         if lod is not None:
             meta["max_lod"] = float(lod.max())
-        if on_device:
-            meta["device"] = device_meta
-        if value is not None:
-            value = value.reshape(height, width)
-        return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta, value=value)
+        return meta
+
+
+class _GridFrame(NamedTuple):
+    """A grid frame's kernel inputs and outputs (:func:`_cast_grid` runs them)."""
+
+    precision: str
+    marker: object
+    light: object
+    bricks: Bricks
+    table: np.ndarray
+    sigma: np.ndarray
+    leap: np.ndarray
+    grids: np.ndarray
+    dims: np.ndarray
+    cam: np.ndarray
+    origins: np.ndarray
+    directions: np.ndarray
+    span: np.ndarray
+    width: int
+    height: int
+    lanes: int
+    lo: np.ndarray
+    hi: np.ndarray
+    piece_box: np.ndarray
+    params: object
+    warp: object
+    ext: object  # _Extended or None
+    kernel: str  # "none" (a flat volume), "plain", "projection", "lens" or "extended"
+    out: FrameBuffers
+
+    def on_device(self, runner):
+        """The device runner's ``(cast, finish)`` of this frame."""
+        f, out = self, self.out
+        if out.value is None:
+            return runner.composite_frame(f.precision, f.light, f.bricks, f.table, f.sigma, f.leap, f.grids, f.dims,
+                                          f.cam, f.origins, f.directions, f.span, f.width, f.height, f.lo, f.hi,
+                                          f.piece_box, f.params, out.rgba, out.depth, out.counts)
+        return runner.projection_frame(f.bricks, f.table, f.leap, f.grids, f.dims, f.ext, f.cam, f.origins,
+                                       f.directions, f.span, f.width, f.height, f.lo, f.hi, f.params, out.value,
+                                       out.rgba, out.depth, out.counts)
+
+
+def _grid_kernel(flat, extended, opts, styles, lod):
+    """Which grid kernel a frame runs (see :class:`_GridFrame`): rays with a level of
+    detail and nothing else extended take the plain loop on the mip-map (``"lens"``)."""
+    if flat:
+        return "none"
+    if not extended:
+        return "plain"
+    if opts.blending != "composite":
+        return "projection"
+    if lod is not None and opts.gradient_opacity is None and styles is None and not opts.shade:
+        return "lens"
+    return "extended"
+
+
+def _cast_grid(f, tile_rows):
+    """Render the rows of tiles ``tile_rows`` of the grid frame ``f``; returns the pixel rows done."""
+    rows = np.ascontiguousarray(tile_rows)
+    out, a = f.out, f.ext
+    if f.kernel == "plain":
+        K.render_tiles(f.marker, f.bricks.values, f.bricks.offsets, f.table.reshape(-1), f.sigma, f.leap, f.grids,
+                       f.dims, f.cam, f.origins, f.directions, f.span, f.width, f.height, TILE, rows, f.lanes, f.lo,
+                       f.hi, f.piece_box, f.params, f.light, f.warp, out.rgba, out.depth, out.counts)
+    elif f.kernel == "projection":
+        KX.render_projection(f.bricks.values, f.leap, a.leap_lod, f.grids, f.dims, a.pyr, a.pgeo, a.lods, a.tables,
+                             a.sigmas, a.axes, f.origins, f.directions, f.span, f.width, f.height, TILE, rows, f.lanes,
+                             f.lo, f.hi, f.params, a.e, out.value, out.rgba, out.depth, out.counts)
+    elif f.kernel == "lens":
+        KX.render_lens(f.marker, f.bricks.values, f.bricks.offsets, f.leap, a.leap_lod, f.grids, f.dims, a.pyr, a.pgeo,
+                       a.e.n_levels, a.lods, a.tables, f.sigma, a.level_tables, a.level_steps, f.origins,
+                       f.directions, f.span, f.width, f.height, TILE, rows, f.lanes, f.lo, f.hi, f.piece_box, f.params,
+                       out.rgba, out.depth, out.counts)
+    elif f.kernel == "extended":
+        KX.render_ext(f.marker, f.light, f.bricks.values, f.bricks.offsets, f.leap, a.leap_lod, f.grids, f.dims, a.pyr,
+                      a.pgeo, a.lods, a.gbricks, a.slots, a.modes, a.tables, a.sigmas, a.axes, f.origins, f.directions,
+                      f.span, f.width, f.height, TILE, rows, f.lanes, f.lo, f.hi, f.piece_box, f.params, a.e, out.rgba,
+                      out.depth, out.counts)
+    return pixel_rows(tile_rows, f.height)
 
 
 def _check_device(opts, volume, labels):

@@ -14,7 +14,6 @@ import numpy as np
 from ..data.grid import content_digest
 from ..data.tets import as_tetmesh
 from ..data.transfer import SCALE_CODES, _scale_inverse
-from ..image.hdr import HDRImage
 from ..image.upsample import DepthLayers
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES
@@ -24,7 +23,7 @@ from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
 from .grid import _visible, cached, empty_render_reason, resolve_render_options, warn_empty
-from .frame import (MARKERS, TILE, check_far, check_progress_bar, device_runner, pixel_rows, run_frame, run_in_chunks,
+from .frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_far, check_progress_bar, frame_metadata, pixel_rows,
                     tile_lanes)
 from .memory import check_memory
 from .shading import shading_arrays, shading_metadata
@@ -105,7 +104,7 @@ def render_tets(mesh, tf=None, camera=None, size=(512, 512), options=None, *, sc
     return plan.execute(camera, size, progress=progress, progress_bar=progress_bar)
 
 
-class TetPlan:
+class TetPlan(FramePlan):
     """A tetrahedral render validated and prepared once, executed many times (the
     counterpart of :class:`~pv_hdrvol.raycast.grid.GridPlan`).
 
@@ -151,7 +150,6 @@ class TetPlan:
             float(mesh.scale), self.tau_max, MAX_PIECES, int(4 * mesh.n_cells + 64), int(opts.shade),
         )
         self.active = _active_cells(mesh, sigma, self.params)
-        self._runner = None
         # said by each execution (after its own checks), as by a one-off render
         self._empty_reason = empty_render_reason(mesh.value_range, _any_finite_cell(mesh), tf,
                                                  visible=bool(self.active.any()), default_tf=default_tf, what="mesh")
@@ -228,11 +226,8 @@ class TetPlan:
             raise ValueError(f"the camera is inside the mesh: {inside} rays start inside it (their first boundary "
                              f"crossing leaves the mesh); place the camera outside the mesh's boundary")
 
-        out_dtype = np.float64 if prec == "float64" else np.float32
         n_pix = width * height
-        rgba = np.zeros((n_pix, 4), dtype=out_dtype)
-        depth = np.full(n_pix, np.inf)
-        cells = np.zeros(n_pix, dtype=np.int64)
+        out = FrameBuffers(width, height, prec)  # counts: the cells each ray crossed
         pieces = np.zeros(n_pix, dtype=np.int64)
         guard = np.zeros(n_pix, dtype=np.bool_)
         lanes = tile_lanes()
@@ -247,50 +242,33 @@ class TetPlan:
                             mesh.boundary, mesh.boundary_cell, mesh.boundary_face, table, grads, shading, lights,
                             hits.offsets,
                             hits.t, hits.face, hits.entering, cam, own, span, width, height, TILE, rows, lanes,
-                            params, rgba, depth, cells, pieces, guard)
+                            params, out.rgba, out.depth, out.counts, pieces, guard)
             return pixel_rows(tile_rows, height)
 
+        def on_device(runner):
+            return runner.tet_frame(prec, mesh, cells_i, cells_f, active, table, grads, shading, lights, hits, cam,
+                                    own, span, width, height, params, out.rgba, out.depth, out.counts, pieces, guard)
+
         t1 = time.perf_counter()
-        device_meta = None
-        if opts.device != "cpu":
-            if self._runner is None:
-                self._runner = device_runner(opts.device)
-            with self._runner.frame() as runner:  # one frame at a time on a plan's device arrays
-                on_gpu, finish = runner.tet_frame(prec, mesh, cells_i, cells_f, active, table, grads, shading,
-                                                  lights, hits, cam, own, span, width, height, params, rgba, depth,
-                                                  cells, pieces, guard)
-                run_frame(on_gpu, finish, height, progress, progress_bar, chunk_seconds)
-                device_meta = runner.describe()
-        else:
-            run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
+        device_meta = self.run_frame(cast, height, progress, progress_bar, chunk_seconds, opts.device, on_device)
         elapsed = time.perf_counter() - t1
-        meta = {
-            "renderer": "pv_hdrvol tetrahedral ray caster",
-            "scalars": mesh.name,
-            "association": mesh.association,
-            "cells_in_mesh": mesh.n_cells,
-            "precision": prec,
-            "global_alpha": opts.global_alpha,
-            "opacity_unit_distance": self.unit,
-            "termination": opts.termination,
-            "depth_threshold": opts.depth_threshold,
-            "transfer_function": repr(tf),
-            "camera": repr(camera),
-            "settings": settings_metadata(tf, camera, (width, height), opts, {"tau_max": self.tau_max}),
+        settings = settings_metadata(tf, camera, (width, height), opts, {"tau_max": self.tau_max})
+        meta = frame_metadata("pv_hdrvol tetrahedral ray caster", mesh.name, tf, camera, opts, self.unit, settings,
+                              elapsed, association=mesh.association, cells_in_mesh=mesh.n_cells)
+        meta.update({
             "boundary_seconds": t_hits,
-            "render_seconds": elapsed,
-            "cells": int(cells.sum()),
+            "cells": int(out.counts.sum()),
             "pieces": int(pieces.sum()),
             "tau_max": self.tau_max,
             "stopped_rays": int(guard.sum()),
-        }
+        })
         if opts.shade:
             meta["shading"] = shading_metadata(opts)
         if device_meta is not None:
             meta["device"] = device_meta
         if piece is not None:
             meta["piece"] = {"owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi)}
-        return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta), view
+        return out.image(meta), view
 
 
 class MeshPiece(NamedTuple):

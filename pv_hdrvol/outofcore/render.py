@@ -41,11 +41,11 @@ import numpy as np
 
 from .._validate import as_real, as_size
 from ..data.transfer import SCALE_CODES, auto_transfer_function
-from ..image.hdr import HDRImage
 from ..params import PRECISION_CODES
 from ..raycast import _kernels as K
 from ..raycast.grid import VolumePiece, _visible, dilate, leap_radius, resolve_render_options
-from ..raycast.frame import MARKERS, TILE, check_progress_bar, pixel_rows, run_in_chunks, tile_lanes, windowed
+from ..raycast.frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_progress_bar, frame_metadata, frame_rays,
+                              pixel_rows, tile_lanes, voxel_rays, windowed)
 from ..rays.camera import Camera, Rays, as_camera
 from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
@@ -200,7 +200,7 @@ def open_multiscale(path, cache_bytes=DEFAULT_CACHE_BYTES, threads=2):
     return MultiscaleVolume(MultiscaleStore(os.fspath(path)), cache_bytes, threads)
 
 
-class MultiscalePlan:
+class MultiscalePlan(FramePlan):
     """An out-of-core render validated once, executed for any camera (see the module).
 
     Parameters
@@ -431,21 +431,10 @@ class MultiscalePlan:
         screen_error = as_real("screen_error", screen_error, low=0.0, low_open=True)
         check_progress_bar(progress_bar)
         camera = as_camera(camera, vol.bounds)
+        rays, width, height = frame_rays(camera, size, lens)
         lens_camera = None
         if lens is not None:
-            if not isinstance(camera, Camera):
-                raise TypeError(f"a lens needs a Camera; got {type(camera).__name__}")
-            if not callable(getattr(lens, "rays", None)):
-                raise TypeError(f"lens must have a rays(camera, size) method; got {type(lens).__name__}")
-            rays = lens.rays(camera, size)
-            if not isinstance(rays, Rays):
-                raise TypeError(f"lens.rays() must return Rays; got {type(rays).__name__}")
             lens_camera, camera = camera, rays
-        if isinstance(camera, Rays):
-            rays, width, height = camera, camera.width, camera.height
-        else:
-            rays = None
-            width, height = as_size(size)
         cache = vol.cache(self.dtype)
         t_start = time.perf_counter()
         # (a ray's level of detail, Rays.lod, is not read: the blocks' levels come from
@@ -470,20 +459,9 @@ class MultiscalePlan:
         if owned is not None:
             shown &= owned
         coarsened = 0
-        # nearest blocks first
-        order = np.argsort(self.block_distance(camera)[shown], kind="stable")
+        order = np.argsort(self.block_distance(camera)[shown], kind="stable")  # nearest blocks first
         while True:
-            want = np.where(shown, np.minimum(desired + coarsened, n_levels - 1), -1)
-            blocks = np.nonzero(shown)
-            keys = []
-            seen = set()
-            for L in range(n_levels):
-                sel = want[blocks] == L
-                if sel.any():
-                    for key in self._keys(L, tuple(b[order][sel[order]] for b in blocks)):
-                        if key not in seen:
-                            seen.add(key)
-                            keys.append(key)
+            want, keys = self._wanted_chunks(shown, desired, coarsened, order)
             if len(keys) + len(cache.permanent) <= cache.n_slots or coarsened >= n_levels:
                 break
             if wait and piece is None and window is None and not _pass:
@@ -497,19 +475,90 @@ class MultiscalePlan:
         if wait:
             cache.wait(keys, timeout=timeout)
         cache.raise_errors()
-        # each shown block at the finest resident level at or above the one it wants
-        level = np.full(vol.block_shape, n_levels - 1, dtype=np.int64)
-        assigned = np.zeros(vol.block_shape, dtype=bool)
-        for L in range(n_levels):
-            ok = shown & ~assigned & (want <= L) & self._ready_at(cache, L)
-            level[ok] = L
-            assigned |= ok
-        active = shown & self._visible_at_levels(level)
+        level, active = self._resident_levels(cache, shown, want)
         finest = int(level[active].min()) if active.any() else n_levels - 1
         if owned is not None or occluded is not None:  # the lattice the pieces or the bound assumed
             finest = min(finest, piece_finest)
         table, step_world = self.table(finest)
         params = self.params._replace(step=float(step_world))
+        offs, leap = self._pages(cache, level, active, finest)
+        bz, by, bx = vol.block_shape
+        grids = np.array([bz, by, bx, 1, 1, 1], dtype=np.int64)
+        dims = np.array(vol.dims, dtype=np.int64)
+        cam, origins, directions = voxel_rays(camera, rays, width, height, vol.origin, 1.0 / vol.spacing)
+        span = ray_spans(rays if rays is not None else camera, (width, height), opts, far)
+        lo = np.zeros(3)
+        hi = dims.astype(np.float64) - 1.0
+        piece_box = np.concatenate([lo, hi, np.zeros(3)]) if piece is None else \
+            np.array(list(piece.owned_lo) + list(piece.owned_hi) + [0, 0, 0], dtype=np.float64)
+        prec = opts.precision
+        out = FrameBuffers(width, height, prec)
+        marker = MARKERS[prec]
+        lanes = tile_lanes()
+        flat = min(vol.dims) < 2
+
+        def cast(tile_rows):
+            rows = np.ascontiguousarray(tile_rows)
+            if not flat:
+                K.render_tiles(marker, cache.pool, offs, table.reshape(-1), self.sigma, leap, grids, dims, cam,
+                               origins, directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box,
+                               params, 0, 0, out.rgba, out.depth, out.counts)
+            return pixel_rows(tile_rows, height)
+
+        self.run_frame(cast, height, progress, progress_bar, chunk_seconds)
+        elapsed = time.perf_counter() - t_start
+        shown_camera = repr(camera) if isinstance(camera, Camera) else repr(lens_camera) if lens is not None else "rays"
+        settings = settings_metadata(self.tf, camera if lens is None else lens_camera, (width, height), opts,
+                                     window=window, lens=lens)
+        meta = frame_metadata("pv_hdrvol out-of-core grid ray caster", vol.name, self.tf, shown_camera, opts,
+                              self.unit, settings, elapsed, store=vol.store.path, step_voxels=opts.step,
+                              step_world=step_world)
+        meta["samples"] = int(out.counts.sum())
+        meta.update(self._frame_reads(cache, screen_error, level, active, desired, shown, want, coarsened, refused,
+                                      occluded))
+        if lens is not None:
+            meta["lens"] = repr(lens)
+        if piece is not None:
+            meta["piece"] = {"offset": [0, 0, 0], "owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi),
+                             "whole_dims": list(piece.whole_dims)}
+        return out.image(meta)
+
+    def _wanted_chunks(self, shown, desired, coarsened, order):
+        """``(want, keys)``: each shown block's level, ``coarsened`` levels coarser than it
+        desires (-1: not shown), and the chunks those levels read, nearest blocks first
+        (``order``), each once."""
+        n_levels = self.volume.n_levels
+        want = np.where(shown, np.minimum(desired + coarsened, n_levels - 1), -1)
+        blocks = np.nonzero(shown)
+        keys = []
+        seen = set()
+        for L in range(n_levels):
+            sel = want[blocks] == L
+            if sel.any():
+                for key in self._keys(L, tuple(b[order][sel[order]] for b in blocks)):
+                    if key not in seen:
+                        seen.add(key)
+                        keys.append(key)
+        return want, keys
+
+    def _resident_levels(self, cache, shown, want):
+        """``(level, active)``: each shown block at the finest resident level at or above
+        the one it wants, and the blocks that can show anything at their level."""
+        vol = self.volume
+        level = np.full(vol.block_shape, vol.n_levels - 1, dtype=np.int64)
+        assigned = np.zeros(vol.block_shape, dtype=bool)
+        for L in range(vol.n_levels):
+            ok = shown & ~assigned & (want <= L) & self._ready_at(cache, L)
+            level[ok] = L
+            assigned |= ok
+        return level, shown & self._visible_at_levels(level)
+
+    def _pages(self, cache, level, active, finest):
+        """The kernel's page tables of a frame (``offs``: each block's level and slot base,
+        the levels' points and placement, its samples per segment) and the leap radii,
+        after checking that every active block's chunks are resident and filling their
+        aprons."""
+        vol = self.volume
         for L in np.unique(level[active]):  # never sample a chunk that is not resident
             chunks = self._keys(int(L), np.nonzero(active & (level == L)))
             missing = [k for k in chunks if not cache.is_ready(k)]
@@ -530,67 +579,20 @@ class MultiscalePlan:
         page_level = np.ascontiguousarray(level.astype(np.uint8).reshape(-1))
         page_base = np.ascontiguousarray(base.reshape(-1))
         dims_of = np.array([lv_.shape[::-1] for lv_ in vol.store.levels], dtype=np.int64)
-        place = np.array([[(2.0 ** L - 1.0) / 2.0, 2.0 ** -L] for L in range(n_levels)])
-        leap = leap_radius(active).reshape(-1)
-        bz, by, bx = vol.block_shape
-        grids = np.array([bz, by, bx, 1, 1, 1], dtype=np.int64)
-        dims = np.array(vol.dims, dtype=np.int64)
-        inv_spacing = 1.0 / vol.spacing
-        if rays is None:
-            cam = np.concatenate([camera.kernel_array((width, height)), vol.origin, inv_spacing])
-            origins = directions = np.empty((0, 3))
-        else:
-            cam = np.empty(0)
-            origins = np.ascontiguousarray((rays.origins - vol.origin) * inv_spacing)
-            directions = np.ascontiguousarray(rays.directions * inv_spacing)
-        span = ray_spans(rays if rays is not None else camera, (width, height), opts, far)
-        lo = np.zeros(3)
-        hi = dims.astype(np.float64) - 1.0
-        piece_box = np.concatenate([lo, hi, np.zeros(3)]) if piece is None else \
-            np.array(list(piece.owned_lo) + list(piece.owned_hi) + [0, 0, 0], dtype=np.float64)
-        prec = opts.precision
-        out_dtype = np.float64 if prec == "float64" else np.float32
-        rgba = np.zeros((height * width, 4), dtype=out_dtype)
-        depth = np.full(height * width, np.inf, dtype=np.float64)
-        samples = np.zeros(height * width, dtype=np.int64)
-        marker = MARKERS[prec]
-        lanes = tile_lanes()
+        place = np.array([[(2.0 ** L - 1.0) / 2.0, 2.0 ** -L] for L in range(vol.n_levels)])
         # a block of level L samples once per 2**(L - finest) segments of the frame's lattice
         segments = np.ones(vol.block_shape, dtype=np.int64)
         segments[active] = 1 << (level[active] - finest)
         offs = (page_level, page_base, dims_of, place, np.ascontiguousarray(segments.reshape(-1)))
-        flat = min(vol.dims) < 2
+        return offs, leap_radius(active).reshape(-1)
 
-        def cast(tile_rows):
-            rows = np.ascontiguousarray(tile_rows)
-            if not flat:
-                K.render_tiles(marker, cache.pool, offs, table.reshape(-1), self.sigma, leap, grids, dims, cam,
-                               origins, directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box,
-                               params, 0, 0, rgba, depth, samples)
-            return pixel_rows(tile_rows, height)
-
-        run_in_chunks(cast, height, progress, progress_bar, chunk_seconds)
-        elapsed = time.perf_counter() - t_start
-        counts = np.bincount(level[active], minlength=n_levels)
-        meta = {
-            "renderer": "pv_hdrvol out-of-core grid ray caster",
-            "scalars": vol.name,
-            "store": vol.store.path,
-            "precision": prec,
-            "step_voxels": opts.step,
-            "step_world": step_world,
-            "global_alpha": opts.global_alpha,
-            "opacity_unit_distance": self.unit,
-            "termination": opts.termination,
-            "depth_threshold": opts.depth_threshold,
-            "transfer_function": repr(self.tf),
-            "camera": repr(camera) if isinstance(camera, Camera) else repr(lens_camera) if lens is not None else "rays",
-            "settings": settings_metadata(self.tf, camera if lens is None else lens_camera, (width, height), opts,
-                                          window=window, lens=lens),
-            "render_seconds": elapsed,
-            "samples": int(samples.sum()),
+    def _frame_reads(self, cache, screen_error, level, active, desired, shown, want, coarsened, refused, occluded):
+        """The out-of-core metadata of a frame: levels asked for and rendered, whether it
+        converged, the chunks read and pending, the cache's bytes."""
+        n_levels = self.volume.n_levels
+        return {
             "screen_error": screen_error,
-            "levels": [int(c) for c in counts],
+            "levels": [int(c) for c in np.bincount(level[active], minlength=n_levels)],
             "desired_levels": [int(c) for c in np.bincount(np.minimum(desired[shown] + coarsened, n_levels - 1),
                                                             minlength=n_levels)],
             "converged": bool((level[shown] == want[shown]).all()),
@@ -605,12 +607,6 @@ class MultiscalePlan:
             "cache_bytes": cache.pool.nbytes,
             "resident_bytes": cache.resident_bytes,
         }
-        if lens is not None:
-            meta["lens"] = repr(lens)
-        if piece is not None:
-            meta["piece"] = {"offset": [0, 0, 0], "owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi),
-                             "whole_dims": list(piece.whole_dims)}
-        return HDRImage(rgba.reshape(height, width, 4), depth.reshape(height, width), metadata=meta)
 
     def _in_passes(self, camera, lens_camera, lens, size, rays, screen_error, timeout, shown, want, keys, far,
                    t_start, occluded):

@@ -442,22 +442,9 @@ class MultiscalePlan(FramePlan):
         desired = self.desired_levels(camera, (width, height), screen_error)
         rays, far, width, height = windowed(camera, rays, far, window, width, height)
         n_levels = vol.n_levels
-        # visible where the desired level's data can show anything under the function
-        shown = desired >= 0
-        for L in range(n_levels):
-            at = desired == L
-            shown[at] &= self._visible[L][at]
-        # a piece steps as the whole render does: at the finest level any block of the
-        # whole asks for (from metadata and the camera alone: the same on every process)
-        piece_finest = int(desired[shown].min()) if shown.any() else n_levels - 1
-        occluded = _culled
-        if occluded is None and (wait if occlusion is None else occlusion) and shown.any():
-            full_rays = rays if rays is not None else camera.rays((width, height))
-            occluded = self.occluded(full_rays, shown, desired, piece_finest)
-        if occluded is not None:
-            shown &= ~occluded
-        if owned is not None:
-            shown &= owned
+        shown, piece_finest, occluded = self._shown_blocks(
+            desired, owned, _culled, wait if occlusion is None else occlusion,
+            lambda: rays if rays is not None else camera.rays((width, height)))
         coarsened = 0
         order = np.argsort(self.block_distance(camera)[shown], kind="stable")  # nearest blocks first
         while True:
@@ -522,6 +509,28 @@ class MultiscalePlan(FramePlan):
             meta["piece"] = {"offset": [0, 0, 0], "owned_lo": list(piece.owned_lo), "owned_hi": list(piece.owned_hi),
                              "whole_dims": list(piece.whole_dims)}
         return out.image(meta)
+
+    def _shown_blocks(self, desired, owned, culled, occlusion, frame_rays):
+        """``(shown, piece_finest, occluded)``: the blocks a frame draws (visible where the
+        desired level's data can show anything under the function, not occluded, owned by
+        the piece), the finest level any visible block of the whole asks for (a piece
+        steps as the whole render does: from metadata and the camera alone, the same on
+        every process), and the occluded blocks (``culled`` if given; the bound's when
+        ``occlusion``, on ``frame_rays()``; else None)."""
+        n_levels = self.volume.n_levels
+        shown = desired >= 0
+        for L in range(n_levels):
+            at = desired == L
+            shown[at] &= self._visible[L][at]
+        piece_finest = int(desired[shown].min()) if shown.any() else n_levels - 1
+        occluded = culled
+        if occluded is None and occlusion and shown.any():
+            occluded = self.occluded(frame_rays(), shown, desired, piece_finest)
+        if occluded is not None:
+            shown &= ~occluded
+        if owned is not None:
+            shown &= owned
+        return shown, piece_finest, occluded
 
     def _wanted_chunks(self, shown, desired, coarsened, order):
         """``(want, keys)``: each shown block's level, ``coarsened`` levels coarser than it

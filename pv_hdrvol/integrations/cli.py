@@ -131,11 +131,23 @@ def _add_preview_options(p, png_option):
 
 
 def build_parser():
-    """The ``argparse`` parser of ``pv-hdrvol`` (sub-commands render, demo, info)."""
+    """The ``argparse`` parser of ``pv-hdrvol``: one builder per sub-command (render, view, demo,
+    info, proxy, convert, paraview), each adding its parser to ``sub``."""
     parser = argparse.ArgumentParser(prog="pv-hdrvol", description="High-dynamic-range volume rendering to OpenEXR.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    _add_render_command(sub)
+    _add_view_command(sub)
+    _add_demo_command(sub)
+    _add_info_command(sub)
+    _add_proxy_command(sub)
+    _add_convert_command(sub)
+    _add_paraview_command(sub)
+    return parser
 
+
+def _add_render_command(sub):
+    """Add ``pv-hdrvol render``: a volume or mesh file to a float OpenEXR image."""
     p = sub.add_parser("render", help=f"render a volume or mesh file ({', '.join(READABLE)})",
                        description="Render an image volume or a tetrahedral mesh read with pyvista.read to a float "
                                    "OpenEXR image. Gaussian cube files (.cube) are rendered as pyvista.read gives "
@@ -164,6 +176,9 @@ def build_parser():
     g.add_argument("--k", type=float, nargs="+", default=None, metavar="K",
                    help="the family's weights, one per basis of --pof (default all 1)")
 
+
+def _add_view_command(sub):
+    """Add ``pv-hdrvol view``: the interactive Qt viewer on a file or a store."""
     p = sub.add_parser("view", help="explore a volume or mesh file in a window (Qt)",
                        description="Open the interactive viewer (pv_hdrvol.viewer.qt.HDRViewer): orbit, edit the "
                                    "transfer function, tone-map, probe HDR values, a magnifier lens, save EXR/PNG. "
@@ -181,6 +196,9 @@ def build_parser():
                    help="compositing precision (default float32)")
     p.set_defaults(handler=_cmd_view, subparser=p)
 
+
+def _add_demo_command(sub):
+    """Add ``pv-hdrvol demo``: the hydrogen orbital, no input needed."""
     p = sub.add_parser("demo", help="render the hydrogen 3d_z2 orbital (no input needed)",
                        description="Render pv_hdrvol.datasets.hydrogen_orbital() with its demo transfer function "
                                    "and write demo.exr and demo.png.")
@@ -192,6 +210,9 @@ def build_parser():
     _add_preview_options(p, "demo.png")
     p.set_defaults(handler=_cmd_demo, subparser=p)
 
+
+def _add_info_command(sub):
+    """Add ``pv-hdrvol info``: an image's statistics, render settings and metadata."""
     p = sub.add_parser("info", help="print the statistics, render settings and metadata of an image",
                        description="Print the statistics, render settings and metadata of an image written by "
                                    "pv-hdrvol (.exr, .hdr, .npy). The settings re-render the image in Python: "
@@ -201,12 +222,21 @@ def build_parser():
                    help="print the metadata as JSON instead (all of the settings: every control point)")
     p.set_defaults(handler=_cmd_info, subparser=p)
 
+
+def _add_proxy_command(sub):
+    """Add ``pv-hdrvol proxy`` and its actions ``make`` and ``view``."""
     p = sub.add_parser("proxy", help="proxy images: make them from a volume, synthesise images from them",
                        description="Visualization by proxy (docs/proxy.md): 'make' casts a volume once into a "
                                    "proxy folder (multi-channel OpenEXR, JSON, a Cinema index); 'view' synthesises "
                                    "an image from the folder alone: another opacity per intensity interval, a "
                                    "rotated view, lighting, enhancement.")
     psub = p.add_subparsers(dest="proxy_command", metavar="ACTION", required=True)
+    _add_proxy_make_command(psub)
+    _add_proxy_view_command(psub)
+
+
+def _add_proxy_make_command(psub):
+    """Add ``pv-hdrvol proxy make``: cast a volume file into a proxy folder."""
     q = psub.add_parser("make", help="cast a volume file into a proxy folder")
     q.add_argument("file", metavar="FILE", help=f"image volume, one of {', '.join(IMAGE_FORMATS)} (proxies are made "
                                                 f"of image data: not of tetrahedral meshes)")
@@ -229,6 +259,10 @@ def build_parser():
     q.add_argument("--clusters", type=int, default=24, metavar="K", help="clusters of the colour model (default 24)")
     q.add_argument("--step", type=float, default=0.5, help="sample distance in voxels (default 0.5)")
     q.set_defaults(handler=_cmd_proxy_make, subparser=q)
+
+
+def _add_proxy_view_command(psub):
+    """Add ``pv-hdrvol proxy view``: the proxy viewer, or one image synthesised from a folder."""
     q = psub.add_parser("view", help="explore a proxy folder in a window, or synthesise an image from it",
                         description="Without -o: open the proxy viewer (Qt; pip install 'pv_hdrvol[gui]'), "
                                     "with sliders for each interval's opacity, the view, lighting, layers and "
@@ -251,6 +285,9 @@ def build_parser():
                    help="layers: proxy ambient occlusion (paper Eq. 5)")
     q.set_defaults(handler=_cmd_proxy_view, subparser=q)
 
+
+def _add_convert_command(sub):
+    """Add ``pv-hdrvol convert``: a volume file to a multiresolution OME-Zarr store."""
     p = sub.add_parser("convert", help="write a volume as a multiresolution OME-Zarr store (volumes larger than "
                                        "memory)",
                        description="Write a volume file as a multiresolution OME-Zarr 0.5 store "
@@ -277,6 +314,9 @@ def build_parser():
                    help="show a progress bar (default: when stderr is a terminal)")
     p.set_defaults(handler=_cmd_convert, subparser=p)
 
+
+def _add_paraview_command(sub):
+    """Add ``pv-hdrvol paraview``: the shell lines that load the ParaView plugin."""
     p = sub.add_parser("paraview", help="print the environment that loads the ParaView plugin",
                        description="Print shell lines that make ParaView (GUI, pvpython, pvbatch) load the "
                                    "pv_hdrvol plugin: PV_PLUGIN_PATH names paraview_plugin/, and PYTHONPATH the "
@@ -290,7 +330,6 @@ def build_parser():
                         ".exr files (/usr/bin/python3 -m pip install --no-deps --target DIR OpenEXR) and zarr for "
                         "*.ome.zarr stores (docs/paraview.md lists the pinned versions)")
     p.set_defaults(handler=_cmd_paraview, subparser=p)
-    return parser
 
 
 def main(argv=None):

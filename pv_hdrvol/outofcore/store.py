@@ -376,8 +376,38 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
         A source, option or returned box that is not allowed; the message names it.
     """
     zarr = _zarr()
-    from zarr.codecs import BloscCodec, Crc32cCodec
+    src, chunk = _open_source(source, shape, dtype, spacing, origin, name, scalars, downsample, chunk, progress_bar)
+    path = os.fspath(path)
+    _remove_old_store(path, overwrite)
+    shapes, edges, dtypes = _plan_levels(src, chunk, downsample)
+    bar = _shards_bar(progress_bar, sum(len(_boxes(s, e)) for s, e in zip(shapes, edges)))
 
+    group = zarr.open_group(store=path, mode="w-", zarr_format=3)
+    meta = {"format": FORMAT, "chunk": chunk, "downsample": downsample, "spacing": list(src.spacing),
+            "origin": list(src.origin), "name": src.name, "complete": False}
+    group.attrs.update({"pv_hdrvol": meta})
+    reduce = downsample_mean if downsample == "mean" else downsample_mode
+    workers = (os.cpu_count() or 1) if threads is None else as_int("threads", threads, low=1)
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pv_hdrvol-writer")
+    try:
+        arr, rng, finite = _write_level0(group, src, shapes[0], edges[0], dtypes[0], chunk, pool, workers, bar)
+        arrays, ranges = [arr], [rng]
+        for level in range(1, len(shapes)):
+            arr, rng = _write_coarser_level(group, level, shapes[level], edges[level], dtypes[level], chunk,
+                                            arrays[-1], ranges[-1], reduce, pool, workers, bar)
+            arrays.append(arr)
+            ranges.append(rng)
+        _finish_metadata(group, meta, src, ranges, downsample, finite)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        if bar is not None:
+            bar.close()
+    return MultiscaleStore(path)
+
+
+def _open_source(source, shape, dtype, spacing, origin, name, scalars, downsample, chunk, progress_bar):
+    """Check :func:`write_multiscale`'s options and open its source: the :class:`_Source`
+    and the chunk edge as an int. Every check runs here, before an old store is removed."""
     if downsample not in DOWNSAMPLE:
         raise ValueError(f"downsample must be one of {DOWNSAMPLE}; got {downsample!r}")
     chunk = as_int("chunk", chunk, low=8, high=512)
@@ -386,10 +416,14 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     src = _as_source(source, shape, dtype, spacing, origin, name, scalars)
     if downsample == "mode" and not np.issubdtype(src.dtype, np.integer):
         raise ValueError(f"downsample='mode' is for label volumes (integers); got dtype {src.dtype}")
-    from ..raycast.frame import auto_bar_wanted, check_progress_bar
+    from ..raycast.frame import check_progress_bar
 
-    check_progress_bar(progress_bar)  # every check before an old store is removed
-    path = os.fspath(path)
+    check_progress_bar(progress_bar)
+    return src, chunk
+
+
+def _remove_old_store(path, overwrite):
+    """Remove the zarr store at ``path`` when ``overwrite`` allows it; refuse anything else there."""
     if os.path.lexists(path):
         if not overwrite:
             raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
@@ -398,113 +432,161 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
             raise FileExistsError(f"{path} exists and is not a zarr store; overwrite=True replaces only a store: "
                                   f"remove it yourself or choose another path")
         shutil.rmtree(path)
+
+
+def _plan_levels(src, chunk, downsample):
+    """Each level's shape, shard edge and dtype, from level 0 to the one that fits a chunk."""
     shapes = level_shapes(src.shape, chunk)
-    edges = [shard_edge(_level_dtype(src.dtype, L, downsample).itemsize, chunk) for L in range(len(shapes))]
-    total = sum(len(_boxes(s, e)) for s, e in zip(shapes, edges))
-    bar = None
+    dtypes = [_level_dtype(src.dtype, L, downsample) for L in range(len(shapes))]
+    edges = [shard_edge(dt.itemsize, chunk) for dt in dtypes]
+    return shapes, edges, dtypes
+
+
+def _shards_bar(progress_bar, total):
+    """A tqdm bar over ``total`` shards, or None (``progress_bar`` None: when stderr is a terminal)."""
+    from ..raycast.frame import auto_bar_wanted
+
     if progress_bar or (progress_bar is None and auto_bar_wanted()):
         try:
             from tqdm.auto import tqdm
 
-            bar = tqdm(total=total, desc="Writing levels", unit="shards")
+            return tqdm(total=total, desc="Writing levels", unit="shards")
         except ImportError:
             if progress_bar:
                 raise ImportError("progress_bar=True needs tqdm (pip install tqdm)") from None
+    return None
 
-    group = zarr.open_group(store=path, mode="w-", zarr_format=3)
-    meta = {"format": FORMAT, "chunk": chunk, "downsample": downsample, "spacing": list(src.spacing),
-            "origin": list(src.origin), "name": src.name, "complete": False}
-    group.attrs.update({"pv_hdrvol": meta})
-    reduce = downsample_mean if downsample == "mean" else downsample_mode
-    arrays, ranges = [], []
-    workers = (os.cpu_count() or 1) if threads is None else as_int("threads", threads, low=1)
+
+def _create_level_array(group, level, shape, edge, dtype, chunk):
+    """The zarr array of one level: inner chunks of ``chunk`` points, shards of ``edge``."""
+    from zarr.codecs import BloscCodec, Crc32cCodec
+
+    # crc32c after blosc: a damaged chunk fails to read instead of decoding to wrong numbers
+    return group.create_array(
+        name=str(level), shape=shape, dtype=dtype, chunks=(chunk,) * 3,
+        shards=tuple(min(edge, chunk * -(-n // chunk)) for n in shape),
+        compressors=(BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()),
+        fill_value=np.nan if np.issubdtype(dtype, np.floating) else 0,
+        dimension_names=("z", "y", "x"), config={"write_empty_chunks": True})
+
+
+def _empty_ranges(shape, chunk):
+    """Zeros for the ``_RANGE_FIELDS`` of every chunk of a level of ``shape``."""
+    return np.zeros(tuple(-(-n // chunk) for n in shape) + (5,))
+
+
+def _put_chunk_ranges(rng, box, r, chunk):
+    """Copy a shard's chunk minima and maxima ``r`` into its level's ``rng``."""
+    c = [a // chunk for a, _ in box]
+    rng[c[0]:c[0] + r.shape[0], c[1]:c[1] + r.shape[1], c[2]:c[2] + r.shape[2], :2] = r
+
+
+def _run_shards(pool, workers, write_shard, boxes):
+    """Yield ``write_shard(box)`` for every box as it completes on ``pool``.
+
+    Shards run on ``workers`` threads (compression and numpy release the GIL), at most
+    two per thread in flight: memory stays a few shards whatever the volume.
+    """
+    boxes = iter(boxes)
+    pending = set()
+    while True:
+        for box in boxes:
+            pending.add(pool.submit(write_shard, box))
+            if len(pending) >= 2 * workers:
+                break
+        if not pending:
+            break
+        done, pending = concurrent.futures.wait(pending, return_when=concurrent.futures.FIRST_COMPLETED)
+        for future in done:
+            yield future.result()
+
+
+def _write_level0(group, src, shape, edge, dtype, chunk, pool, workers, bar):
+    """Write level 0 from the source, shard by shard, with the value ranges of its groups.
+
+    Returns the array, its chunk ranges and the finite range ``(low, high)`` of its
+    values (``(inf, -inf)`` for none).
+    """
+    from zarr.codecs import BloscCodec
+
+    arr = _create_level_array(group, 0, shape, edge, dtype, chunk)
+    rng = _empty_ranges(shape, chunk)
+    gshape = tuple(-(-n // GROUP) for n in shape) + (2,)
+    groups = group.create_array(name="pv_hdrvol/groups", shape=gshape, dtype="float64",
+                                chunks=tuple(min(edge // GROUP, n) for n in gshape[:3]) + (2,),
+                                compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"),
+                                fill_value=np.nan, attributes={"group": GROUP, "fields": ["min", "max"]})
+
+    def write_shard(box):
+        block = src.read(box)
+        arr[_box_slices(box)] = block
+        # the shard's own region of the groups array: no other thread writes it
+        groups[tuple(slice(a // GROUP, -(-b // GROUP)) for a, b in box)] = group_ranges(block)
+        r = _chunk_ranges(block, chunk)
+        finite = (float(r[..., 0].min()), float(r[..., 1].max()))
+        if not np.isfinite(finite).all():  # the rare shard holding +-inf
+            kept = block[np.isfinite(block)]
+            finite = (float(kept.min()), float(kept.max())) if kept.size else (np.inf, -np.inf)
+        return box, r, finite
+
     finite_lo, finite_hi = np.inf, -np.inf
-    pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pv_hdrvol-writer")
-    try:
-        for level, (shp, edge) in enumerate(zip(shapes, edges)):
-            dt = _level_dtype(src.dtype, level, downsample)
-            # crc32c after blosc: a damaged chunk fails to read instead of decoding to wrong numbers
-            arr = group.create_array(
-                name=str(level), shape=shp, dtype=dt, chunks=(chunk,) * 3,
-                shards=tuple(min(edge, chunk * -(-n // chunk)) for n in shp),
-                compressors=(BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()),
-                fill_value=np.nan if np.issubdtype(dt, np.floating) else 0,
-                dimension_names=("z", "y", "x"), config={"write_empty_chunks": True})
-            rng = np.zeros(tuple(-(-n // chunk) for n in shp) + (5,))
-            if level == 0:
-                gshape = tuple(-(-n // GROUP) for n in shp) + (2,)
-                groups = group.create_array(name="pv_hdrvol/groups", shape=gshape, dtype="float64",
-                                            chunks=tuple(min(edge // GROUP, n) for n in gshape[:3]) + (2,),
-                                            compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"),
-                                            fill_value=np.nan, attributes={"group": GROUP, "fields": ["min", "max"]})
-
-            def one(box, level=level, arr=arr, dt=dt):
-                errors = []
-                if level == 0:
-                    block = src.read(box)
-                else:
-                    block = np.empty(tuple(b - a for a, b in box), dt)
-                    # one fine chunk at a time (half a chunk of this level): the float64 work stays small
-                    for sub in _boxes(block.shape, chunk // 2):
-                        fbox = tuple((2 * (o + a), min(2 * (o + b), n)) for (o, _), (a, b), n
-                                     in zip(box, sub, arrays[-1].shape))
-                        fine = np.asarray(arrays[-1][_box_slices(fbox)])
-                        coarse = reduce(fine).astype(dt)
-                        block[_box_slices(sub)] = coarse
-                        errors.append((tuple(a // chunk for a, _ in fbox), _parent_error(fine, coarse)))
-                arr[_box_slices(box)] = block
-                if level == 0:  # the shard's own region of the groups array: no other thread writes it
-                    groups[tuple(slice(a // GROUP, -(-b // GROUP)) for a, b in box)] = group_ranges(block)
-                r = _chunk_ranges(block, chunk)
-                finite = (float(r[..., 0].min()), float(r[..., 1].max()))
-                if level == 0 and not np.isfinite(finite).all():  # the rare shard holding +-inf
-                    kept = block[np.isfinite(block)]
-                    finite = (float(kept.min()), float(kept.max())) if kept.size else (np.inf, -np.inf)
-                return box, r, errors, finite
-
-            # shards on ``threads`` threads (compression and numpy release the GIL), at most
-            # two per thread in flight: memory stays a few shards whatever the volume
-            boxes = iter(_boxes(shp, edge))
-            pending = set()
-            while True:
-                for box in boxes:
-                    pending.add(pool.submit(one, box))
-                    if len(pending) >= 2 * workers:
-                        break
-                if not pending:
-                    break
-                done, pending = concurrent.futures.wait(pending, return_when=concurrent.futures.FIRST_COMPLETED)
-                for future in done:
-                    box, r, errors, finite = future.result()
-                    if level == 0:
-                        finite_lo, finite_hi = min(finite_lo, finite[0]), max(finite_hi, finite[1])
-                    c = [a // chunk for a, _ in box]
-                    rng[c[0]:c[0] + r.shape[0], c[1]:c[1] + r.shape[1], c[2]:c[2] + r.shape[2], :2] = r
-                    for index, err in errors:
-                        ranges[-1][index + (2,)] = err
-                    if bar is not None:
-                        bar.update(1)
-            arrays.append(arr)
-            ranges.append(rng)
-        # the ranges over level-0 points below each chunk, from level 0 upwards
-        for level, rng in enumerate(ranges):
-            if level == 0:
-                rng[..., 3:5] = rng[..., 0:2]
-                continue
-            prev = ranges[level - 1][..., 3:5]
-            rng[..., 3] = _pool2(prev[..., 0], np.minimum, np.inf)[tuple(slice(0, n) for n in rng.shape[:3])]
-            rng[..., 4] = _pool2(prev[..., 1], np.maximum, -np.inf)[tuple(slice(0, n) for n in rng.shape[:3])]
-        for level, rng in enumerate(ranges):
-            group.create_array(name=f"pv_hdrvol/ranges/{level}", data=rng, chunks=rng.shape,
-                               attributes={"fields": list(_RANGE_FIELDS)})
-        group.attrs.update({"ome": _ome_metadata(src, len(shapes), downsample),
-                            "pv_hdrvol": dict(meta, complete=True, finite_range=[float(finite_lo), float(finite_hi)]
-                                              if finite_lo <= finite_hi else None)})
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    for box, r, finite in _run_shards(pool, workers, write_shard, _boxes(shape, edge)):
+        finite_lo, finite_hi = min(finite_lo, finite[0]), max(finite_hi, finite[1])
+        _put_chunk_ranges(rng, box, r, chunk)
         if bar is not None:
-            bar.close()
-    return MultiscaleStore(path)
+            bar.update(1)
+    return arr, rng, (finite_lo, finite_hi)
+
+
+def _write_coarser_level(group, level, shape, edge, dtype, chunk, below, below_ranges, reduce, pool, workers, bar):
+    """Write level ``level`` by reducing each 2x2x2 group of ``below`` (the level under it).
+
+    Returns the array and its chunk ranges; the error of every chunk of ``below``
+    against its parents goes into ``below_ranges``.
+    """
+    arr = _create_level_array(group, level, shape, edge, dtype, chunk)
+    rng = _empty_ranges(shape, chunk)
+
+    def write_shard(box):
+        errors = []
+        block = np.empty(tuple(b - a for a, b in box), dtype)
+        # one fine chunk at a time (half a chunk of this level): the float64 work stays small
+        for sub in _boxes(block.shape, chunk // 2):
+            fbox = tuple((2 * (o + a), min(2 * (o + b), n)) for (o, _), (a, b), n in zip(box, sub, below.shape))
+            fine = np.asarray(below[_box_slices(fbox)])
+            coarse = reduce(fine).astype(dtype)
+            block[_box_slices(sub)] = coarse
+            errors.append((tuple(a // chunk for a, _ in fbox), _parent_error(fine, coarse)))
+        arr[_box_slices(box)] = block
+        return box, _chunk_ranges(block, chunk), errors
+
+    for box, r, errors in _run_shards(pool, workers, write_shard, _boxes(shape, edge)):
+        _put_chunk_ranges(rng, box, r, chunk)
+        for index, err in errors:
+            below_ranges[index + (2,)] = err
+        if bar is not None:
+            bar.update(1)
+    return arr, rng
+
+
+def _finish_metadata(group, meta, src, ranges, downsample, finite):
+    """Write every level's chunk ranges and the OME metadata, and mark the store complete
+    (last: a store without ``complete`` is refused)."""
+    # the ranges over level-0 points below each chunk, from level 0 upwards
+    for level, rng in enumerate(ranges):
+        if level == 0:
+            rng[..., 3:5] = rng[..., 0:2]
+            continue
+        prev = ranges[level - 1][..., 3:5]
+        rng[..., 3] = _pool2(prev[..., 0], np.minimum, np.inf)[tuple(slice(0, n) for n in rng.shape[:3])]
+        rng[..., 4] = _pool2(prev[..., 1], np.maximum, -np.inf)[tuple(slice(0, n) for n in rng.shape[:3])]
+    for level, rng in enumerate(ranges):
+        group.create_array(name=f"pv_hdrvol/ranges/{level}", data=rng, chunks=rng.shape,
+                           attributes={"fields": list(_RANGE_FIELDS)})
+    finite_lo, finite_hi = finite
+    group.attrs.update({"ome": _ome_metadata(src, len(ranges), downsample),
+                        "pv_hdrvol": dict(meta, complete=True, finite_range=[float(finite_lo), float(finite_hi)]
+                                          if finite_lo <= finite_hi else None)})
 
 
 def _parent_error(fine, coarse):

@@ -18,7 +18,7 @@ def test_curvilinear_pieces_split_into_the_serial_tetrahedra():
     from vtkmodules.vtkFiltersCore import vtkAppendFilter
     from vtkmodules.vtkFiltersExtraction import vtkExtractGrid
 
-    from pv_hdrvol.integrations.vtk_algorithm import _tet_grid_of_structured
+    from pv_hdrvol.integrations.vtk_pieces import tet_grid_of_structured
 
     r, th, z = np.linspace(1, 2, 9), np.linspace(0, 1.2, 11), np.linspace(0, 1, 7)
     rr, tt, zz = np.meshgrid(r, th, z, indexing="ij")
@@ -32,11 +32,11 @@ def test_curvilinear_pieces_split_into_the_serial_tetrahedra():
         extract.SetInputData(grid)
         extract.SetVOI(*voi)
         extract.Update()
-        tets = _tet_grid_of_structured(extract.GetOutput())
+        tets = tet_grid_of_structured(extract.GetOutput())
         total += tets.GetNumberOfCells()
         append.AddInputData(tets)
     append.Update()
-    assert total == _tet_grid_of_structured(grid).GetNumberOfCells()
+    assert total == tet_grid_of_structured(grid).GetNumberOfCells()
     tf = hv.TransferFunction([0.0, 1.0], [[1, 0.5, 0.2], [0.2, 0.5, 1]], [0.0, 0.9])
     expected = hv.render(grid, tf, "iso", (W, H), progress_bar=False, precision="float64")
     assert expected.rgba[..., 3].max() > 0.5
@@ -50,15 +50,15 @@ def test_ghost_cells_of_a_curvilinear_piece_are_left_to_their_owner():
     import pyvista as pv
     from vtkmodules.util.numpy_support import numpy_to_vtk
 
-    from pv_hdrvol.integrations.vtk_algorithm import _tet_grid_of_structured
+    from pv_hdrvol.integrations.vtk_pieces import tet_grid_of_structured
 
     x, y, z = np.meshgrid(np.linspace(0, 1, 6), np.linspace(0, 1, 5), np.linspace(0, 1, 4), indexing="ij")
     grid = pv.StructuredGrid(x + 0.1 * y, y, z)
     grid["f"] = np.arange(grid.n_points, dtype=float)
-    whole = _tet_grid_of_structured(grid).GetNumberOfCells()
+    whole = tet_grid_of_structured(grid).GetNumberOfCells()
     ghost = np.zeros(grid.n_cells, dtype=np.uint8)
     ghost[:8] = 1  # DUPLICATECELL
     array = numpy_to_vtk(ghost, deep=True)
     array.SetName("vtkGhostType")
     grid.GetCellData().AddArray(array)
-    assert _tet_grid_of_structured(grid).GetNumberOfCells() == whole - 8 * 5
+    assert tet_grid_of_structured(grid).GetNumberOfCells() == whole - 8 * 5

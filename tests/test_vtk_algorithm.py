@@ -121,10 +121,10 @@ def test_clipping_planes_as_a_vtk_mapper_takes_them_and_a_crop_box():
     assert planes.GetNumberOfItems() == 2 and planes.GetItem(1).GetOrigin() == (0.0, -2.0, 0.0)
     assert alg.GetCropBox() == (-8.0, 9.0, -20.0, 20.0, -20.0, 20.0)
     # moving the plane (a widget dragged): the plan's tables stay, the picture follows
-    kept = alg._plan[1]
+    kept = alg._state.plan[1]
     alg.SetClippingPlanes([((0.0, 0.0, -0.5), (0.3, 0.0, -1.0))])
     assert alg.Update() is True
-    assert alg._plan[1].table is kept.table
+    assert alg._state.plan[1].table is kept.table
     ref = hv.render(data, tf, cam, (W, H), precision="float64", clip_planes=((0.0, 0.0, -0.5), (0.3, 0.0, -1.0)),
                     crop_box=clip["crop_box"])
     np.testing.assert_array_equal(_rgba(alg.GetOutput())[0], ref.rgba)

@@ -132,10 +132,10 @@ def test_renderer_renders_the_store_out_of_core(store):
     renderer.SetScreenError(1.0)
 
     # the store is opened once: a new camera reuses its volume (and its chunk cache)
-    kept = renderer._multiscale[str(path)]
+    kept = renderer._state.stores[str(path)]
     renderer.SetCamera("xy")
     assert renderer.Update()
-    assert renderer._multiscale[str(path)] is kept
+    assert renderer._state.stores[str(path)] is kept
     np.testing.assert_array_equal(_rgba(renderer), volume.render(tf, hv.Camera.fit(volume.bounds, "xy"), SIZE).rgba)
     volume.close()
 

@@ -8,7 +8,8 @@ from vtkmodules.vtkCommonDataModel import vtkImageData
 from vtkmodules.vtkIOXML import vtkXMLImageDataReader, vtkXMLImageDataWriter
 
 import pv_hdrvol as hv
-from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer, _piece_extent
+from pv_hdrvol.integrations.vtk_algorithm import HDRVolumeRenderer
+from pv_hdrvol.integrations.vtk_pieces import piece_extent
 from pv_hdrvol.raycast.grid import as_volume, resolve_transfer_function
 from thread_comm import run_spmd
 
@@ -78,7 +79,7 @@ def test_each_process_reads_its_extent_and_piece_zero_holds_the_whole_render(vti
     for rank, (_, extent, ok, error) in enumerate(results):
         assert ok and error is None
         # the reader read the extent translator's piece plus the ghost layer, nothing more
-        assert extent == _piece_extent(WHOLE, rank, n, ghosts), (rank, extent)
+        assert extent == piece_extent(WHOLE, rank, n, ghosts), (rank, extent)
         assert np.prod(np.subtract(extent[1::2], extent[::2])) < 1.4 * cells / n
 
 
@@ -154,4 +155,4 @@ def test_a_rectilinear_grid_is_rendered_where_it_lives(vtr, n, shade):
     ghosts = 1 if shade else 0
     for rank, (_, extent, ok, error) in enumerate(results):
         assert ok and error is None
-        assert extent == _piece_extent(WHOLE, rank, n, ghosts), (rank, extent)
+        assert extent == piece_extent(WHOLE, rank, n, ghosts), (rank, extent)

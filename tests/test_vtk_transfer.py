@@ -213,19 +213,19 @@ def test_only_piece_zero_renders_and_asks_for_the_whole_input():
 def test_a_new_camera_reuses_the_plan_and_renders_as_the_python_api():
     source, alg = _renderer()
     alg.Update()
-    plan = alg._plan[1]
+    plan = alg._state.plan[1]
     alg.SetCamera("xz")
     rgba = _rgba(alg)
-    assert alg._plan[1] is plan  # only the camera changed: tables and skip structures are kept
+    assert alg._state.plan[1] is plan  # only the camera changed: tables and skip structures are kept
     source.Update()
     direct = hv.render(source.GetOutput(), None, "xz", (16, 12), progress_bar=False)
     np.testing.assert_array_equal(rgba, direct.rgba)
     alg.SetStep(0.25)
     alg.Update()
-    assert alg._plan[1] is not plan
+    assert alg._state.plan[1] is not plan
     alg.SetCmap("viridis")
     alg.Update()
-    assert alg._plan[1].tf.colors[0].tolist() != plan.tf.colors[0].tolist()
+    assert alg._state.plan[1].tf.colors[0].tolist() != plan.tf.colors[0].tolist()
 
 
 def test_a_colour_map_does_not_keep_a_dropped_algorithm_alive():

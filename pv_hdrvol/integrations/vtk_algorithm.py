@@ -1,28 +1,26 @@
 """``HDRVolumeRenderer``: the ray caster as a VTK pipeline algorithm.
 
 Pure VTK + pv_hdrvol (no ParaView import), so that a ParaView plugin can wrap it with
-decorators only.
+decorators only. The class holds the properties; how it executes (one path for every
+kind of input) is :mod:`~pv_hdrvol.integrations.vtk_execute`, and what processes do with
+VTK's pieces :mod:`~pv_hdrvol.integrations.vtk_pieces`.
 """
 from __future__ import annotations
 
 import dataclasses
 import numbers
-import time
 import weakref
-from typing import NamedTuple
 
-from vtkmodules.vtkCommonCore import vtkOutputWindow
 from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from .._validate import as_choice, as_size
-from ..data.kinds import BLOCKS, IMAGE_CLASSES, MESH, SUPPORTED, as_renderable, data_kind
-from ..parallel.comm import PointToPointComm
 from ..data.transfer import TF_KEYWORDS, TransferFunction, default_transfer_function_keyword
 from ..params import RenderOptions, as_clip_planes
-from ..rays.camera import Camera, Rays, as_camera, fit_camera
-from . import VolumeCache, _content_key
-from .vtk_base import ReportingAlgorithm, request_whole_extent
+from ..rays.camera import Camera, Rays, as_camera
+from .vtk_base import ReportingAlgorithm
+from .vtk_execute import ExecutionState, execute, request_update_extent
+from .vtk_pieces import ControllerComm, output_piece
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -88,6 +86,11 @@ class HDRVolumeRenderer(ReportingAlgorithm):
     option is one field of a single :class:`~pv_hdrvol.RenderOptions`, replaced (and
     so validated) by each setter, which then calls ``Modified()`` if the value
     changed.
+
+    Every kind of input executes through one path
+    (:func:`pv_hdrvol.integrations.vtk_execute.execute`): the kind decides what is
+    shared between processes, the plan and the camera, and how pieces are composited;
+    the progress and abort handling and the output are the same for all.
 
     Say the accuracy instead of the knobs: ``SetTolerance(1e-3)`` (the RMS error of the
     image relative to its peak, ``RenderOptions.tolerance``) lets the renderer choose
@@ -164,29 +167,19 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         self._tf_keywords = dict.fromkeys(TF_KEYWORDS)
         self._vtk_tf = {"colors": None, "opacity": None}  # ParaView's colour map: [function, observer id]
         self._vtk_tf_made = None  # (key, the TransferFunction made from the colour map)
-        self._plan = None  # (key, GridPlan or TetPlan): kept while data, tf and options are unchanged
-        self._default_tf = None  # (data, keywords, the data's default transfer function)
         self._camera = None
-        self._last_camera = None
-        self._last_tolerance = None
         self._lens = None
         self._cull = None
         self._labels = None
         self._label_styles = None
         self._comm = None
-        self._last_piece = None
-        self._shared_tf = None  # (dict, TransferFunction): piece 0's, as last received
-        self._moved = None  # a mesh piece: (key, summary, (box, the cells moved to it, points) or None)
-        self._tet_piece = None  # a curvilinear piece: (key, its tetrahedra as a vtkUnstructuredGrid)
-        # bricks survive re-executions for a new camera or TF; keyed by the arrays, not
-        # by the input object, which ParaView hands over as a new shallow copy each time
-        self._volumes = VolumeCache(dataset_mtime=False)
         # a level of a multiresolution store (MultiscaleReader): the store, out of core
         self._out_of_core = True
         self._screen_error = 1.0
         self._cache_bytes = None  # None: open_multiscale's default
-        self._multiscale = {}  # store path -> MultiscaleVolume (its chunk cache stays between renders)
-        self._multiscale_plan = None  # (key, MultiscalePlan)
+        # plans, volumes, moved cells and open stores kept between executions, and what
+        # the last one chose (vtk_execute)
+        self._state = ExecutionState()
 
     # -- render options: one RenderOptions, replaced by every setter ------------------
     def _set_options(self, **changes):
@@ -303,7 +296,8 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         ``metadata["tolerance"]`` (``step`` or, for a mesh, ``tau_max``,
         ``termination``, ``table_size``, ``precision``, ``estimated_error``, ...; see
         :mod:`pv_hdrvol.raycast.tolerance`), a copy."""
-        return None if self._last_tolerance is None else dict(self._last_tolerance)
+        last = self._state.last_tolerance
+        return None if last is None else dict(last)
 
     # -- other properties --------------------------------------------------------------
     def SetImageSize(self, width, height=None):
@@ -515,7 +509,7 @@ class HDRVolumeRenderer(ReportingAlgorithm):
     def GetLastCamera(self):
         """The :class:`~pv_hdrvol.Camera` of the last render (a view name or fields
         resolved), or ``None`` before the first."""
-        return self._last_camera
+        return self._state.last_camera
 
     def GetLens(self):
         """The lens set last, or ``None``."""
@@ -609,89 +603,11 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         n = None if n is None else as_int("cache_bytes", n, low=1)
         if n != self._cache_bytes:
             self._cache_bytes = n
-            self._close_multiscale()
+            self._state.close_stores()
             self.Modified()
 
     def GetCacheBytes(self):
         return self._cache_bytes
-
-    def _close_multiscale(self):
-        self._multiscale_plan = None
-        for volume in self._multiscale.values():
-            volume.close()
-        self._multiscale.clear()
-
-    def _store_input(self, inp, scalars, preference):
-        """``(MultiscaleVolume, level)`` when ``inp`` is a MultiscaleReader's level that
-        is still that level (its array chosen, its geometry), else ``None``: data changed
-        on its way (another array, a cut) renders in memory as any other."""
-        if not self._out_of_core or inp is None or inp.GetClassName() not in IMAGE_CLASSES:
-            return None
-        from .vtk_multiscale import store_of
-
-        found = store_of(inp)
-        if found is None:
-            return None
-        path, level, name = found
-        active = inp.GetPointData().GetScalars()
-        chosen = scalars if scalars is not None else (None if active is None else active.GetName())
-        if chosen != name or (scalars is not None and preference == "cell"):
-            return None
-        volume = self._multiscale.get(path)
-        if volume is None:
-            from ..outofcore.render import open_multiscale
-
-            kwargs = {} if self._cache_bytes is None else {"cache_bytes": self._cache_bytes}
-            volume = self._multiscale[path] = open_multiscale(path, **kwargs)
-        store = volume.store
-        if not 0 <= level < store.n_levels:
-            return None
-        import numpy as np
-
-        spacing, origin = store.level_geometry(level)
-        if tuple(inp.GetDimensions()) != tuple(store.levels[level].dims) \
-                or not np.allclose(inp.GetSpacing(), spacing, rtol=1e-9, atol=0) \
-                or not np.allclose(inp.GetOrigin(), origin, rtol=1e-9, atol=1e-12 * float(np.abs(spacing).max())):
-            return None
-        return volume, level
-
-    def _execute_multiscale(self, volume, out):
-        """Render the store out of core (:class:`~pv_hdrvol.outofcore.render.MultiscalePlan`),
-        with the transfer function and options the in-memory render would use."""
-        if self._labels is not None or self._cull is not None:
-            raise ValueError("SetLabels and SetCull are not supported for a multiresolution store rendered out "
-                             "of core; SetOutOfCore(False) renders the level in memory")
-        from ..outofcore.render import MultiscalePlan
-
-        tf = self._transfer_function()
-        keywords = tuple((name, None if value is None else default_transfer_function_keyword(name, value))
-                         for name, value in self._tf_keywords.items())
-        key = (volume, tf, self._options, keywords)
-        old = None if self._multiscale_plan is None else self._multiscale_plan[0]
-        # the volume and the transfer function by identity, the rest by value
-        if old is None or old[0] is not volume or old[1] is not tf or old[2:] != key[2:]:
-            self._multiscale_plan = None
-            given = {} if tf is not None else {k: v for k, v in self._tf_keywords.items()}
-            self._multiscale_plan = (key, MultiscalePlan(volume, tf, self._options, **given))
-        plan = self._multiscale_plan[1]
-        camera = fit_camera(volume, Camera(**self._camera) if isinstance(self._camera, dict) else self._camera)
-        self._last_camera = camera
-        self._last_tolerance = None
-
-        def progress(fraction):
-            self.UpdateProgress(fraction)
-            return not self._should_abort()
-
-        try:
-            image = plan.execute(camera, self._size, screen_error=self._screen_error, wait=True, lens=self._lens,
-                                 progress=progress, progress_bar=False)
-        except RuntimeError:
-            if self._should_abort():
-                out.Initialize()
-                return 1
-            raise
-        out.ShallowCopy(image.to_vtk())
-        return 1
 
     def GetOutput(self, port=0):
         """The output ``vtkImageData`` (``GetOutputDataObject(port)``, as image algorithms have)."""
@@ -707,35 +623,8 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         return 1
 
     def RequestUpdateExtent(self, request, inInfo, outInfo):
-        # Distributed (_distribution): each process asks for its piece of the extent.
-        # Otherwise a ray may cross any part of the volume: piece 0 asks for all of it
-        # (the whole extent of an image; piece 0 of 1 of a mesh) and renders alone, the
-        # other pieces leave the request as it is and output an empty image.
-        info = inInfo[0].GetInformationObject(0)
-        plan = self._distribution(inInfo, outInfo)
-        if plan is not None and plan.whole is None:
-            if info.Has(_SDDP.WHOLE_EXTENT()):  # a curvilinear grid: its piece of the extent, as an image's
-                whole = tuple(info.Get(_SDDP.WHOLE_EXTENT()))
-                info.Set(_SDDP.UPDATE_EXTENT(), _piece_extent(whole, _output_piece(outInfo), plan.comm.size, 0), 6)
-                info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
-                info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
-                info.Set(_SDDP.UPDATE_NUMBER_OF_GHOST_LEVELS(), 0)
-            return 1  # a mesh: each process takes the piece its reader gives
-        if plan is not None:
-            # the extent itself, ghost points included, as "piece 0 of 1": XML image
-            # readers cut their own pieces from the piece number and a ghost level, with
-            # another split than the extent translator's (ParaView 5.11, 3 processes)
-            info.Set(_SDDP.UPDATE_EXTENT(), plan.extent, 6)
-            info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
-            info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
-            info.Set(_SDDP.UPDATE_NUMBER_OF_GHOST_LEVELS(), 0)
-            return 1
-        if _output_piece(outInfo) != 0:
-            return 1
-        request_whole_extent(info)
-        info.Set(_SDDP.UPDATE_PIECE_NUMBER(), 0)
-        info.Set(_SDDP.UPDATE_NUMBER_OF_PIECES(), 1)
-        return 1
+        # each process asks for its piece, or piece 0 for all of the input (vtk_execute)
+        return request_update_extent(self, inInfo, outInfo)
 
     def _scalars_to_render(self):
         if self._scalars is not None:
@@ -753,373 +642,15 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         check = getattr(self, "CheckAbort", None)  # VTK >= 9.4 also sees upstream aborts
         return bool(check()) if check is not None else bool(self.GetAbortExecute())
 
-    def _distribution(self, inInfo, outInfo):
-        """The :class:`_Distribution` of this execution when the image volume is
-        rendered where it lives, else ``None`` (piece 0 renders all of it). Decided from
-        the pipeline's information and the filter's settings only, never from a piece's
-        data, so that every process decides alike (they then exchange images)."""
-        info = outInfo.GetInformationObject(0)
-        n = info.Get(_SDDP.UPDATE_NUMBER_OF_PIECES()) if info.Has(_SDDP.UPDATE_NUMBER_OF_PIECES()) else 1
-        in_info = inInfo[0].GetInformationObject(0)
-        data = in_info.Get(vtkDataObject.DATA_OBJECT()) if in_info.Has(vtkDataObject.DATA_OBJECT()) else None
-        # image data and rectilinear grids: each process renders its piece of the extent
-        structured = in_info.Has(_SDDP.WHOLE_EXTENT()) and (
-            data is None or data.GetClassName() in IMAGE_CLASSES + ("vtkRectilinearGrid",))
-        # a curvilinear grid's pieces are rendered as the tetrahedra a whole grid's render
-        # makes of them, through the mesh path (_execute_mesh_piece)
-        mesh = not structured and data is not None and data.GetClassName() in ("vtkUnstructuredGrid",
-                                                                                "vtkStructuredGrid")
-        if self._out_of_core and data is not None \
-                and data.GetFieldData().GetAbstractArray("pv_hdrvol_store") is not None:
-            return None  # a store's level: piece 0 renders the store out of core
-        if n < 2 or not self.DISTRIBUTED or not (structured or mesh) or self._lens is not None \
-                or self._labels is not None or self._cull is not None or self._options.tolerance is not None:
-            return None  # a tolerance's knobs are chosen on a pilot of the whole image
-        try:
-            if self._scalars_to_render()[1] == "cell" or self._transfer_function() is None:
-                return None  # a cell array; the default function reads every value of the whole volume
-        except (TypeError, ValueError):
-            return None  # piece 0 reports it
-        comm = self._comm if self._comm is not None else ControllerComm.world()
-        piece = _output_piece(outInfo)
-        if comm is None or comm.size != n or comm.rank != piece:
-            return None
-        if mesh:  # the pieces the reader gives; cut into boxes and exchanged in _execute_mesh_piece
-            if not isinstance(comm, ControllerComm):
-                return None  # vtkRedistributeDataSetFilter needs VTK's processes
-            return _Distribution(comm, None, None, None, 0)
-        whole = tuple(in_info.Get(_SDDP.WHOLE_EXTENT()))
-        ghosts = 1 if (self._options.shade or self._options.gradient_opacity is not None) else 0
-        return _Distribution(comm, whole, _piece_extent(whole, piece, n, 0), _piece_extent(whole, piece, n, ghosts),
-                             ghosts)
-
     def _execute(self, inInfo, outInfo):
-        inp = vtkDataObject.GetData(inInfo[0])
-        out = vtkImageData.GetData(outInfo)
-        distribution = self._distribution(inInfo, outInfo)
-        if distribution is not None and distribution.whole is None:
-            return self._execute_mesh_piece(inp, out, distribution)
-        if distribution is not None:
-            return self._execute_piece(inp, out, distribution)
-        if _output_piece(outInfo) != 0:  # piece 0 renders the whole image (RequestUpdateExtent)
-            out.Initialize()
-            return 1
-        kind = inp.GetClassName() if inp is not None else None
-        try:
-            what = None if inp is None else data_kind(inp)
-        except TypeError:
-            what = None
-        if what is None or inp.GetNumberOfPoints() == 0:
-            raise ValueError(f"HDRVolumeRenderer needs a non-empty volume on input port 0 ({SUPPORTED}); got "
-                             f"{'nothing' if inp is None else kind}")
-        if kind not in IMAGE_CLASSES and (self._lens is not None or self._labels is not None
-                                          or self._cull is not None):
-            raise ValueError(f"SetLens, SetLabels and SetCull apply to image data only, not to a {kind}")
-        scalars, preference = self._scalars_to_render()
-        store = self._store_input(inp, scalars, preference)
-        if store is not None:
-            return self._execute_multiscale(store[0], out)
-        # a view name frames the input's bounds (its rendered blocks'), as hv.render frames it
-        camera = fit_camera(inp, Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
-                            scalars=scalars, preference=preference)
-        self._last_camera = camera
-        tf = self._transfer_function()
-        self._last_tolerance = None
-
-        mesh = what == MESH or (what == BLOCKS and _blocks_are_meshes(inp))
-        first = _first_use(mesh, _compiled_precision(self._options))
-        if first:  # numba compiles (or loads from its cache) the kernels now: say so
-            self.SetProgressText("compiling the ray caster (first render)")
-            _display_text(f"pv_hdrvol: first {first} render in this process: compiling the ray caster, or loading "
-                          f"it from numba's cache ({_numba_cache_dir()}); the first time this takes about a minute")
-        started = time.perf_counter()
-
-        def progress(fraction):
-            if first and fraction > 0:
-                self.SetProgressText("rendering")
-            self.UpdateProgress(fraction)
-            return not self._should_abort()
-
-        try:
-            # a plan (validated options, tables, skip structures) is made once and
-            # executed for each camera and size: rotating the view re-renders only
-            plan = self._plan_for(inp, kind, scalars, preference, tf)
-            if mesh:
-                image = plan.execute(camera, self._size, progress=progress, progress_bar=False)
-            else:
-                # progress goes to VTK's ProgressEvent (PyVista's and ParaView's bars), not tqdm
-                image = plan.execute(camera, self._size, lens=self._lens, cull=self._cull, progress=progress,
-                                     progress_bar=False)
-        except RuntimeError:
-            if self._should_abort():
-                out.Initialize()  # an aborted render leaves no output
-                return 1
-            raise
-        finally:
-            if first:
-                _display_text(f"pv_hdrvol: first {first} render took {time.perf_counter() - started:.1f} s")
-        self._last_tolerance = image.metadata.get("tolerance")
-        out.ShallowCopy(image.to_vtk())
-        return 1
-
-    def _execute_piece(self, inp, out, distribution):
-        """Render this process's piece of the image and composite on piece 0
-        (:func:`pv_hdrvol.parallel.pieces.gather_pieces`: if any process fails, all
-        raise, the others naming it)."""
-        from ..parallel.pieces import gather_pieces
-        from ..raycast.grid import VolumePiece
-
-        import numpy as np
-
-        image = piece = spacing = rays = error = None
-        owned = distribution.owned
-        tf = self._shared_transfer_function(distribution.comm)
-        _share_cores(distribution.comm)
-        whole_axes = _whole_axes(inp, distribution)  # collective; None for image data
-        try:
-            if owned[1] <= owned[0] or owned[3] <= owned[2] or owned[5] <= owned[4]:
-                raise ValueError(f"the image of extent {distribution.whole} has too few cells for "
-                                 f"{distribution.comm.size} processes: process {distribution.comm.rank} owns "
-                                 f"{owned}; render it on fewer processes")
-            if isinstance(whole_axes, Exception):
-                raise whole_axes
-            kind = inp.GetClassName() if inp is not None else None
-            if kind not in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid", "vtkRectilinearGrid"):
-                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkImageData or vtkRectilinearGrid; "
-                                 f"process {distribution.comm.rank} got {'nothing' if inp is None else kind}")
-            scalars, preference = self._scalars_to_render()
-            data = self._volumes.get(inp, scalars, preference)
-            if data.values.shape[::-1] != tuple(e[1] - e[0] + 1 for e in np.reshape(inp.GetExtent(), (3, 2))):
-                raise ValueError(f"a distributed volume is rendered from a point array; "
-                                 f"{data.name or 'the active scalars'!r} is a cell array (apply Cell Data to Point "
-                                 f"Data, or render it on one process)")
-            spacing = data.spacing
-            options = None
-            if whole_axes is not None:  # a rectilinear piece samples the whole grid's lattice
-                start = np.asarray(inp.GetExtent()[0::2]) - np.asarray(distribution.whole[0::2])
-                local = tuple(a[o:o + n] for a, o, n in zip(whole_axes, start, data.values.shape[::-1]))
-                if data.axes is None:  # even within the piece, uneven in the whole
-                    data = dataclasses.replace(data, axes=local, cache={})
-                piece = VolumePiece.from_rectilinear(whole_axes, start, np.asarray(owned[0::2]) -
-                                                     np.asarray(distribution.whole[0::2]),
-                                                     np.asarray(owned[1::2]) - np.asarray(distribution.whole[0::2]))
-                options = piece.options_for(self._options, data)
-            else:
-                piece = VolumePiece.from_extents(inp.GetOrigin(), inp.GetSpacing(), distribution.whole,
-                                                 inp.GetExtent(), owned)
-            bounds = piece.bounds(spacing)
-            camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera, bounds)
-            self._last_camera = camera
-            rays = camera.rays(self._size)
-            plan = self._plan_for(inp, "vtkImageData", scalars, preference, tf, data=data if options else None,
-                                  options=options)
-
-            def progress(fraction):
-                self.UpdateProgress(fraction)
-                return not self._should_abort()
-
-            first = _first_use(False, _compiled_precision(self._options))
-            if first:
-                _display_text(f"pv_hdrvol: first {first} render in this process (its piece): compiling the ray "
-                              f"caster, or loading it from numba's cache ({_numba_cache_dir()})")
-            image = plan.execute(camera, self._size, piece=piece, progress=progress, progress_bar=False)
-        except Exception as e:  # every process learns of it in gather_pieces; none waits forever
-            error = e
-        self._last_piece = inp
-        whole = gather_pieces(image, piece, spacing, rays, comm=distribution.comm, root=0, error=error)
-        if whole is None:
-            out.Initialize()
-        else:
-            out.ShallowCopy(whole.to_vtk())
-        return 1
-
-    def _shared_transfer_function(self, comm):
-        """Piece 0's transfer function, on every process (collective). In a symmetric
-        batch run each process has its own colour map, which ParaView rescales to the
-        data it sees: a process that holds no data kept [0, 1] and rendered its piece
-        with it (seen with 2 ranks). Piece 0's is the one a script or the GUI shows. The
-        same function received again is the same object, so plans are kept."""
-        local = None
-        if comm.rank == 0:
-            try:
-                local = self._transfer_function()
-            except (TypeError, ValueError) as e:  # every process raises it
-                local = e
-        received = comm.bcast(None if local is None else (local if isinstance(local, Exception)
-                                                          else local.to_dict()), root=0)
-        if isinstance(received, Exception):
-            raise received
-        if self._shared_tf is None or self._shared_tf[0] != received:
-            self._shared_tf = (received, TransferFunction.from_dict(received))
-        return self._shared_tf[1]
-
-    def _execute_mesh_piece(self, inp, out, distribution):
-        """A tetrahedral mesh spread over processes: cut its bounds into one box per
-        process (k-d, at quantiles of the cell centres: about equal cells each), move to
-        each process every cell that meets its box (``vtkRedistributeDataSetFilter``
-        with these cuts; cells on a cut go to both sides), render the span of each ray
-        in the box (``TetPlan.execute(piece=...)``), and composite on piece 0."""
-        import numpy as np
-
-        from ..parallel.pieces import allgather_or_raise, gather_boxes, split_bounds
-        from ..raycast.tets import MeshPiece, TetPlan
-
-        comm = distribution.comm
-        scalars, preference = self._scalars_to_render()
-        summary = error = None
-        try:
-            if inp is not None and inp.GetClassName() == "vtkStructuredGrid":
-                key = (_content_key(inp), tuple(inp.GetExtent()))
-                if self._tet_piece is None or self._tet_piece[0] != key:
-                    self._tet_piece = (key, _tet_grid_of_structured(inp))
-                inp = self._tet_piece[1]
-            kind = inp.GetClassName() if inp is not None else None
-            if kind != "vtkUnstructuredGrid":
-                raise ValueError(f"HDRVolumeRenderer renders a distributed vtkUnstructuredGrid; process {comm.rank} "
-                                 f"got {'nothing' if inp is None else kind}")
-            if scalars is None and inp.GetNumberOfCells():
-                active = inp.GetPointData().GetScalars()
-                scalars = active.GetName() if active is not None else None
-            key = (scalars, _content_key(inp))
-            if self._moved is None or self._moved[0] != key:
-                self._moved = (key, _mesh_summary(inp, scalars), None)
-            summary = dict(self._moved[1], changed=self._moved[2] is None)
-        except Exception as e:  # said to every process before the collective redistribution
-            error = e
-        everyone = allgather_or_raise(comm, summary, error)
-        held = [s for s in everyone if s["cells"]]
-        if not held:
-            raise ValueError("HDRVolumeRenderer needs a non-empty vtkUnstructuredGrid: no process holds a cell")
-        names = [s["scalars"] for s in held if s["scalars"]]
-        scalars = scalars if scalars is not None else (names[0] if names else None)
-        lo = np.min([s["bounds"][0::2] for s in held], axis=0)
-        hi = np.max([s["bounds"][1::2] for s in held], axis=0)
-        bounds = tuple(float(v) for pair in zip(lo, hi) for v in pair)
-        # each process's sample stands for its cells: a k-d split of equal cells
-        boxes = split_bounds(bounds, comm.size, np.concatenate([s["centres"] for s in held]),
-                             np.concatenate([np.full(len(s["centres"]), s["cells"] / len(s["centres"])) for s in held]))
-        tf = self._shared_transfer_function(comm)
-        _share_cores(comm)
-        mine = MeshPiece(tuple(boxes[comm.rank][0]), tuple(boxes[comm.rank][1]), tuple(lo), tuple(hi))
-        if any(s["changed"] for s in everyone) or self._moved[2] is None or self._moved[2][0] != mine:
-            # no process's piece changed (a new camera, size or colour map): keep the
-            # moved cells, whose TetMesh is then kept too
-            part = _redistribute(inp, boxes, comm)
-            # the whole mesh's distinct points, each counted by the one box that owns it
-            points = sum(comm.allgather(_points_owned(part, mine)))
-            self._moved = (self._moved[0], self._moved[1], (mine, part, points))
-        _, part, points = self._moved[2]
-
-        image = piece = rays = error = None
-        try:
-            piece = mine
-            camera = as_camera(Camera(**self._camera) if isinstance(self._camera, dict) else self._camera,
-                               piece.bounds())
-            self._last_camera = camera
-            rays = camera.rays(self._size)
-            options = self._options
-            if options.opacity_unit_distance is None:
-                # the whole mesh's (TetMesh.default_unit_distance), not this piece's
-                diagonal = float(np.linalg.norm(hi - lo))
-                options = dataclasses.replace(options, opacity_unit_distance=diagonal / points ** (1.0 / 3.0)
-                                              if diagonal > 0 else 1.0)
-            if part.GetNumberOfCells():
-                data = self._volumes.get(part, scalars, preference)
-                key = (data, tf, options)  # kept while the piece, the function and the options are unchanged
-                if self._plan is None or self._plan[0][:2] != (data, tf) or self._plan[0][2] != options:
-                    self._plan = None
-                    self._plan = (key, TetPlan(data, tf, options))
-                plan = self._plan[1]
-
-                def progress(fraction):
-                    self.UpdateProgress(fraction)
-                    return not self._should_abort()
-
-                image = plan.execute(camera, self._size, piece=piece, progress=progress, progress_bar=False)
-            else:  # nothing of the mesh in this box
-                from ..image.hdr import HDRImage
-
-                w, h = self._size
-                dtype = np.float64 if options.precision == "float64" else np.float32
-                image = HDRImage(np.zeros((h, w, 4), dtype=dtype), np.full((h, w), np.inf))
-        except Exception as e:  # every process learns of it in gather_boxes; none waits forever
-            error = e
-        whole = gather_boxes(image, None if piece is None else piece.world_box(), rays, comm=comm, root=0,
-                             error=error)
-        if whole is None:
-            out.Initialize()
-        else:
-            whole.metadata["cells_per_process"] = [s["cells"] for s in everyone]
-            out.ShallowCopy(whole.to_vtk())
-        self._last_piece = part
-        return 1
+        # the one path for every kind of input: vtk_execute.execute
+        return execute(self, inInfo, outInfo)
 
     def GetLastPiece(self):
         """The data this process rendered last when the input was spread over processes
         (its extent of an image, with ghosts; its cells of a mesh after they were moved
         to its box), else ``None``: what each process holds (``GetActualMemorySize()``)."""
-        return self._last_piece
-
-    def _plan_for(self, inp, kind, scalars, preference, tf, data=None, options=None):
-        """The :class:`GridPlan` or :class:`TetPlan` of this input, transfer function and
-        options, made again only when one of them changed; the default transfer function
-        of the data is kept while the data and its keywords are unchanged (it reads every
-        value: 0.6 s for engine). The same pixels as ``render_volume``/``render_tets``,
-        which resolve the transfer function, make a plan and execute it once."""
-        from ..data.tets import TetMesh
-        from ..raycast.grid import resolve_render_options
-
-        opts = self._options if options is None else options
-        if data is not None:  # prepared by the caller (a rectilinear piece)
-            pass
-        elif inp.IsA("vtkCompositeDataSet"):  # gathered onto one volume or merged into one mesh, cached
-            data = as_renderable(inp, scalars=scalars, preference=preference)
-        else:
-            data = self._volumes.get(inp, scalars, preference)
-        keywords = tuple((name, None if value is None else default_transfer_function_keyword(name, value))
-                         for name, value in self._tf_keywords.items())
-        made = self._default_tf
-        if tf is None and made is not None and made[0] is data and made[1] == keywords:
-            tf = made[2]  # the data's default function, kept
-        else:  # as every front end: a transfer function and a keyword are the same TypeError
-            given = tf
-            tf, opts = resolve_render_options(data, tf, opts, **self._tf_keywords)
-            if given is None:
-                self._default_tf = (data, keywords, tf)
-        labels = None if self._labels is None else (self._labels, id(self._label_styles))
-        if self._plan is not None:
-            old = self._plan[0]  # the data and the transfer function by identity, the rest by value
-            if old[0] is data and old[1] is tf and old[2:] == (opts, labels):
-                return self._plan[1]
-            unclipped = opts.replace(clip_planes=(), crop_box=None)
-            if old[0] is data and old[1] is tf and old[3] == labels \
-                    and old[2].replace(clip_planes=(), crop_box=None) == unclipped:
-                # only the clip changed (a plane dragged): the plan's tables and arrays stay
-                plan = self._plan[1].with_clip(opts.clip_planes, opts.crop_box)
-                self._plan = ((data, tf, opts, labels), plan)
-                return plan
-        self._plan = None  # drop the old plan (and its arrays) before making the new one
-        if isinstance(data, TetMesh):
-            from ..raycast.tets import TetPlan
-
-            plan = TetPlan(data, tf, opts)
-        else:
-            from ..data.grid import labels_from_dataset
-            from ..raycast.grid import GridPlan
-
-            label_array = None if self._labels is None else labels_from_dataset(inp, self._labels, preference)
-            plan = GridPlan(data, tf, opts, labels=label_array, label_styles=self._label_styles)
-        self._plan = ((data, tf, opts, labels), plan)
-        return plan
-
-
-def _blocks_are_meshes(data):
-    """Whether the volumetric blocks of a composite dataset are meshes (rendered by the
-    tetrahedral ray caster), not grids."""
-    from ..data.blocks import classify, flatten
-
-    kinds = classify(flatten(data)[0])
-    return bool(kinds["mesh"]) and not (kinds["image"] or kinds["rectilinear"])
+        return self._state.last_piece
 
 
 class HDRProxyWriter(HDRVolumeRenderer):
@@ -1211,7 +742,7 @@ class HDRProxyWriter(HDRVolumeRenderer):
 
         inp = vtkDataObject.GetData(inInfo[0])
         out = vtkImageData.GetData(outInfo)
-        if _output_piece(outInfo) != 0:
+        if output_piece(outInfo) != 0:
             out.Initialize()
             return 1
         kind = inp.GetClassName() if inp is not None else None
@@ -1224,7 +755,7 @@ class HDRProxyWriter(HDRVolumeRenderer):
             raise ValueError(f"HDRProxyWriter casts its proxies at SetStep's step; SetTolerance chooses the knobs of "
                              f"a render, not of proxies: SetTolerance(0); got tolerance={self._options.tolerance!r}")
         scalars, preference = self._scalars_to_render()
-        data = self._volumes.get(inp, scalars, preference)
+        data = self._state.volumes.get(inp, scalars, preference)
         camera = Camera(**self._camera) if isinstance(self._camera, dict) else self._camera
         camera = as_proxy_camera(camera, inp.GetBounds())
         from ..raycast.grid import resolve_render_options
@@ -1241,255 +772,4 @@ class HDRProxyWriter(HDRVolumeRenderer):
         return 1
 
 
-class _Distribution(NamedTuple):
-    """How this process renders its piece: the communicator, the whole extent, the
-    extent it owns and the one it asks for (owned plus ``ghosts`` layers)."""
-
-    comm: "ControllerComm"
-    whole: tuple
-    owned: tuple
-    extent: tuple
-    ghosts: int
-
-
-def _whole_axes(inp, distribution):
-    """The whole rectilinear grid's coordinates (x, y, z arrays) from every process's
-    piece (collective: each sends its extent and coordinates), an exception to raise if
-    they do not fit, or ``None`` when the input is not a rectilinear grid (on any
-    process: all decide alike, from piece 0's class name)."""
-    import numpy as np
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-
-    mine = None
-    if inp is not None and inp.GetClassName() == "vtkRectilinearGrid" and inp.GetNumberOfPoints():
-        mine = (tuple(inp.GetExtent()), [vtk_to_numpy(c).astype(np.float64) for c in
-                                         (inp.GetXCoordinates(), inp.GetYCoordinates(), inp.GetZCoordinates())])
-    pieces = distribution.comm.allgather(mine)
-    if all(p is None for p in pieces):
-        return None
-    whole = np.reshape(distribution.whole, (3, 2))
-    axes = [np.full(int(hi - lo + 1), np.nan) for lo, hi in whole]
-    for p in pieces:
-        if p is None:
-            continue
-        for axis in range(3):
-            lo = int(p[0][2 * axis] - whole[axis][0])
-            axes[axis][lo:lo + p[1][axis].size] = p[1][axis]
-    if any(np.isnan(a).any() for a in axes):
-        return ValueError("the rectilinear grid's pieces do not cover its whole extent: render it on one process")
-    return tuple(axes)
-
-
-def _tet_grid_of_structured(grid):
-    """A curvilinear grid (a piece of one) as the ``vtkUnstructuredGrid`` of the
-    tetrahedra a render of the whole grid splits it into (:func:`~pv_hdrvol.data.
-    structured.structured_tets`: the lattice alone decides the split, so pieces that
-    share a face cut it alike; blanked cells, ghost cells (DUPLICATECELL: another
-    piece's) and collapsed tetrahedra left out), with
-    its points and point data as they are and its cell data repeated per tetrahedron."""
-    import numpy as np
-    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
-    from vtkmodules.vtkCommonDataModel import VTK_TETRA, vtkCellArray, vtkUnstructuredGrid
-
-    from ..data.structured import TETS_PER_CELL, collapsed_tets, grid_dims, grid_start, structured_tets, visible_cells
-
-    out = vtkUnstructuredGrid()
-    if grid.GetNumberOfPoints() == 0 or grid.GetNumberOfCells() == 0:
-        return out
-    points = vtk_to_numpy(grid.GetPoints().GetData())
-    visible = visible_cells(grid)
-    ghosts = grid.GetCellGhostArray()
-    if ghosts is not None:  # a ghost layer's cells are another piece's: DUPLICATECELL
-        owned = (vtk_to_numpy(ghosts).astype(np.uint8) & 1) == 0
-        if not owned.all():
-            visible = owned if visible is None else visible & owned
-    cells = np.arange(grid.GetNumberOfCells()) if visible is None else np.flatnonzero(visible)
-    tets = structured_tets(points, grid_dims(grid), visible, grid_start(grid))
-    of_cell = np.repeat(cells, TETS_PER_CELL)
-    keep = ~collapsed_tets(points, tets)
-    tets, of_cell = tets[keep], of_cell[keep]
-    out.SetPoints(grid.GetPoints())
-    out.GetPointData().ShallowCopy(grid.GetPointData())
-    connectivity = vtkCellArray()
-    connectivity.SetData(numpy_to_vtkIdTypeArray(np.arange(0, 4 * len(tets) + 1, 4, dtype=np.int64), deep=True),
-                         numpy_to_vtkIdTypeArray(np.ascontiguousarray(tets.ravel(), dtype=np.int64), deep=True))
-    out.SetCells(VTK_TETRA, connectivity)
-    data = grid.GetCellData()
-    for i in range(data.GetNumberOfArrays()):
-        array = data.GetArray(i)
-        if array is None or array.GetName() == "vtkGhostType":
-            continue
-        values = numpy_to_vtk(np.ascontiguousarray(vtk_to_numpy(array)[of_cell]), deep=True)
-        values.SetName(array.GetName())
-        out.GetCellData().AddArray(values)
-    return out
-
-
-def _mesh_summary(mesh, scalars, sample=4096):
-    """What the processes tell each other about their pieces of a mesh before it is cut
-    into boxes: counts, bounds, the scalars' name and a strided sample of cell centres."""
-    import numpy as np
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-    from vtkmodules.vtkFiltersCore import vtkCellCenters
-
-    n = mesh.GetNumberOfCells()
-    centres = np.empty((0, 3))
-    points, bounds = 0, None
-    if n:
-        finder = vtkCellCenters()
-        finder.SetInputData(mesh)
-        finder.VertexCellsOff()
-        finder.Update()
-        centres = vtk_to_numpy(finder.GetOutput().GetPoints().GetData())[:: max(1, n // sample)].astype(float)
-        used = _used_points(mesh)  # the bounds a TetMesh of the whole mesh has
-        bounds = tuple(float(v) for pair in zip(used.min(axis=0), used.max(axis=0)) for v in pair)
-    return {"cells": n, "bounds": bounds, "scalars": scalars, "centres": centres}
-
-
-def _used_points(mesh):
-    """The distinct points (``(m, 3)`` float64) the cells of ``mesh`` use, as a TetMesh
-    keeps them."""
-    import numpy as np
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-
-    if not mesh.GetNumberOfCells():
-        return np.empty((0, 3))
-    xyz = vtk_to_numpy(mesh.GetPoints().GetData()).astype(np.float64)
-    return np.unique(xyz[np.unique(vtk_to_numpy(mesh.GetCells().GetConnectivityArray()))], axis=0)
-
-
-def _points_owned(mesh, piece):
-    """How many distinct points of ``mesh`` lie in ``piece``'s box (half open: a point on
-    a face two boxes share belongs to the box above it), so that the counts of all
-    processes add up to the whole mesh's distinct points (its default unit distance)."""
-    import numpy as np
-
-    used = _used_points(mesh)
-    lo, hi = piece.world_box()
-    inside = (used >= lo) & ((used < hi) | (piece.closed() & (used <= hi)))
-    return int(np.count_nonzero(inside.all(axis=1)))
-
-
-def _share_cores(comm):
-    """Give this process its share of its node's cores for the render (collective):
-    ``max(1, cores // processes on the node)`` numba threads, unless ``NUMBA_NUM_THREADS``
-    is set (:func:`pv_hdrvol.parallel.comm.rank_threads`). Every pvbatch rank would
-    otherwise start one thread per core of the machine."""
-    from ..parallel.comm import use_rank_threads
-
-    use_rank_threads(comm)
-
-
-def _redistribute(mesh, boxes, comm):
-    """This process's cells of ``mesh`` after moving every cell to each process whose box
-    it meets (``boxes[rank]``; collective). Box ``i`` goes to process ``i``."""
-    from vtkmodules.vtkCommonDataModel import vtkUnstructuredGrid
-    from vtkmodules.vtkFiltersParallelDIY2 import vtkRedistributeDataSetFilter
-
-    d3 = vtkRedistributeDataSetFilter()
-    d3.SetController(comm.controller)
-    d3.SetInputData(mesh)
-    d3.SetBoundaryModeToAssignToAllIntersectingRegions()
-    d3.UseExplicitCutsOn()
-    d3.ExpandExplicitCutsOff()
-    for lo, hi in boxes:
-        d3.AddExplicitCut([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]])
-    d3.Update()
-    part = vtkUnstructuredGrid()
-    part.ShallowCopy(d3.GetOutputDataObject(0))
-    return part
-
-
-def _piece_extent(whole, piece, n, ghosts):
-    """VTK's extent of ``piece`` of ``n`` of the ``whole`` extent (the extent
-    translator's block split, which readers and the pipeline use) with ``ghosts``
-    layers, clipped to the whole extent."""
-    from vtkmodules.vtkCommonExecutionModel import vtkExtentTranslator
-
-    translator = vtkExtentTranslator()
-    translator.SetWholeExtent(*whole)
-    translator.SetPiece(piece)
-    translator.SetNumberOfPieces(n)
-    translator.SetGhostLevel(ghosts)
-    translator.PieceToExtent()
-    return tuple(translator.GetExtent())
-
-
-class ControllerComm(PointToPointComm):
-    """A ``vtkMultiProcessController`` (ParaView's MPI processes) as the mpi4py-style
-    communicator :mod:`pv_hdrvol.parallel` takes: ``rank``, ``size`` and collectives of
-    Python objects, pickled and sent as bytes with ``Send``/``Receive``."""
-
-    TAG = 87113
-
-    def __init__(self, controller):
-        self.controller = controller
-        self.rank = controller.GetLocalProcessId()
-        self.size = controller.GetNumberOfProcesses()
-
-    @classmethod
-    def world(cls):
-        """The global controller's communicator, or ``None`` without one."""
-        from vtkmodules.vtkParallelCore import vtkMultiProcessController
-
-        controller = vtkMultiProcessController.GetGlobalController()
-        return None if controller is None else cls(controller)
-
-    def _send(self, value, dest):
-        import pickle
-
-        import numpy as np
-        from vtkmodules.util.numpy_support import numpy_to_vtk
-        from vtkmodules.vtkCommonCore import VTK_UNSIGNED_CHAR
-
-        payload = np.frombuffer(pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL), dtype=np.uint8)
-        self.controller.Send(numpy_to_vtk(payload, deep=1, array_type=VTK_UNSIGNED_CHAR), dest, self.TAG)
-
-    def _receive(self, source):
-        import pickle
-
-        from vtkmodules.util.numpy_support import vtk_to_numpy
-        from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
-
-        payload = vtkUnsignedCharArray()
-        self.controller.Receive(payload, source, self.TAG)
-        return pickle.loads(vtk_to_numpy(payload).tobytes())
-
-
-def _output_piece(outInfo):
-    """The piece of the output the pipeline asks for (0 without pieces)."""
-    info = outInfo.GetInformationObject(0)
-    return info.Get(_SDDP.UPDATE_PIECE_NUMBER()) if info.Has(_SDDP.UPDATE_PIECE_NUMBER()) else 0
-
-
-#: (mesh?, precision) of the renders done in this process
-_RENDERED = set()
-
-
-def _first_use(mesh, precision):
-    """``"<precision> image volume"`` or ``"... mesh"`` the first time a process renders
-    it (when numba compiles or loads its kernels), else ``""``."""
-    key = (mesh, precision)
-    if key in _RENDERED:
-        return ""
-    _RENDERED.add(key)
-    return f"{precision} {'tetrahedral mesh' if mesh else 'image volume'}"
-
-
-def _compiled_precision(options):
-    """The precision whose kernels a render with ``options`` runs: a tolerance's is
-    chosen (float64, :mod:`pv_hdrvol.raycast.tolerance`), not the option's default."""
-    return "float64" if options.tolerance is not None else options.precision
-
-
-def _numba_cache_dir():
-    from numba.core import config
-
-    return config.CACHE_DIR or "__pycache__ beside pv_hdrvol's source"
-
-
-def _display_text(text):
-    vtkOutputWindow.GetInstance().DisplayText(text + "\n")
-
-
-__all__ = ["ControllerComm", "HDRVolumeRenderer"]
+__all__ = ["ControllerComm", "HDRProxyWriter", "HDRVolumeRenderer"]

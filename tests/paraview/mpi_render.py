@@ -112,7 +112,7 @@ def curvilinear_where_it_lives(rank, size, kind="curvilinear"):
 def where_the_data_lives(rank, size):
     """The engine CT with its colour map: each rank reads its extent only (about 1/size
     of the volume), rank 0 composites the whole image."""
-    from pv_hdrvol.integrations.vtk_algorithm import _piece_extent
+    from pv_hdrvol.integrations.vtk_pieces import piece_extent
     from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
 
     name, array, whole_reader = CASES[0]
@@ -123,7 +123,7 @@ def where_the_data_lives(rank, size):
     render.UpdatePipeline()
     piece = reader.GetClientSideObject().GetOutputDataObject(0)
     whole_extent = (0, 255, 0, 255, 0, 127)
-    assert piece.GetExtent() == _piece_extent(whole_extent, rank, size, 0), (rank, piece.GetExtent())
+    assert piece.GetExtent() == piece_extent(whole_extent, rank, size, 0), (rank, piece.GetExtent())
     memory = piece.GetActualMemorySize()  # kB
     out = render.GetClientSideObject().GetOutputDataObject(0)
     if rank != 0:
@@ -201,7 +201,7 @@ def color_map_editor(rank, size):
     takes the array's colour map, the ranks render their pieces with it; SaveData (.exr)
     and HDR Tone Map work on every rank (rank 0 writes, the others hold no image; the
     writer asks each rank for its piece, so every reader holds only its own)."""
-    from pv_hdrvol.integrations.vtk_algorithm import _piece_extent
+    from pv_hdrvol.integrations.vtk_pieces import piece_extent
     from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
 
     name, array, whole_reader = CASES[0]
@@ -218,7 +218,7 @@ def color_map_editor(rank, size):
     simple.SaveData(os.path.join(folder, "render.png"), proxy=simple.OutputPort(render, 0))
     # the writer asked for this rank's piece: the reader holds only that, on every rank
     read = reader.GetClientSideObject().GetOutputDataObject(0).GetExtent()
-    assert read == _piece_extent((0, 255, 0, 255, 0, 127), rank, size, 0), (rank, read)
+    assert read == piece_extent((0, 255, 0, 255, 0, 127), rank, size, 0), (rank, read)
     tonemap = simple.HDRToneMap(Input=simple.OutputPort(render, 0))
     tonemap.UpdatePipeline()
     shown = tonemap.GetClientSideObject().GetOutputDataObject(0)

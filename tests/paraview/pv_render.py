@@ -124,10 +124,10 @@ def test_clip_plane_and_crop_box_equal_python_api(plugin, shared_data):
     assert algorithm.GetCropBox() == crop_box
 
     # the widget dragged: a new plane re-renders with the same plan (no re-preparation)
-    kept = algorithm._plan[1]
+    kept = algorithm._state.plan[1]
     render.ClipNormal = [0.0, -1.0, 0.0]
     image = _image(render)
-    assert algorithm._plan[1].table is kept.table
+    assert algorithm._state.plan[1].table is kept.table
     expected = direct(clip_planes=((120.0, 100.0, 60.0), (0.0, -1.0, 0.0)), crop_box=crop_box)
     np.testing.assert_allclose(image.rgba, expected.rgba, rtol=1e-6, atol=1e-7)
 

@@ -162,6 +162,39 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
         as_choice("guide", guide, GUIDES)
     if spatial is not None:
         as_choice("spatial", spatial, SPATIAL)
+    low, low_depth, src_meta = _low_resolution(image)
+    h, w = low.shape[:2]
+    ref, used, guide_scale = _range_guide(layers, guide, method)
+    factor, H, W = _output_size(ref, h, w, factor)
+    work = np.ascontiguousarray(low, dtype=np.float64)
+    if method == "nearest":
+        out = np.empty((H, W, low.shape[2]))
+        K.nearest(work, factor, out)
+    elif method == "bilinear":
+        out = np.empty((H, W, low.shape[2]))
+        K.bilinear(work, factor, out)
+    else:
+        if spatial is None:
+            spatial = "bilinear" if used == "thickness" else "gaussian"
+        if sigma_range is None:
+            sigma_range = 0.2 if used == "thickness" else 0.01
+        sigma_range = as_real("sigma_range", sigma_range, low=0.0, low_open=True)
+        out = _joint_bilateral(work, low.dtype, ref, factor, (H, W), spatial, support,
+                               _inverse_two_squares(sigma_range * guide_scale))
+    out = out.astype(low.dtype, copy=False)
+    depth = None if low_depth is None else _nearest_depth(low_depth, factor, (h, w), (H, W))
+    if not isinstance(image, HDRImage):
+        return out
+    meta = dict(src_meta)
+    meta["upsampled"] = {"method": method, "factor": factor, "from": [w, h]}
+    if method == "joint_bilateral":
+        meta["upsampled"].update(guide=used, spatial=spatial, sigma_range=sigma_range)
+    return HDRImage(out, depth, metadata=meta)
+
+
+def _low_resolution(image):
+    """The low-resolution picture of :func:`upsample`'s ``image``, checked: its colours
+    (rows, cols, channels), its depth (or None) and its metadata."""
     src_meta = {}
     if isinstance(image, HDRImage):
         low = image.rgba
@@ -174,10 +207,16 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
             raise ValueError(f"image must be an HDRImage or an array (rows, cols, channels); got shape {low.shape}")
     if not np.issubdtype(low.dtype, np.floating):
         raise TypeError(f"image must hold floats; got dtype {low.dtype}")
-    h, w = low.shape[:2]
-    ref = None  # the guide, (k, rows, cols)
-    used = None  # which guide: "thickness", "layers" or "array"
-    guide_scale = 1.0  # the guide's unit: sigma_range is in units of it
+    return low, low_depth, src_meta
+
+
+def _range_guide(layers, guide, method):
+    """What the range term of :func:`upsample` compares: the guide (k, rows, cols) float64
+    (None without layers), which one (``"thickness"``, ``"layers"``, ``"array"`` or None)
+    and its unit (sigma_range is in units of it)."""
+    ref = None
+    used = None
+    guide_scale = 1.0
     if layers is not None:
         if hasattr(layers, "normalized"):
             thickness = getattr(layers, "thickness", None)
@@ -186,7 +225,7 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
                 if thickness is None:
                     raise ValueError(f"guide='thickness' needs the boundary layers of a mesh; these layers have no "
                                      f"thickness (they are the {layers.source})")
-                # the thickness as it is: its scale to [0, 1] goes into the range sigma below
+                # the thickness as it is: its scale to [0, 1] goes into the range sigma
                 ref = np.asarray(thickness, dtype=np.float64)[None]
                 top = float(ref.max()) if ref.size else 0.0
                 guide_scale = top if top > 0.0 else 1.0
@@ -207,6 +246,12 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
         ref = np.ascontiguousarray(ref, dtype=np.float64)
     elif method == "joint_bilateral":
         raise ValueError("method='joint_bilateral' needs the full-resolution layers")
+    return ref, used, guide_scale
+
+
+def _output_size(ref, h, w, factor):
+    """The factor (default: the guide's rows over the image's) and the output's rows and
+    columns, checked against the guide's size."""
     if factor is None:
         if ref is None:
             raise ValueError("factor must be given when there are no layers")
@@ -215,57 +260,47 @@ def upsample(image, layers=None, factor=None, *, method="joint_bilateral", guide
     H, W = (ref.shape[1], ref.shape[2]) if ref is not None else (int(round(h * factor)), int(round(w * factor)))
     if abs(H - h * factor) > 0.5 or abs(W - w * factor) > 0.5:
         raise ValueError(f"layers of {W}x{H} pixels are not the image's {w}x{h} times factor {factor:g}")
-    work = np.ascontiguousarray(low, dtype=np.float64)
-    if method == "nearest":
-        out = np.empty((H, W, low.shape[2]))
-        K.nearest(work, factor, out)
-    elif method == "bilinear":
-        out = np.empty((H, W, low.shape[2]))
-        K.bilinear(work, factor, out)
-    else:
-        if spatial is None:
-            spatial = "bilinear" if used == "thickness" else "gaussian"
-        if sigma_range is None:
-            sigma_range = 0.2 if used == "thickness" else 0.01
-        sigma_range = as_real("sigma_range", sigma_range, low=0.0, low_open=True)
-        inv_2sr = _inverse_two_squares(sigma_range * guide_scale)
-        if spatial == "gaussian":
-            omega = as_real("support", support, low=0.0, low_open=True) if support is not None else max(factor, 2.0)
-            sigma_s = omega / 2.0
-            radius = max(1, int(math.ceil(2.0 * sigma_s / factor)))
-        elif support is not None:
-            raise ValueError(f"support={support!r} sets the width of spatial='gaussian'; spatial='bilinear' reads "
-                             "the four nearest low-resolution pixels")
-        nc = low.shape[2]
-        groups = []
-        for c0 in range(0, nc, 4):  # the kernels filter four channels at a time
-            if nc - c0 >= 4:
-                part = np.ascontiguousarray(work[..., c0:c0 + 4])
-            else:
-                part = np.zeros((h, w, 4))
-                part[..., :nc - c0] = work[..., c0:]
-            if spatial == "gaussian":
-                res = np.empty((H, W, 4))
-                K.joint_bilateral(part, ref, factor, radius, _inverse_two_squares(sigma_s), inv_2sr, _EXP_TABLE, res)
-            else:
-                res = np.empty((H, W, 4), dtype=low.dtype)  # written once, in the output's type
-                K.joint_bilinear(part, ref, factor, inv_2sr, _EXP_TABLE, res)
-            groups.append(res[..., :min(4, nc - c0)])
-        out = groups[0] if len(groups) == 1 else np.concatenate(groups, axis=2)
-    out = out.astype(low.dtype, copy=False)
-    depth = None
-    if low_depth is not None:
-        if factor == int(factor) and (H, W) == (h * int(factor), w * int(factor)):
-            depth = np.repeat(np.repeat(low_depth, int(factor), axis=0), int(factor), axis=1)
+    return factor, H, W
+
+
+def _joint_bilateral(work, dtype, ref, factor, size, spatial, support, inv_2sr):
+    """Filter ``work`` (h, w, c) float64 to ``size`` (rows, cols) with the range weights of
+    ``ref`` (``inv_2sr``: 1 / (2 sigma_range^2) in the guide's units) and the ``spatial``
+    weights, four channels at a time (the kernels' width)."""
+    H, W = size
+    if spatial == "gaussian":
+        omega = as_real("support", support, low=0.0, low_open=True) if support is not None else max(factor, 2.0)
+        sigma_s = omega / 2.0
+        radius = max(1, int(math.ceil(2.0 * sigma_s / factor)))
+    elif support is not None:
+        raise ValueError(f"support={support!r} sets the width of spatial='gaussian'; spatial='bilinear' reads "
+                         "the four nearest low-resolution pixels")
+    h, w, nc = work.shape
+    groups = []
+    for c0 in range(0, nc, 4):
+        if nc - c0 >= 4:
+            part = np.ascontiguousarray(work[..., c0:c0 + 4])
         else:
-            rows = np.minimum(((np.arange(H) + 0.5) / factor).astype(np.int64), h - 1)
-            cols = np.minimum(((np.arange(W) + 0.5) / factor).astype(np.int64), w - 1)
-            depth = low_depth[rows[:, None], cols[None, :]]
-    if not isinstance(image, HDRImage):
-        return out
-    meta = dict(src_meta)
-    meta["upsampled"] = {"method": method, "factor": factor, "from": [w, h]}
-    if method == "joint_bilateral":
-        meta["upsampled"].update(guide=used, spatial=spatial, sigma_range=sigma_range)
-    return HDRImage(out, depth, metadata=meta)
+            part = np.zeros((h, w, 4))
+            part[..., :nc - c0] = work[..., c0:]
+        if spatial == "gaussian":
+            res = np.empty((H, W, 4))
+            K.joint_bilateral(part, ref, factor, radius, _inverse_two_squares(sigma_s), inv_2sr, _EXP_TABLE, res)
+        else:
+            res = np.empty((H, W, 4), dtype=dtype)  # written once, in the output's type
+            K.joint_bilinear(part, ref, factor, inv_2sr, _EXP_TABLE, res)
+        groups.append(res[..., :min(4, nc - c0)])
+    return groups[0] if len(groups) == 1 else np.concatenate(groups, axis=2)
+
+
+def _nearest_depth(low_depth, factor, low_size, size):
+    """``low_depth`` of ``low_size`` (h, w) at ``size`` (rows, cols) by nearest neighbour
+    (a whole factor: each pixel repeated)."""
+    h, w = low_size
+    H, W = size
+    if factor == int(factor) and (H, W) == (h * int(factor), w * int(factor)):
+        return np.repeat(np.repeat(low_depth, int(factor), axis=0), int(factor), axis=1)
+    rows = np.minimum(((np.arange(H) + 0.5) / factor).astype(np.int64), h - 1)
+    cols = np.minimum(((np.arange(W) + 0.5) / factor).astype(np.int64), w - 1)
+    return low_depth[rows[:, None], cols[None, :]]
 

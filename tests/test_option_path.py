@@ -43,9 +43,9 @@ from pv_hdrvol.rays.camera import fit_camera  # noqa: E402
 from pv_hdrvol.viewer.progressive import ProgressiveRenderer  # noqa: E402
 
 SIZE = (32, 24)
-#: the parallel command line composites blocks one after another, with early ray
-#: termination per block: its image equals the single pass's to this fraction of the
-#: brightest value (tests/test_parallel.py), not bit for bit
+#: the parallel command line composites its ranks' pieces one after another, with early
+#: ray termination per piece: its image equals the single pass's to this fraction of the
+#: brightest value (tests/test_parallel.py; on one rank, as here, bit for bit)
 PARALLEL_TOLERANCE = 2e-6
 
 #: PyVista's words, alone and together (scalars: the grid's second array)

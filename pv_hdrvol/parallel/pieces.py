@@ -212,10 +212,18 @@ def render_pieces(volume, piece, tf, camera, size=(512, 512), *, comm=WORLD, roo
         The whole render on ``root`` (to rounding the serial render of the whole
         volume, see the module's notes); ``None`` elsewhere.
     """
+    comm = _communicator(comm)
+    image, volume, rays, error = _render_own_piece(volume, piece, tf, camera, size, None, options)
+    return gather_pieces(image, piece, None if error else volume.spacing, rays, comm=comm, root=root, error=error)
+
+
+def _render_own_piece(volume, piece, tf, camera, size, options, option_kwargs):
+    """``(image, volume, rays, error)``: this process's part of :func:`render_pieces`
+    (``options``: RenderOptions or None, changed by ``option_kwargs``), or the exception
+    it met (``error``) for the gather to tell the others."""
     from ..data.transfer import TransferFunction
     from ..rays.camera import as_camera
 
-    comm = _communicator(comm)
     image = rays = error = None
     try:
         if not isinstance(tf, TransferFunction):
@@ -226,14 +234,106 @@ def render_pieces(volume, piece, tf, camera, size=(512, 512), *, comm=WORLD, roo
         volume = as_volume(volume)
         camera = as_camera(camera, piece.bounds(volume.spacing))
         rays = camera if isinstance(camera, Rays) else camera.rays(as_size(size))
-        plan_options = RenderOptions.from_kwargs(None, **options)
+        plan_options = RenderOptions.from_kwargs(options, **option_kwargs)
         if piece.whole_axes is not None and volume.axes is not None:
             # a rectilinear piece steps by the whole grid's narrowest cell, not its own
             plan_options = piece.options_for(plan_options, volume)
         image = GridPlan(volume, tf, plan_options).execute(camera, size, piece=piece, progress_bar=False)
     except Exception as e:  # every process learns of it in gather_pieces; none waits forever
         error = e
-    return gather_pieces(image, piece, None if error else volume.spacing, rays, comm=comm, root=root, error=error)
+    return image, volume, rays, error
+
+
+def render_in_pieces(volume, tf=None, camera=None, size=(512, 512), *, comm=WORLD, root=0, threads=None, **options):
+    """Render an image volume that every process holds whole, each process one box of it
+    as one piece, composited on ``root`` (SPMD: every process calls it alike).
+
+    The path of ``python -m pv_hdrvol.parallel render VOLUME`` without ``--pof``: process
+    ``r`` renders ``split_volume(volume, comm.size)[r]`` (its owned box and one ghost
+    layer) with :func:`render_pieces`' steps, and :func:`gather_pieces` composites the
+    pieces on ``root``. One piece per process, one render each: on one process it
+    costs what a serial render costs (:func:`~pv_hdrvol.parallel.render.render_parallel`
+    renders block by block instead, which its culling needs).
+
+    Parameters
+    ----------
+    volume : GridVolume or 3-D array
+        The whole volume, the same on every process.
+    tf : TransferFunction, optional
+        Default: the whole volume's default transfer function shaped by ``cmap``,
+        ``clim``, ``opacity`` and ``scale`` in ``options``
+        (:func:`~pv_hdrvol.raycast.grid.resolve_render_options`), chosen on rank 0 (it
+        reads every value) and sent to the others.
+    camera : Camera, Rays or view name
+        A view name (default ``"iso"``) frames the whole volume
+        (:func:`~pv_hdrvol.rays.camera.fit_camera`).
+    size, **options
+        As :func:`pv_hdrvol.render`: :class:`~pv_hdrvol.RenderOptions` fields and
+        PyVista's words (composite blending; no labels or culling).
+    comm : mpi4py communicator, ``"world"`` (default) or None (serial: one piece)
+    root : int or None
+        The process that gets the image; ``None``: every process does.
+    threads : int, optional
+        numba threads of this process, as :func:`~pv_hdrvol.parallel.render.render_parallel`'s
+        (default: the node's cores shared by its processes; restored on return).
+
+    Returns
+    -------
+    HDRImage or None
+        On ``root``: the pieces composited per pixel in depth order
+        (:func:`composite_pieces`): on one process the serial render, on more the
+        serial render to rounding (see the module's notes), with its render settings,
+        and ``metadata["parallel"]``: ``ranks``, ``pieces``, ``seconds`` and
+        ``per_rank`` (``rank``, ``piece``: the owned box in points ``[lo, hi]``,
+        ``threads``, ``threads_reason``, ``samples``, ``render_seconds``,
+        ``composite_seconds``: gathering and compositing, on ``root``). ``None``
+        elsewhere.
+    """
+    import time
+
+    import numba
+
+    from ..raycast.grid import resolve_render_options
+    from ..rays.camera import fit_camera
+    from .comm import use_rank_threads
+
+    t_start = time.perf_counter()
+    comm = _communicator(comm)
+    chosen = None
+    if comm.rank == 0:  # one choice for all: the default transfer function reads every value
+        try:
+            volume = as_volume(volume)
+            chosen = resolve_render_options(volume, tf, **options)
+        except (ValueError, TypeError) as e:  # sent on, so that no process waits for what will not come
+            chosen = e
+    chosen = comm.bcast(chosen, root=0)
+    if isinstance(chosen, Exception):
+        raise chosen
+    tf, opts = chosen
+    volume = as_volume(volume)
+    camera = fit_camera(volume, camera)
+    threads, reason, previous = use_rank_threads(comm, threads)
+    try:
+        part, piece = split_volume(volume, comm.size)[comm.rank]
+        t = time.perf_counter()
+        image, part, rays, error = _render_own_piece(part, piece, tf, camera, size, opts, {})
+        t_render = time.perf_counter() - t
+        t = time.perf_counter()
+        out = gather_pieces(image, piece, None if error else part.spacing, rays, comm=comm, root=root, error=error)
+        t_composite = time.perf_counter() - t
+        stats = {"rank": comm.rank, "piece": [list(piece.owned_lo), list(piece.owned_hi)],
+                 "threads": numba.get_num_threads(), "threads_reason": reason,
+                 "samples": int(image.metadata["samples"]), "render_seconds": t_render,
+                 "composite_seconds": t_composite}
+    finally:
+        numba.set_num_threads(previous)
+    per_rank = comm.gather(stats, root=0 if root is None else root)
+    if root is None:
+        per_rank = comm.bcast(per_rank, root=0)
+    if out is not None:
+        out.metadata["parallel"] = {"ranks": comm.size, "pieces": comm.size, "per_rank": per_rank,
+                                    "seconds": time.perf_counter() - t_start}
+    return out
 
 
 def gather_pieces(image, piece, spacing, rays, *, comm=WORLD, root=0, error=None):
@@ -285,5 +385,6 @@ def gather_boxes(image, box, rays, *, comm=WORLD, root=0, error=None, check=None
     return out
 
 
-__all__ = ["allgather_or_raise", "box_entries", "check_tiling", "composite_pieces", "gather_boxes", "gather_pieces", "render_pieces",
+__all__ = ["allgather_or_raise", "box_entries", "check_tiling", "composite_pieces", "gather_boxes", "gather_pieces",
+           "render_in_pieces", "render_pieces",
            "split_boxes", "split_bounds", "split_volume"]

@@ -1,6 +1,8 @@
 """Run under ``mpiexec -n P python tests/mpi/render_check.py``: the parallel render on P
 ranks equals the serial block-wise render bit for bit, and the single-pass render to
-rounding; printed by rank 0 as ``OK ...`` lines (tests/test_parallel.py reads them).
+rounding; each rank's box rendered as one piece (``render_in_pieces``, the command
+line's path without ``--pof``) equals the single-pass render to rounding; printed by
+rank 0 as ``OK ...`` lines (tests/test_parallel.py reads them).
 Any failure raises, and the whole job aborts (MPI.COMM_WORLD.Abort), never hangs."""
 import os
 import sys
@@ -12,6 +14,7 @@ from mpi4py import MPI
 
 import pv_hdrvol as hv
 from pv_hdrvol.culling.pof import PlenopticOpacity
+from pv_hdrvol.parallel.pieces import render_in_pieces
 from pv_hdrvol.parallel.render import render_parallel
 from pv_hdrvol.raycast.grid import as_volume
 
@@ -72,10 +75,30 @@ def one_block_scene(comm):
         print(f"OK ranks={comm.size} one visible block, rendered per rank {rendered}", flush=True)
 
 
+def pieces_scene(comm):
+    """Each rank renders its own box of the volume as one piece; rank 0 composites."""
+    volume = as_volume(np.random.default_rng(0).random((40, 37, 45)))
+    tf = hv.TransferFunction([0.0, 0.5, 1.0], [[1, 0.5, 0.2], [0.2, 0.5, 1], [1, 1, 1]], [0.0, 0.05, 0.2])
+    camera = hv.Camera.fit(volume.bounds, "iso")
+    for precision, limit in (("float64", 1e-12), ("float32", 1e-6)):
+        image = render_in_pieces(volume, tf, camera, (50, 41), comm=comm, precision=precision)
+        if comm.rank != 0:
+            assert image is None
+            continue
+        full = hv.render(volume, tf, camera, (50, 41), precision=precision, progress_bar=False)
+        assert image.rgba.dtype == full.rgba.dtype
+        err = float(np.abs(image.rgba.astype(np.float64) - full.rgba).max() / np.abs(full.rgba).max())
+        assert err <= limit, f"{precision}: pieces vs single pass {err:.3g} > {limit}"
+        info = image.metadata["parallel"]
+        assert info["pieces"] == comm.size and [r["rank"] for r in info["per_rank"]] == list(range(comm.size))
+        print(f"OK ranks={comm.size} pieces precision={precision} rel_err_vs_single_pass={err:.3g}", flush=True)
+
+
 if __name__ == "__main__":
     try:
         main()
         one_block_scene(MPI.COMM_WORLD)
+        pieces_scene(MPI.COMM_WORLD)
     except BaseException:
         traceback.print_exc()
         sys.stdout.flush()

@@ -699,16 +699,7 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
         colormap_rgb(cmap, [0.0])  # a bad name fails here, whatever the data
     if opacity is not None:
         opacity = opacity_curve(opacity)
-    v = np.asarray(values, dtype=np.float64).reshape(-1)
-    finite = np.isfinite(v)
-    w = None
-    if weights is not None:
-        w = np.asarray(weights, dtype=np.float64).reshape(-1)
-        if w.shape != v.shape or not np.all(np.isfinite(w)) or np.any(w < 0):
-            raise ValueError(f"weights must be finite, >= 0 and one per value ({v.size}); got shape "
-                             f"{np.shape(weights)}")
-        w = w[finite]
-    v = v[finite]
+    v, w = _finite_values(values, weights)
     if v.size == 0:
         return TransferFunction.ramp(0.0, 1.0, cmap=_cmap_colors(cmap), opacity=(0.0, 0.0))
     lo, hi = float(v.min()), float(v.max())
@@ -720,13 +711,8 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
         return _signed_default(values, v, w, scale, vmin, vmax, cmap, opacity, float(ray_length), spacing)
     linthresh = 1.0
     if scale == "log":
-        positive = v > 0
-        v = v[positive]
-        if v.size == 0:
-            raise ValueError(f"scale='log' needs positive data; the values span [{lo:g}, {hi:g}]")
+        v, w, w_empty = _positive_values(v, w, lo, hi)
         lo = float(v.min())
-        w_empty = 0.0 if w is None else float(w[~positive].sum())  # values <= 0: empty space
-        w = None if w is None else w[positive]
     elif scale == "symlog":
         nonzero = np.abs(v[v != 0])
         linthresh = float(nonzero.min()) if nonzero.size else 1.0
@@ -755,39 +741,15 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
     if opacity is not None:
         n = min(max(n, opacity.size), 4096)  # a PyVista curve keeps its 256 points
     else:
-        # the opacity's shape at the ramp's control points: linear along the axis, or on a
-        # log axis proportional to the value (a density: every decade keeps its share
-        # of the light, faint ones faint, and the HDR image keeps them)
+        # the opacity's shape at the ramp's control points, then the height the rays allow
         n = n if notch is None else 256
-        axis_points = np.linspace(*scale_forward([vmin, vmax], scale, linthresh), n)
-        if scale == "log":
-            points = 10.0 ** (axis_points - axis_points[-1])  # v / vmax, exactly 1 at the top
-            points[0] = 0.0  # the background stays transparent
-        else:
-            points = np.linspace(0.0, 1.0, n)
-        if notch is not None:
-            # a dominant mode high on the axis (a free stream around the structure):
-            # transparent over the mode, rising to the ramp over one mode's width on
-            # either side (the ramp has 256 points then, to resolve it)
-            width = notch[1] - notch[0]
-            gap = np.maximum(notch[0] - axis_points, axis_points - notch[1])
-            notched = points * np.clip(gap / width, 0.0, 1.0)
-            if np.any(notched > 0):
-                points = notched
+        axis_points, points = _opacity_shape(vmin, vmax, scale, linthresh, n, notch)
         raw = np.asarray(values)
         soft = None
         if integer and scale == "linear" and notch is None and spacing is not None and raw.ndim == 3:
             soft = _soft_class(axis, float(axis_points[0]), float(axis_points[-1]), w)
         if soft is not None:
-            # the context class a veil, the denser ones the rest (256 points: the kink at its end)
-            n = 256
-            axis_points = np.linspace(axis_points[0], axis_points[-1], n)
-            veil = np.clip((axis_points - axis_points[0]) / (soft - axis_points[0]), 0.0, 1.0)
-            dense = np.clip((axis_points - soft) / (axis_points[-1] - soft), 0.0, 1.0)
-            c, a = _class_opacity(raw, scale, linthresh, axis_points, veil, dense, spacing)
-            # the colormap spans the denser classes; the veil has its first colour, dimmed
-            rgb = _cmap_rgb(cmap, dense) * np.where(axis_points < soft, VEIL_BRIGHTNESS, 1.0)[:, None]
-            return TransferFunction(axis_points, rgb, c * veil + a * dense)
+            return _veiled_classes(raw, scale, linthresh, axis_points, soft, cmap, spacing)
         elif spacing is not None and raw.ndim == 3:
             opacity = _column_opacity(raw, scale, linthresh, axis_points, points, spacing) * points
         else:
@@ -799,6 +761,76 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
             opacity = _ray_opacity(shape, float(ray_length), w) * points
     return TransferFunction.ramp(vmin, vmax, scale=scale, cmap=_cmap_colors(cmap), opacity=opacity, n_colors=n,
                                  linthresh=linthresh)
+
+
+def _finite_values(values, weights):
+    """The finite values, flat float64, and their weights (None without ``weights``).
+
+    Raises
+    ------
+    ValueError
+        ``weights`` not finite, negative somewhere, or not one per value.
+    """
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    finite = np.isfinite(v)
+    w = None
+    if weights is not None:
+        w = np.asarray(weights, dtype=np.float64).reshape(-1)
+        if w.shape != v.shape or not np.all(np.isfinite(w)) or np.any(w < 0):
+            raise ValueError(f"weights must be finite, >= 0 and one per value ({v.size}); got shape "
+                             f"{np.shape(weights)}")
+        w = w[finite]
+    return v[finite], w
+
+
+def _positive_values(v, w, lo, hi):
+    """What a log axis keeps of the values ``v`` (spanning ``[lo, hi]``): the positive
+    ones, their weights, and the weight of the rest (values <= 0: empty space)."""
+    positive = v > 0
+    v = v[positive]
+    if v.size == 0:
+        raise ValueError(f"scale='log' needs positive data; the values span [{lo:g}, {hi:g}]")
+    w_empty = 0.0 if w is None else float(w[~positive].sum())
+    w = None if w is None else w[positive]
+    return v, w, w_empty
+
+
+def _opacity_shape(vmin, vmax, scale, linthresh, n, notch):
+    """The default opacity's ``n`` control points on the axis from ``vmin`` to ``vmax``
+    and its shape there, 0 to 1: linear along the axis, or on a log axis in proportion
+    to the value; cut out over ``notch`` (a dominant mode high on the axis) when given."""
+    # on a log axis a density: every decade keeps its share of the light, faint ones
+    # faint, and the HDR image keeps them
+    axis_points = np.linspace(*scale_forward([vmin, vmax], scale, linthresh), n)
+    if scale == "log":
+        points = 10.0 ** (axis_points - axis_points[-1])  # v / vmax, exactly 1 at the top
+        points[0] = 0.0  # the background stays transparent
+    else:
+        points = np.linspace(0.0, 1.0, n)
+    if notch is not None:
+        # a dominant mode high on the axis (a free stream around the structure):
+        # transparent over the mode, rising to the ramp over one mode's width on
+        # either side (the ramp has 256 points then, to resolve it)
+        width = notch[1] - notch[0]
+        gap = np.maximum(notch[0] - axis_points, axis_points - notch[1])
+        notched = points * np.clip(gap / width, 0.0, 1.0)
+        if np.any(notched > 0):
+            points = notched
+    return axis_points, points
+
+
+def _veiled_classes(raw, scale, linthresh, axis_points, soft, cmap, spacing):
+    """The transfer function of CT-like classes: the context class (up to ``soft`` on
+    the axis) a dim veil, the denser classes the rest of the opacity and the colormap."""
+    # 256 points: the kink at the veil's end
+    n = 256
+    axis_points = np.linspace(axis_points[0], axis_points[-1], n)
+    veil = np.clip((axis_points - axis_points[0]) / (soft - axis_points[0]), 0.0, 1.0)
+    dense = np.clip((axis_points - soft) / (axis_points[-1] - soft), 0.0, 1.0)
+    c, a = _class_opacity(raw, scale, linthresh, axis_points, veil, dense, spacing)
+    # the colormap spans the denser classes; the veil has its first colour, dimmed
+    rgb = _cmap_rgb(cmap, dense) * np.where(axis_points < soft, VEIL_BRIGHTNESS, 1.0)[:, None]
+    return TransferFunction(axis_points, rgb, c * veil + a * dense)
 
 
 def parse_clim(clim):

@@ -310,6 +310,105 @@ def test_setters_validate_through_render_options_and_modify():
     assert isinstance(alg.GetCamera(), hv.Camera) and alg.GetCamera().view_angle == 35.0
 
 
+def _option_values():
+    """A value other than the default for each RenderOptions field, as its setter takes it."""
+    from pv_hdrvol.params import ClipPlane
+
+    return {"step": 0.25, "precision": "float64", "global_alpha": 0.5, "opacity_unit_distance": 2.0,
+            "termination": 1e-3, "depth_threshold": 0.5, "block_size": 8, "skip_empty": False,
+            "blending": "maximum", "gradient_opacity": (0.1, 0.5), "shade": True, "ambient": 0.3, "diffuse": 0.5,
+            "specular": 0.1, "specular_power": 20.0, "lights": (1.0, 0.0, 0.0), "shade_gradient": "interpolated",
+            "shade_threshold": 0.05, "tolerance": 1e-3, "clip_planes": [((0.0, 0.0, 0.0), (1.0, 0.0, 0.0))],
+            "crop_box": (0.0, 1.0, 0.0, 1.0, 0.0, 1.0), "device": "cuda"}, ClipPlane
+
+
+def test_every_render_option_has_its_generated_set_and_get():
+    """Each RenderOptions field is a VTK property ``Set<Field>``/``Get<Field>`` (its name
+    in CamelCase, as ParaView's properties call them), made from the field and not
+    written by hand; a bool field also has ``<Field>On``/``<Field>Off``. The setter
+    replaces the one field and calls Modified(); the getter reads it back."""
+    import dataclasses
+
+    from pv_hdrvol.integrations.vtk_algorithm import OPTION_PROPERTIES, option_property_name
+
+    values, ClipPlane = _option_values()
+    fields = [f for f in dataclasses.fields(hv.RenderOptions)]
+    assert sorted(values) == sorted(f.name for f in fields)  # a new field gets a value here too
+    assert sorted(OPTION_PROPERTIES) == sorted(values)  # ... and its meaning in the table
+    assert option_property_name("opacity_unit_distance") == "OpacityUnitDistance"
+    for field in fields:
+        name = option_property_name(field.name)
+        setter, getter = getattr(HDRVolumeRenderer, f"Set{name}"), getattr(HDRVolumeRenderer, f"Get{name}")
+        assert setter.__module__ == getter.__module__ == "pv_hdrvol.integrations.vtk_algorithm"
+        assert setter.__name__ == f"Set{name}" and f"RenderOptions.{field.name}" in setter.__doc__
+        # made by the generator (its closures), not written in the class body
+        assert setter.__code__.co_name == "setter" and getter.__code__.co_name == "getter", name
+        assert (hasattr(HDRVolumeRenderer, f"{name}On") and hasattr(HDRVolumeRenderer, f"{name}Off")) \
+            == (field.type in (bool, "bool")), name
+        alg = HDRVolumeRenderer()
+        if field.name == "tolerance":  # the knobs it chooses stay at their defaults
+            alg.SetOptions(hv.RenderOptions())
+        t0 = alg.GetMTime()
+        getattr(alg, f"Set{name}")(values[field.name])
+        assert alg.GetMTime() > t0, name
+        expected = hv.RenderOptions(**{field.name: values[field.name]})
+        assert alg.GetOptions() == expected, name
+        got = getattr(alg, f"Get{name}")()
+        assert got == getattr(expected, field.name), name
+    # VTK's words: a tolerance of 0 is off, a crop box as 6 numbers, bools as 0/1
+    alg = HDRVolumeRenderer()
+    alg.SetTolerance(0)
+    assert alg.GetTolerance() == 0.0 and alg.GetOptions().tolerance is None
+    alg.SetCropBox(0, 1, 0, 1, 0, 1)
+    assert alg.GetCropBox() == (0.0, 1.0, 0.0, 1.0, 0.0, 1.0)
+    alg.SetShade(1)
+    assert alg.GetShade() is True
+    alg.ShadeOff()
+    assert alg.GetShade() is False
+    alg.SetClipPlanes(values["clip_planes"])
+    assert alg.GetClipPlanes() == (ClipPlane((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)),)
+    assert alg.GetClippingPlanes().GetNumberOfItems() == 1  # vtkVolumeMapper's name: a vtkPlaneCollection
+    with pytest.raises(TypeError):
+        alg.SetStep(0.25, 0.5)  # one value
+
+
+def test_a_hand_written_option_method_is_refused():
+    """The generated methods are the only ones: writing one by hand is an error when the
+    class is made, so that a field has one meaning in every front end."""
+    from pv_hdrvol.integrations.vtk_algorithm import _with_option_properties
+
+    class Renderer(HDRVolumeRenderer):
+        def SetStep(self, value):
+            pass
+
+    with pytest.raises(TypeError, match=r"Renderer.SetStep is made from RenderOptions.step"):
+        _with_option_properties(Renderer)
+
+
+def test_the_paraview_plugin_calls_only_methods_the_algorithm_has():
+    """Every HDRVolumeRenderer method the ParaView plugin's filter calls (``super().X``,
+    ``HDRVolumeRenderer.X``, ``self.X``) and every ``command`` of its XML properties
+    exists (read from the plugin's source: ParaView is not needed)."""
+    import ast
+    import pathlib
+
+    source = (pathlib.Path(__file__).resolve().parents[1] / "paraview_plugin" / "pv_hdrvol_plugin.py").read_text()
+    tree = ast.parse(source)
+    plugin = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef) and n.name == "HDRVolumeRender")
+    own = {n.name for n in plugin.body if isinstance(n, ast.FunctionDef)}
+    called = set()
+    for node in ast.walk(plugin):
+        if isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Load) and node.attr[:1].isupper():
+            target = node.value
+            if (isinstance(target, ast.Call) and getattr(target.func, "id", None) == "super") \
+                    or getattr(target, "id", None) in ("HDRVolumeRenderer", "self"):
+                called.add(node.attr)
+    called |= set(re.findall(r'command="(\w+)"', ast.get_source_segment(source, plugin)))
+    assert {"SetGlobalAlpha", "SetOptions", "SetCropBox", "SetClippingPlanes", "SetInputArrayToProcess"} <= called
+    missing = sorted(name for name in called if name not in own and not hasattr(HDRVolumeRenderer, name))
+    assert missing == []
+
+
 def test_tolerance_round_trips_as_a_vtk_number_and_conflicts_with_the_knobs_it_chooses():
     """SetTolerance/GetTolerance: a number, 0 (or None) for off; RenderOptions says None
     then. With a tolerance on, Step, Termination and Precision stay at their defaults:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import numbers
 import weakref
+from typing import Callable, NamedTuple, Optional
 
 from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
@@ -25,43 +26,139 @@ from .vtk_pieces import ControllerComm, output_piece
 _SDDP = vtkStreamingDemandDrivenPipeline
 
 
-def _option_methods(field, meaning):
-    """``Set<Field>``/``Get<Field>`` for one :class:`RenderOptions` field."""
+# -- RenderOptions' fields as VTK properties ---------------------------------------------
+class OptionProperty(NamedTuple):
+    """How one :class:`~pv_hdrvol.RenderOptions` field shows as a VTK property."""
 
-    def setter(self, value):
-        self._set_options(**{field: value})
+    #: what the field means, for the docstrings
+    meaning: str
+    #: what the setter's value becomes before ``RenderOptions`` validates it (VTK's words for its own)
+    to_field: Optional[Callable] = None
+    #: what the getter returns of the field's value
+    from_field: Optional[Callable] = None
+    #: the setter takes the value as several numbers too (``SetCropBox(0, 1, 0, 1, 0, 1)``)
+    vector: bool = False
+
+
+def _zero_is_off(tolerance):
+    # 0 is "off" as in a VTK (ParaView) number property; RenderOptions says None
+    if isinstance(tolerance, numbers.Real) and not isinstance(tolerance, bool) and tolerance == 0:
+        return None
+    return tolerance
+
+
+def _off_is_zero(tolerance):
+    return 0.0 if tolerance is None else tolerance
+
+
+#: The meaning of each RenderOptions field as a VTK property. ``Set<Field>`` and
+#: ``Get<Field>`` (``Set``/``Get`` and the field's name in CamelCase: ``SetGlobalAlpha``),
+#: and ``<Field>On``/``<Field>Off`` for a bool field, are made from this table for
+#: every field of RenderOptions (a field missing here still gets them, pointing to
+#: RenderOptions' documentation); ParaView's properties call them.
+OPTION_PROPERTIES = {
+    "step": OptionProperty("sample distance in voxels of the smallest spacing (> 0)."),
+    "precision": OptionProperty("compositing arithmetic, 'float32', 'float64', 'float16' or 'uint8'."),
+    "global_alpha": OptionProperty("multiplier in (0, 1] of every transfer-function opacity."),
+    "opacity_unit_distance": OptionProperty(
+        "world length over which a TF opacity is reached (None: smallest spacing)."),
+    "termination": OptionProperty("transmittance below which a ray stops, in [0, 1) (0: never)."),
+    "depth_threshold": OptionProperty("accumulated opacity at which depth is recorded, in (0, 1]."),
+    "block_size": OptionProperty("edge in cells of the empty-space-skipping blocks (a power of two)."),
+    "skip_empty": OptionProperty("skip blocks that map to zero opacity (same result, less time)."),
+    "blending": OptionProperty("'composite', 'maximum', 'minimum', 'average' or 'additive' (PyVista's names)."),
+    "gradient_opacity": OptionProperty(
+        "None, or (low, high): extinction times a ramp of the gradient magnitude."),
+    "shade": OptionProperty("Blinn-Phong shading by the gradient (composite blending only)."),
+    "ambient": OptionProperty("Blinn-Phong ambient weight (>= 0)."),
+    "diffuse": OptionProperty("Blinn-Phong diffuse weight (>= 0)."),
+    "specular": OptionProperty("Blinn-Phong specular weight (>= 0)."),
+    "specular_power": OptionProperty("Blinn-Phong exponent (>= 1)."),
+    "lights": OptionProperty("None (a headlight), a Light, a direction towards the light, or a sequence of them."),
+    "shade_gradient": OptionProperty("'sampled' (central differences at each sample) or 'interpolated'."),
+    "shade_threshold": OptionProperty(
+        "fraction of the TF axis per voxel at which shading is at full strength (>= 0)."),
+    "tolerance": OptionProperty(
+        "the RMS error of the linear, premultiplied RGB image against the converged render, relative to its "
+        "peak, in (0, 0.5]; the renderer then chooses step, termination, table size and precision (which must "
+        "stay at their defaults: see :meth:`GetLastTolerance`). ``0`` or ``None``: off, the knobs as set; the "
+        "getter then says ``0.0`` (``GetOptions().tolerance`` is ``None``).",
+        to_field=_zero_is_off, from_field=_off_is_zero),
+    "clip_planes": OptionProperty(
+        "planes cutting the volume: a ``vtkPlaneCollection``, ``vtkPlanes``, a sequence of planes (``vtkPlane``, "
+        "``(origin, normal)``, ``ClipPlane``) or ``None``; each keeps the side its normal points to "
+        "(:meth:`AddClippingPlane`, :meth:`GetClippingPlanes`)."),
+    "crop_box": OptionProperty(
+        "keep only this world box, ``(xmin, xmax, ymin, ymax, zmin, zmax)`` as 6 numbers or one sequence "
+        "(VTK's bounds order, as ``SetCroppingRegionPlanes``); ``None``: no crop.", vector=True),
+    "device": OptionProperty(
+        "'cpu' (default) or 'cuda': image volumes on an NVIDIA GPU through numba-cuda (docs/gpu.md)."),
+}
+
+
+def option_property_name(field):
+    """``"global_alpha"`` -> ``"GlobalAlpha"``: the VTK property of a RenderOptions field."""
+    return "".join(part.capitalize() for part in field.split("_"))
+
+
+def _option_methods(field, spec):
+    """``{"Set<Field>": setter, "Get<Field>": getter}`` (and ``<Field>On``/``<Field>Off``
+    for a bool field, whose setter also takes VTK-style 0 and 1) for one field of
+    :class:`~pv_hdrvol.RenderOptions` (a ``dataclasses.Field``)."""
+    is_bool = field.type in (bool, "bool")
+    name, field = option_property_name(field.name), field.name
+
+    def set_value(self, value):
+        if is_bool and isinstance(value, numbers.Integral) and not isinstance(value, bool) and value in (0, 1):
+            value = bool(value)
+        self._set_options(**{field: value if spec.to_field is None else spec.to_field(value)})
+
+    if spec.vector:
+        def setter(self, *values):
+            set_value(self, values[0] if len(values) == 1 else values)
+    else:
+        def setter(self, value):
+            set_value(self, value)
 
     def getter(self):
-        return getattr(self._options, field)
+        value = getattr(self._options, field)
+        return value if spec.from_field is None else spec.from_field(value)
 
-    setter.__doc__ = (f"Set ``RenderOptions.{field}``: {meaning} Validated by "
+    setter.__doc__ = (f"Set ``RenderOptions.{field}``: {spec.meaning} "
+                      f"{'A bool (VTK-style 0/1 are accepted). ' if is_bool else ''}Validated by "
                       ":class:`~pv_hdrvol.RenderOptions`; calls ``Modified()`` when it changes.")
-    getter.__doc__ = f"``RenderOptions.{field}``: {meaning}"
-    return setter, getter
+    getter.__doc__ = f"``RenderOptions.{field}``: {spec.meaning}"
+    methods = {f"Set{name}": setter, f"Get{name}": getter}
+    if is_bool:
+        def on(self):
+            setter(self, True)
+
+        def off(self):
+            setter(self, False)
+
+        on.__doc__ = f"Set ``RenderOptions.{field}`` to True."
+        off.__doc__ = f"Set ``RenderOptions.{field}`` to False."
+        methods.update({f"{name}On": on, f"{name}Off": off})
+    return methods
 
 
-def _bool_option_methods(field, meaning):
-    """``Set<Field>``/``Get<Field>``/``<Field>On``/``<Field>Off`` for a bool field;
-    the setter also takes VTK-style 0 and 1."""
-    set_bool, getter = _option_methods(field, meaning)
-
-    def setter(self, value):
-        if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value in (0, 1):
-            value = bool(value)
-        set_bool(self, value)
-
-    def on(self):
-        setter(self, True)
-
-    def off(self):
-        setter(self, False)
-
-    setter.__doc__ = set_bool.__doc__.replace("Validated", "A bool (VTK-style 0/1 are accepted). Validated")
-    on.__doc__ = f"Set ``RenderOptions.{field}`` to True."
-    off.__doc__ = f"Set ``RenderOptions.{field}`` to False."
-    return setter, getter, on, off
+def _with_option_properties(cls):
+    """Give ``cls`` the VTK properties of every :class:`~pv_hdrvol.RenderOptions` field
+    (:data:`OPTION_PROPERTIES`)."""
+    for field in dataclasses.fields(RenderOptions):
+        spec = OPTION_PROPERTIES.get(field.name) or OptionProperty("see :class:`~pv_hdrvol.RenderOptions`.")
+        for method_name, method in _option_methods(field, spec).items():
+            if method_name in vars(cls):
+                raise TypeError(f"{cls.__name__}.{method_name} is made from RenderOptions.{field.name}: "
+                                f"describe it in OPTION_PROPERTIES instead of writing it")
+            method.__name__ = method_name
+            method.__qualname__ = f"{cls.__qualname__}.{method_name}"
+            method.__module__ = cls.__module__
+            setattr(cls, method_name, method)
+    return cls
 
 
+@_with_option_properties
 class HDRVolumeRenderer(ReportingAlgorithm):
     """Volume render a ``vtkImageData``, a ``vtkRectilinearGrid``, a curvilinear
     ``vtkStructuredGrid``, a tetrahedral ``vtkUnstructuredGrid`` or a composite dataset of
@@ -85,7 +182,10 @@ class HDRVolumeRenderer(ReportingAlgorithm):
     Properties are set VTK-style (``SetStep(0.25)``, ``GetStep()``); every render
     option is one field of a single :class:`~pv_hdrvol.RenderOptions`, replaced (and
     so validated) by each setter, which then calls ``Modified()`` if the value
-    changed.
+    changed. Each field has its ``Set<Field>``/``Get<Field>`` (``global_alpha``:
+    :meth:`SetGlobalAlpha`, ``GetGlobalAlpha``; a bool field also ``<Field>On`` and
+    ``<Field>Off``), made from the field (:data:`OPTION_PROPERTIES`);
+    :meth:`SetOptions` replaces them all at once.
 
     Every kind of input executes through one path
     (:func:`pv_hdrvol.integrations.vtk_execute.execute`): the kind decides what is
@@ -200,40 +300,6 @@ class HDRVolumeRenderer(ReportingAlgorithm):
         """The current :class:`~pv_hdrvol.RenderOptions` (immutable)."""
         return self._options
 
-    SetStep, GetStep = _option_methods("step", "sample distance in voxels of the smallest spacing (> 0).")
-    SetPrecision, GetPrecision = _option_methods(
-        "precision", "compositing arithmetic, 'float32', 'float64', 'float16' or 'uint8'.")
-    SetGlobalAlpha, GetGlobalAlpha = _option_methods(
-        "global_alpha", "multiplier in (0, 1] of every transfer-function opacity.")
-    SetOpacityUnitDistance, GetOpacityUnitDistance = _option_methods(
-        "opacity_unit_distance", "world length over which a TF opacity is reached (None: smallest spacing).")
-    SetTermination, GetTermination = _option_methods(
-        "termination", "transmittance below which a ray stops, in [0, 1) (0: never).")
-    SetDepthThreshold, GetDepthThreshold = _option_methods(
-        "depth_threshold", "accumulated opacity at which depth is recorded, in (0, 1].")
-    SetBlockSize, GetBlockSize = _option_methods(
-        "block_size", "edge in cells of the empty-space-skipping blocks (a power of two).")
-    SetBlending, GetBlending = _option_methods(
-        "blending", "'composite', 'maximum', 'minimum', 'average' or 'additive' (PyVista's names).")
-    SetGradientOpacity, GetGradientOpacity = _option_methods(
-        "gradient_opacity", "None, or (low, high): extinction times a ramp of the gradient magnitude.")
-    SetSkipEmpty, GetSkipEmpty, SkipEmptyOn, SkipEmptyOff = _bool_option_methods(
-        "skip_empty", "skip blocks that map to zero opacity (same result, less time).")
-    SetShade, GetShade, ShadeOn, ShadeOff = _bool_option_methods(
-        "shade", "Blinn-Phong shading by the gradient (composite blending only).")
-    SetAmbient, GetAmbient = _option_methods("ambient", "Blinn-Phong ambient weight (>= 0).")
-    SetDiffuse, GetDiffuse = _option_methods("diffuse", "Blinn-Phong diffuse weight (>= 0).")
-    SetSpecular, GetSpecular = _option_methods("specular", "Blinn-Phong specular weight (>= 0).")
-    SetSpecularPower, GetSpecularPower = _option_methods("specular_power", "Blinn-Phong exponent (>= 1).")
-    SetLights, GetLights = _option_methods(
-        "lights", "None (a headlight), a Light, a direction towards the light, or a sequence of them.")
-    SetShadeGradient, GetShadeGradient = _option_methods(
-        "shade_gradient", "'sampled' (central differences at each sample) or 'interpolated'.")
-    SetShadeThreshold, GetShadeThreshold = _option_methods(
-        "shade_threshold", "fraction of the TF axis per voxel at which shading is at full strength (>= 0).")
-    SetDevice, GetDevice = _option_methods(
-        "device", "'cpu' (default) or 'cuda': image volumes on an NVIDIA GPU through numba-cuda (docs/gpu.md).")
-
     # -- clipping: vtkVolumeMapper's clipping-plane methods, and a crop box -------------
     def AddClippingPlane(self, plane):
         """Cut the volume with ``plane`` (a ``vtkPlane``, or ``(origin, normal)``), keeping
@@ -248,7 +314,8 @@ class HDRVolumeRenderer(ReportingAlgorithm):
 
     def SetClippingPlanes(self, planes):
         """Replace the clipping planes: a ``vtkPlaneCollection``, ``vtkPlanes``, a
-        sequence of planes, or ``None`` (``RenderOptions.clip_planes``)."""
+        sequence of planes, or ``None`` (``RenderOptions.clip_planes``, as
+        :meth:`SetClipPlanes`)."""
         self._set_options(clip_planes=planes)
 
     def GetClippingPlanes(self):
@@ -262,34 +329,6 @@ class HDRVolumeRenderer(ReportingAlgorithm):
             plane.SetNormal(*p.normal)
             out.AddItem(plane)
         return out
-
-    def SetCropBox(self, *bounds):
-        """Keep only this world box: ``(xmin, xmax, ymin, ymax, zmin, zmax)`` as 6 numbers
-        or one sequence (VTK's bounds order, as ``SetCroppingRegionPlanes``); ``None``:
-        no crop (``RenderOptions.crop_box``)."""
-        value = bounds[0] if len(bounds) == 1 else bounds
-        self._set_options(crop_box=value)
-
-    def GetCropBox(self):
-        """``RenderOptions.crop_box``: the 6 bounds, or ``None``."""
-        return self._options.crop_box
-
-    def SetTolerance(self, tolerance):
-        """Set ``RenderOptions.tolerance``: the RMS error of the linear, premultiplied RGB
-        image against the converged render, relative to its peak, in (0, 0.5]; the
-        renderer then chooses step, termination, table size and precision. ``0`` or
-        ``None``: off (the knobs as set). Step, termination and precision must be at
-        their defaults while it is on. Validated by :class:`~pv_hdrvol.RenderOptions`;
-        calls ``Modified()`` when it changes."""
-        # 0 is "off" as in a VTK (ParaView) number property; RenderOptions says None
-        if isinstance(tolerance, numbers.Real) and not isinstance(tolerance, bool) and tolerance == 0:
-            tolerance = None
-        self._set_options(tolerance=tolerance)
-
-    def GetTolerance(self):
-        """``RenderOptions.tolerance`` as a VTK number: ``0.0`` when off (the field is
-        then ``None``: ``GetOptions().tolerance``)."""
-        return 0.0 if self._options.tolerance is None else self._options.tolerance
 
     def GetLastTolerance(self):
         """What the last execution chose for its tolerance, else ``None``: the image's
@@ -772,4 +811,5 @@ class HDRProxyWriter(HDRVolumeRenderer):
         return 1
 
 
-__all__ = ["ControllerComm", "HDRProxyWriter", "HDRVolumeRenderer"]
+__all__ = ["ControllerComm", "HDRProxyWriter", "HDRVolumeRenderer", "OPTION_PROPERTIES", "OptionProperty",
+           "option_property_name"]

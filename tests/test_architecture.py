@@ -125,6 +125,38 @@ def test_the_face_defines_nothing_but_re_exports():
     assert sorted(map(repr, kinds)) == sorted(map(repr, expected))
 
 
+#: the most lines a class of the package may span (its ``class`` line to its last)
+MAX_CLASS_LINES = 600
+
+
+def class_sizes(root=PACKAGE):
+    """``{"module:Class": lines}`` of every class (nested ones too), read with ``ast``:
+    ``end_lineno - lineno + 1`` of its ``class`` statement."""
+    sizes = {}
+    for name, path in _modules(root).items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+            if isinstance(node, ast.ClassDef):
+                sizes[f"{name}:{node.name}"] = node.end_lineno - node.lineno + 1
+    return sizes
+
+
+def test_no_class_is_longer_than_600_lines():
+    """A class that grows past this holds more than one concern: move its machinery into
+    functions or a module of its own (the VTK algorithm's execution is
+    ``integrations/vtk_execute.py``, the editor's drawing ``editor/display.py``)."""
+    sizes = class_sizes()
+    assert sizes["pv_hdrvol.integrations.vtk_algorithm:HDRVolumeRenderer"] > 100  # the classes were read
+    assert {name: n for name, n in sizes.items() if n > MAX_CLASS_LINES} == {}
+
+
+def test_class_sizes_are_measured_from_class_to_last_line(tmp_path):
+    pkg = tmp_path / "pv_hdrvol"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("class A:\n    x = 1\n\n    class B:\n        pass\n\n\ny = 2\n")
+    assert class_sizes(pkg) == {"pv_hdrvol.a:A": 5, "pv_hdrvol.a:B": 2}
+
+
 def test_the_graph_reader_finds_cycles_and_face_imports(tmp_path):
     """The checks above can fail: a scratch package with a cycle through a function-local
     import and a stage importing the face."""

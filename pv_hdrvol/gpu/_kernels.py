@@ -17,7 +17,7 @@ import numpy as np
 
 from .._jit import kernel
 from ..raycast import _kernels as K
-from ..raycast._kernels import _march as march, voxel_ray  # noqa: F401 (retargeted by name)
+from ..raycast._kernels import _march as march, pixel_ray_span, store_pixel  # noqa: F401 (retargeted by name)
 from ..raycast._kernels_ext import _project as project  # noqa: F401
 from ..raycast._tet_kernels import _march as tet_march, pixel_ray  # noqa: F401
 
@@ -27,24 +27,14 @@ _SCRATCH = 3 * K.SCRATCH
 
 
 @kernel
-def pixel_ray_span(cam, origins, directions, span, col, row, width, height):
-    """The ray of pixel ``(col, row)`` in voxel coordinates and its ``[near, far]``, as
-    ``raycast._kernels.render_tiles`` takes them: from the camera array ``cam``
-    (``voxel_ray``) or, when it is empty, from ``origins``/``directions``; ``span`` empty
-    means ``[0, inf]``. (A CPU kernel, retargeted with the rest.)"""
-    pix = row * width + col
-    if cam.shape[0] > 0:
-        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
-    else:
-        ox = origins[pix, 0]
-        oy = origins[pix, 1]
-        oz = origins[pix, 2]
-        dx = directions[pix, 0]
-        dy = directions[pix, 1]
-        dz = directions[pix, 2]
-    if span.shape[0] > 0:
-        return ox, oy, oz, dx, dy, dz, span[pix, 0], span[pix, 1]
-    return ox, oy, oz, dx, dy, dz, 0.0, math.inf
+def launch_row(col, y, tile_rows, tile, width, height):
+    """The image row of a thread at ``(col, y)`` of a launch over the rows of tiles
+    ``tile_rows`` (``y``: the ``y``-th pixel row of them), or -1 past the image's edge.
+    (A CPU kernel, retargeted with the rest.)"""
+    row = tile_rows[y // tile] * tile + y % tile
+    if col >= width or y >= tile_rows.shape[0] * tile or row >= height:
+        return -1
+    return row
 
 
 def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width,
@@ -52,8 +42,8 @@ def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam
     """One pixel of ``render_tiles`` per thread: pixel column ``x``, and the ``y``-th row
     of the rows of tiles ``tile_rows`` (``raycast.frame.run_in_chunks``)."""
     col, y = cuda.grid(2)  # noqa: F821 (injected)
-    row = tile_rows[y // TILE] * TILE + y % TILE  # noqa: F821
-    if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
+    row = launch_row(col, y, tile_rows, TILE, width, height)  # noqa: F821
+    if row < 0:
         return
     pix = row * width + col
     ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, col, row, width, height)
@@ -61,12 +51,7 @@ def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam
     r, g, b, a, dep, ns = march(marker, 0, _make_light(shading, lights, gvec), 0, bricks, offs, table, sigma,  # noqa
                                 leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
                                 t_near, t_far)
-    out_rgba[pix, 0] = r
-    out_rgba[pix, 1] = g
-    out_rgba[pix, 2] = b
-    out_rgba[pix, 3] = a
-    out_depth[pix] = dep
-    out_samples[pix] = ns
+    store_pixel(out_rgba, out_depth, out_samples, pix, r, g, b, a, dep, ns)
 
 
 def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axes, cam, origins, directions, span,
@@ -74,8 +59,8 @@ def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axe
     """One pixel of ``render_projection`` per thread (no level of detail), as
     :func:`_composite_pixels` places it."""
     col, y = cuda.grid(2)  # noqa: F821
-    row = tile_rows[y // TILE] * TILE + y % TILE  # noqa: F821
-    if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
+    row = launch_row(col, y, tile_rows, TILE, width, height)  # noqa: F821
+    if row < 0:
         return
     pix = row * width + col
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
@@ -84,12 +69,7 @@ def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axe
     v, r, gg, b, a, dep, ns = project(bricks, leap, g, pyr, pgeo, 0.0, tables, sigmas, axes, ox, oy, oz, dx, dy, dz,
                                       lo, hi, p, e, t_near, t_far)
     out_value[pix] = v
-    out_rgba[pix, 0] = r
-    out_rgba[pix, 1] = gg
-    out_rgba[pix, 2] = b
-    out_rgba[pix, 3] = a
-    out_depth[pix] = dep
-    out_samples[pix] = ns
+    store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
 
 
 def _tet_pixels(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
@@ -99,8 +79,8 @@ def _tet_pixels(marker, points, cells_i, cells_f, active, btri, bcell, bface, ta
     :func:`_composite_pixels` places it (the boundary crossings ``hit_*`` come from the
     CPU's rasteriser)."""
     col, y = cuda.grid(2)  # noqa: F821
-    row = tile_rows[y // TILE] * TILE + y % TILE  # noqa: F821
-    if col >= width or y >= tile_rows.shape[0] * TILE or row >= height:  # noqa: F821
+    row = launch_row(col, y, tile_rows, TILE, width, height)  # noqa: F821
+    if row < 0:
         return
     pix = row * width + col
     # a skipped pixel is written too, as the CPU's zeroed outputs leave it
@@ -132,12 +112,7 @@ def _tet_pixels(marker, points, cells_i, cells_f, active, btri, bcell, bface, ta
         r, g, b, a, dep, nc, npc, guard = tet_march(marker, points, cells_i, cells_f, active, btri, bcell, bface,
                                                     table, grads, shading, lights, hit_t, hit_face, hit_enter, lo, hi,
                                                     ox, oy, oz, dx, dy, dz, p, own0, own1, t_near, t_far)
-    out_rgba[pix, 0] = r
-    out_rgba[pix, 1] = g
-    out_rgba[pix, 2] = b
-    out_rgba[pix, 3] = a
-    out_depth[pix] = dep
-    out_cells[pix] = nc
+    store_pixel(out_rgba, out_depth, out_cells, pix, r, g, b, a, dep, nc)
     out_pieces[pix] = npc
     out_guard[pix] = guard
 

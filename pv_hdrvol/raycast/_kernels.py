@@ -1417,37 +1417,62 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
     most of the last one's bricks are still in cache.
     """
     tiles_x = (width + tile - 1) // tile
-    n_tiles = tile_rows.shape[0] * tiles_x
-    from_camera = cam.shape[0] > 0
-    has_span = span.shape[0] > 0
     for lane in numba.prange(lanes):
         scratch = np.empty(3 * SCRATCH)
-        for t in range(lane, n_tiles, lanes):
-            row0 = tile_rows[t // tiles_x] * tile
-            col0 = (t % tiles_x) * tile
-            for row in range(row0, min(row0 + tile, height)):
-                for col in range(col0, min(col0 + tile, width)):
-                    pix = row * width + col
-                    if from_camera:
-                        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
-                    else:
-                        ox = origins[pix, 0]
-                        oy = origins[pix, 1]
-                        oz = origins[pix, 2]
-                        dx = directions[pix, 0]
-                        dy = directions[pix, 1]
-                        dz = directions[pix, 2]
-                    t_near = span[pix, 0] if has_span else 0.0
-                    t_far = span[pix, 1] if has_span else math.inf
-                    r, g, b, a, dep, ns = _march(marker, 0, light, warp, bricks, offs, table, sigma, leap, grids,
-                                                 dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
-                                                 t_near, t_far)
-                    out_rgba[pix, 0] = r
-                    out_rgba[pix, 1] = g
-                    out_rgba[pix, 2] = b
-                    out_rgba[pix, 3] = a
-                    out_depth[pix] = dep
-                    out_samples[pix] = ns
+        for t in range(lane, tile_rows.shape[0] * tiles_x, lanes):
+            for k in range(tile * tile):
+                col, row = tile_pixel(t, k, tiles_x, tile_rows, tile, width, height)
+                if col < 0:
+                    continue
+                ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, col, row,
+                                                                       width, height)
+                r, g, b, a, dep, ns = _march(marker, 0, light, warp, bricks, offs, table, sigma, leap, grids, dims,
+                                             ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near, t_far)
+                store_pixel(out_rgba, out_depth, out_samples, row * width + col, r, g, b, a, dep, ns)
+
+
+# -- the pixel loop's pieces, shared by every tile kernel (CPU) and pixel kernel (GPU) -----
+@kernel
+def tile_pixel(t, k, tiles_x, tile_rows, tile, width, height):
+    """``(col, row)`` of pixel ``k`` (row by row) of tile ``t`` of the rows of tiles
+    ``tile_rows`` (``tiles_x`` tiles a row, ``tile`` pixels a side), or ``(-1, -1)``
+    past the image's right or bottom edge."""
+    row = tile_rows[t // tiles_x] * tile + k // tile
+    col = (t % tiles_x) * tile + k % tile
+    if row >= height or col >= width:
+        return -1, -1
+    return col, row
+
+
+@kernel
+def pixel_ray_span(cam, origins, directions, span, col, row, width, height):
+    """The ray of pixel ``(col, row)`` in voxel coordinates and its ``[near, far]``: from
+    the camera array ``cam`` (``voxel_ray``) or, when it is empty, from
+    ``origins``/``directions`` (one row per pixel); ``span`` empty means ``[0, inf]``."""
+    pix = row * width + col
+    if cam.shape[0] > 0:
+        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
+    else:
+        ox = origins[pix, 0]
+        oy = origins[pix, 1]
+        oz = origins[pix, 2]
+        dx = directions[pix, 0]
+        dy = directions[pix, 1]
+        dz = directions[pix, 2]
+    if span.shape[0] > 0:
+        return ox, oy, oz, dx, dy, dz, span[pix, 0], span[pix, 1]
+    return ox, oy, oz, dx, dy, dz, 0.0, math.inf
+
+
+@kernel
+def store_pixel(out_rgba, out_depth, out_counts, pix, r, g, b, a, depth, count):
+    """Write pixel ``pix``'s colour, opacity, depth and work count to the outputs."""
+    out_rgba[pix, 0] = r
+    out_rgba[pix, 1] = g
+    out_rgba[pix, 2] = b
+    out_rgba[pix, 3] = a
+    out_depth[pix] = depth
+    out_counts[pix] = count
 
 
 @kernel

@@ -42,7 +42,8 @@ import numba
 
 from .._jit import helper_kernel, kernel, parallel_kernel
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
-from ._kernels import _accumulate, _finish, _marker_precision, _opacity, _start, table_position
+from ._kernels import (_accumulate, _finish, _marker_precision, _opacity, _start, store_pixel, table_position,
+                       tile_pixel)
 from ._shading_kernels import SH_FADE, fade_weight, light_factors
 
 
@@ -575,32 +576,26 @@ def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, t
     has_span = span.shape[0] > 0
     has_own = own.shape[0] > 0
     tiles_x = (width + tile - 1) // tile
-    n_tiles = tile_rows.shape[0] * tiles_x
     for lane in numba.prange(lanes):
-        for t in range(lane, n_tiles, lanes):
-            row0 = tile_rows[t // tiles_x] * tile
-            col0 = (t % tiles_x) * tile
-            for row in range(row0, min(row0 + tile, height)):
-                for col in range(col0, min(col0 + tile, width)):
-                    pix = row * width + col
-                    lo = hit_offsets[pix]
-                    hi = hit_offsets[pix + 1]
-                    if hi == lo or (has_own and not own[pix, 1] > own[pix, 0]) \
-                            or (has_span and not span[pix, 1] > span[pix, 0]):
-                        continue
-                    ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
-                    r, g, b, a, dep, nc, npc, guard = _march(
-                        marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-                        hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
-                        own[pix, 0] / p.length_scale if has_own else -math.inf,
-                        own[pix, 1] / p.length_scale if has_own else math.inf,
-                        span[pix, 0] / p.length_scale if has_span else 0.0,
-                        span[pix, 1] / p.length_scale if has_span else math.inf)
-                    out_rgba[pix, 0] = r
-                    out_rgba[pix, 1] = g
-                    out_rgba[pix, 2] = b
-                    out_rgba[pix, 3] = a
-                    out_depth[pix] = dep
-                    out_cells[pix] = nc
-                    out_pieces[pix] = npc
-                    out_guard[pix] = guard
+        for t in range(lane, tile_rows.shape[0] * tiles_x, lanes):
+            for k in range(tile * tile):
+                col, row = tile_pixel(t, k, tiles_x, tile_rows, tile, width, height)
+                if col < 0:
+                    continue
+                pix = row * width + col
+                lo = hit_offsets[pix]
+                hi = hit_offsets[pix + 1]
+                if hi == lo or (has_own and not own[pix, 1] > own[pix, 0]) \
+                        or (has_span and not span[pix, 1] > span[pix, 0]):
+                    continue
+                ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
+                r, g, b, a, dep, nc, npc, guard = _march(
+                    marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
+                    hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
+                    own[pix, 0] / p.length_scale if has_own else -math.inf,
+                    own[pix, 1] / p.length_scale if has_own else math.inf,
+                    span[pix, 0] / p.length_scale if has_span else 0.0,
+                    span[pix, 1] / p.length_scale if has_span else math.inf)
+                store_pixel(out_rgba, out_depth, out_cells, pix, r, g, b, a, dep, nc)
+                out_pieces[pix] = npc
+                out_guard[pix] = guard

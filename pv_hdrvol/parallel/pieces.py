@@ -19,7 +19,11 @@ reader gives each rank one extent of the image): no process holds the whole volu
 
 The result equals the serial render to rounding (composited per piece instead of per
 sample; early termination is per piece, so it stops at ``1 - termination`` of each
-piece); the tests ask 1e-5. The depth image is the first crossing of the depth
+piece); the tests ask 1e-5. One piece is the serial render bit for bit.
+
+:func:`render_pieces` takes the piece a process holds; :func:`render_in_pieces` cuts a
+volume every process holds whole (``python -m pv_hdrvol.parallel render VOLUME``), one
+box per process. The depth image is the first crossing of the depth
 threshold within the piece where the composite crosses it: exact where that piece alone
 crosses it, otherwise the piece's own crossing or, failing that, where the ray enters it.
 """

@@ -141,6 +141,26 @@ def transfer_function_from_vtk(colors, opacity=None, *, table_size=None):
         (VTK evaluates it as NaN there); more than :data:`MAX_POINTS` control points
         needed to stay within the tolerance; a NaN from either function.
     """
+    color_nodes, log = _color_nodes(colors, opacity)
+    lo, hi = float(color_nodes[0, 0]), float(color_nodes[-1, 0])
+    continuous = _continuous_copy(colors)
+    opacity_nodes = _opacity_nodes(opacity)
+    evaluate = _evaluator(continuous, opacity)
+    nodes = np.unique(np.concatenate([color_nodes[:, 0], opacity_nodes]))
+    scale, linthresh, nodes = _axis(nodes, lo, log, evaluate)
+    # steps at the ends of the colour map and of the opacity function (clamping off,
+    # below/above-range colours): a control point at the float beside each end
+    ends = {lo, hi} | ({float(opacity_nodes[0]), float(opacity_nodes[-1])} if opacity_nodes.size else set())
+    values = np.unique(np.concatenate([nodes, _step_guards(nodes, ends, scale, linthresh, evaluate)]))
+    values, rgba = _bisect(values, scale, linthresh, evaluate)
+    rgb, alpha = rgba[:, :3], rgba[:, 3]
+    return TransferFunction(values, np.clip(rgb, 0.0, None), np.clip(alpha, 0.0, 1.0), scale=scale,
+                            linthresh=linthresh, table_size=table_size)
+
+
+def _color_nodes(colors, opacity):
+    """Check the pair of VTK functions; the colour map's control points (n, 6) and whether
+    it is on a log axis."""
     from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
     from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
 
@@ -163,7 +183,12 @@ def transfer_function_from_vtk(colors, opacity=None, *, table_size=None):
         raise ValueError(f"the colour map uses a log scale but its range [{lo!r}, {hi!r}] is not positive (VTK "
                          f"then interpolates it linearly): turn its log scale off (SetScale(0); ParaView: "
                          f"UseLogScale = 0) or move its first point above 0")
-    continuous = _continuous_copy(colors)
+    return color_nodes, log
+
+
+def _opacity_nodes(opacity):
+    """The values of the opacity function's control points (none for ``None``), checked
+    for a log axis."""
     opacity_nodes = _nodes(opacity, 4)[:, 0] if opacity is not None else np.empty(0)
     opacity_log = opacity is not None and _is_log(opacity)
     if opacity_log and opacity_nodes.size and opacity_nodes[0] <= 0:
@@ -171,7 +196,12 @@ def transfer_function_from_vtk(colors, opacity=None, *, table_size=None):
                          f"{float(opacity_nodes[-1])!r}] is not positive (VTK evaluates it as NaN there): move its "
                          f"points above 0 or turn its log scale off (SetUseLogScale(0); ParaView: the opacity "
                          f"function's UseLogScale = 0)")
+    return opacity_nodes
 
+
+def _evaluator(continuous, opacity):
+    """``evaluate(x)``: VTK's colour and opacity at the values ``x``, (n, 4) RGBA; a NaN or
+    inf from either function raises ``ValueError``."""
     def evaluate(x):
         x = np.atleast_1d(np.asarray(x, dtype=np.float64))
         rgba = np.empty((x.size, 4))
@@ -188,8 +218,14 @@ def transfer_function_from_vtk(colors, opacity=None, *, table_size=None):
                              f"control points")
         return rgba
 
+    return evaluate
+
+
+def _axis(nodes, lo, log, evaluate):
+    """The transfer function's axis ``(scale, linthresh)`` and the control points it keeps
+    of ``nodes``: a log colour map gives ``"log"`` (without the nodes <= 0), or
+    ``"symlog"`` from ``lo`` where VTK's functions vary at or below 0."""
     scale, linthresh = ("log" if log else "linear"), 1.0
-    nodes = np.unique(np.concatenate([color_nodes[:, 0], opacity_nodes]))
     if log and nodes[0] <= 0:
         # A linear opacity function reaches 0 or below. A log axis gives every value
         # <= 0 the first entry: right only if VTK's functions are constant up to the
@@ -202,9 +238,12 @@ def transfer_function_from_vtk(colors, opacity=None, *, table_size=None):
             scale, linthresh = "symlog", lo
         else:
             nodes = nodes[nodes > 0]
-    # steps at the ends of the colour map and of the opacity function (clamping off,
-    # below/above-range colours): a control point at the float beside each end
-    ends = {lo, hi} | ({float(opacity_nodes[0]), float(opacity_nodes[-1])} if opacity_nodes.size else set())
+    return scale, linthresh, nodes
+
+
+def _step_guards(nodes, ends, scale, linthresh, evaluate):
+    """The floats beside each of ``ends`` (that is a control point) where VTK's functions
+    step: the control points that make the step."""
     guards = []
     for end in sorted(e for e in ends if e in set(nodes.tolist())):
         inside = evaluate(end)
@@ -212,8 +251,13 @@ def transfer_function_from_vtk(colors, opacity=None, *, table_size=None):
             beside = _beside(end, side, scale, linthresh)
             if np.abs(evaluate(beside) - inside).max() > TOLERANCE:
                 guards.append(beside)
-    values = np.unique(np.concatenate([nodes, guards]))
+    return guards
 
+
+def _bisect(values, scale, linthresh, evaluate):
+    """The control points ``values`` with segments halved until VTK's functions are
+    within :data:`TOLERANCE` of the linear interpolation at each midpoint; the points
+    and their RGBA."""
     # Between control points VTK's functions are linear on our axis only for RGB colours
     # with default midpoints and an opacity on the same axis: elsewhere, bisect each
     # segment until the midpoint's linear interpolation is within TOLERANCE (a segment
@@ -241,9 +285,7 @@ def transfer_function_from_vtk(colors, opacity=None, *, table_size=None):
         pending[left] = pending[left + 1] = True
     else:  # pragma: no cover - MAX_BISECTIONS halvings reach adjacent floats first
         _too_many(values, check, error, scale)
-    rgb, alpha = rgba[:, :3], rgba[:, 3]
-    return TransferFunction(values, np.clip(rgb, 0.0, None), np.clip(alpha, 0.0, 1.0), scale=scale,
-                            linthresh=linthresh, table_size=table_size)
+    return values, rgba
 
 
 __all__ = ["TOLERANCE", "transfer_function_from_vtk"]

@@ -7,7 +7,7 @@ import numba
 import numpy as np
 
 from .._jit import fused_parallel_kernel, inline_kernel, kernel, parallel_kernel
-from ..raycast._kernels import _ray_box, voxel_ray
+from ..raycast._kernels import _ray_box, pixel_ray_span, segment_count
 from ..raycast._kernels_ext import _position  # (v, scale code, axis low, 1 / axis range, linthresh)
 
 
@@ -307,27 +307,17 @@ def march_bound(extinction, empty, cam, origins, directions, width, height, lo, 
     """
     gz, gy, gx = extinction.shape
     bz, by, bx = needed.shape[1], needed.shape[2], needed.shape[3]
-    from_camera = cam.shape[0] > 0
+    no_span = np.empty((0, 2))
     eps = 1e-7
     for lane in numba.prange(lanes):
         for row in range(lane, height, lanes):
             for col in range(width):
                 pix = row * width + col
-                if from_camera:
-                    ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
-                else:
-                    ox = origins[pix, 0]
-                    oy = origins[pix, 1]
-                    oz = origins[pix, 2]
-                    dx = directions[pix, 0]
-                    dy = directions[pix, 1]
-                    dz = directions[pix, 2]
+                ox, oy, oz, dx, dy, dz, _, _ = pixel_ray_span(cam, origins, directions, no_span, pix, width, height)
                 t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, math.inf)
                 if not t1 > t0:
                     continue
-                n_seg = int(math.ceil((t1 - t0) / step))
-                if n_seg < 1:
-                    n_seg = 1
+                n_seg = segment_count(t0, t1, step)
                 n_full = n_seg - 1
                 depth = 0.0
                 occluded = False

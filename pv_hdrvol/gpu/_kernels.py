@@ -46,7 +46,7 @@ def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam
     if row < 0:
         return
     pix = row * width + col
-    ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, col, row, width, height)
+    ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width, height)
     scratch = cuda.local.array(SCRATCH_LEN, numba.float64)  # noqa: F821
     r, g, b, a, dep, ns = march(marker, 0, _make_light(shading, lights, gvec), 0, bricks, offs, table, sigma,  # noqa
                                 leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
@@ -65,7 +65,7 @@ def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axe
     pix = row * width + col
     g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
          grids[1], grids[2], grids[4], grids[5])
-    ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, col, row, width, height)
+    ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width, height)
     v, r, gg, b, a, dep, ns = project(bricks, leap, g, pyr, pgeo, 0.0, tables, sigmas, axes, ox, oy, oz, dx, dy, dz,
                                       lo, hi, p, e, t_near, t_far)
     out_value[pix] = v

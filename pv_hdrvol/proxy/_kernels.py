@@ -25,10 +25,11 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from .._jit import fused_parallel_kernel, inline_kernel
 from ..culling._kernels import _trilinear
-from ..raycast._kernels import _ray_box, sigma_at, table_position, table_row
+from ..raycast._kernels import _ray_box, pixel_ray_span, segment_count, sigma_at, table_position, table_row
 
 
 @inline_kernel
@@ -78,19 +79,14 @@ def march_proxies(values, table, sigma, p, scale, iso, origins, directions, lo, 
     n_iso = iso.shape[0]
     n_table = table.shape[0] // 4
     step = p.step
+    no_cam = np.empty(0)
+    no_span = np.empty((0, 2))
     for pix in numba.prange(n):
-        ox = origins[pix, 0]
-        oy = origins[pix, 1]
-        oz = origins[pix, 2]
-        dx = directions[pix, 0]
-        dy = directions[pix, 1]
-        dz = directions[pix, 2]
+        ox, oy, oz, dx, dy, dz, _, _ = pixel_ray_span(no_cam, origins, directions, no_span, pix, n, 1)
         t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, 0.0, math.inf)
         if not t1 > t0:
             continue
-        n_seg = int(math.ceil((t1 - t0) / step))
-        if n_seg < 1:
-            n_seg = 1
+        n_seg = segment_count(t0, t1, step)
         state = (0.0, 0.0, 0.0, 0.0)
         prev_v = math.nan
         prev_t = t0

@@ -148,6 +148,13 @@ def _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_near, t_far):
     return _slab(oz, dz, lo[2], hi[2], t0, t1)
 
 
+@kernel
+def segment_count(t0, t1, step):
+    """Segments of length ``step`` from ``t0`` to ``t1`` (the last one shorter): at least 1."""
+    n_seg = int(math.ceil((t1 - t0) / step))
+    return n_seg if n_seg >= 1 else 1
+
+
 @inline_kernel
 def _owned_slab(o, d, lo, hi, closed, t0, t1):
     """``_slab`` for an owned box, half open: a ray parallel to the axis lies in it for
@@ -1416,42 +1423,51 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
     0.56 lacks), and the tile it renders next lies a few tiles on along the row, where
     most of the last one's bricks are still in cache.
     """
-    tiles_x = (width + tile - 1) // tile
     for lane in numba.prange(lanes):
         scratch = np.empty(3 * SCRATCH)
-        for t in range(lane, tile_rows.shape[0] * tiles_x, lanes):
-            for k in range(tile * tile):
-                col, row = tile_pixel(t, k, tiles_x, tile_rows, tile, width, height)
-                if col < 0:
-                    continue
-                ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, col, row,
-                                                                       width, height)
+        for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
+            pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
+            if pix >= 0:
+                ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width,
+                                                                       height)
                 r, g, b, a, dep, ns = _march(marker, 0, light, warp, bricks, offs, table, sigma, leap, grids, dims,
                                              ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near, t_far)
-                store_pixel(out_rgba, out_depth, out_samples, row * width + col, r, g, b, a, dep, ns)
+                store_pixel(out_rgba, out_depth, out_samples, pix, r, g, b, a, dep, ns)
 
 
 # -- the pixel loop's pieces, shared by every tile kernel (CPU) and pixel kernel (GPU) -----
 @kernel
-def tile_pixel(t, k, tiles_x, tile_rows, tile, width, height):
-    """``(col, row)`` of pixel ``k`` (row by row) of tile ``t`` of the rows of tiles
-    ``tile_rows`` (``tiles_x`` tiles a row, ``tile`` pixels a side), or ``(-1, -1)``
-    past the image's right or bottom edge."""
-    row = tile_rows[t // tiles_x] * tile + k // tile
-    col = (t % tiles_x) * tile + k % tile
-    if row >= height or col >= width:
-        return -1, -1
-    return col, row
+def lane_pixels(lane, lanes, tile_rows, tile, width):
+    """How many pixel slots lane ``lane`` of ``lanes`` walks: ``tile * tile`` for each of
+    its tiles ``lane, lane + lanes, ...`` of the rows of tiles ``tile_rows``
+    (:func:`lane_pixel` maps a slot to its pixel)."""
+    n_tiles = tile_rows.shape[0] * ((width + tile - 1) // tile)
+    return (n_tiles - lane + lanes - 1) // lanes * (tile * tile)
 
 
 @kernel
-def pixel_ray_span(cam, origins, directions, span, col, row, width, height):
-    """The ray of pixel ``(col, row)`` in voxel coordinates and its ``[near, far]``: from
-    the camera array ``cam`` (``voxel_ray``) or, when it is empty, from
-    ``origins``/``directions`` (one row per pixel); ``span`` empty means ``[0, inf]``."""
-    pix = row * width + col
+def lane_pixel(i, lane, lanes, tile_rows, tile, width, height):
+    """The pixel (``row * width + col``) of slot ``i`` of lane ``lane``: pixel
+    ``i % tile**2`` (row by row) of the lane's tile ``i // tile**2``, or -1 past the
+    image's right or bottom edge."""
+    tiles_x = (width + tile - 1) // tile
+    t = lane + (i // (tile * tile)) * lanes
+    k = i % (tile * tile)
+    row = tile_rows[t // tiles_x] * tile + k // tile
+    col = (t % tiles_x) * tile + k % tile
+    if row >= height or col >= width:
+        return -1
+    return row * width + col
+
+
+@kernel
+def pixel_ray_span(cam, origins, directions, span, pix, width, height):
+    """The ray of pixel ``pix`` (``row * width + col``) in voxel coordinates and its
+    ``[near, far]``: from the camera array ``cam`` (``voxel_ray``) or, when it is empty,
+    from ``origins``/``directions`` (one row per pixel); ``span`` empty means
+    ``[0, inf]``."""
     if cam.shape[0] > 0:
-        ox, oy, oz, dx, dy, dz = voxel_ray(cam, col, row, width, height)
+        ox, oy, oz, dx, dy, dz = voxel_ray(cam, pix % width, pix // width, width, height)
     else:
         ox = origins[pix, 0]
         oy = origins[pix, 1]

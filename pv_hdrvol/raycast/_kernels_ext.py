@@ -31,7 +31,7 @@ from .._jit import fused_kernel, inline_kernel, kernel, parallel_kernel, uindex 
 from ._kernels import (
     BRICK_SHIFT, SCRATCH, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _marker_precision, _opacity,
     _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, piece_segments, sigma_at,
-    eye_of, lit, pixel_ray_span, store_pixel, table_row, tile_pixel, trilinear as _trilinear,
+    eye_of, lit, lane_pixel, lane_pixels, pixel_ray_span, store_pixel, table_row, trilinear as _trilinear,
 )
 
 # blending codes (params.BLENDING_CODES)
@@ -254,23 +254,20 @@ def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tabl
          grids[1], grids[2], grids[4], grids[5])
     has_lod = lods.shape[0] == width * height
     no_cam = np.empty(0)
-    tiles_x = (width + tile - 1) // tile
     for lane in numba.prange(lanes):
-        for t in range(lane, tile_rows.shape[0] * tiles_x, lanes):
-            for k in range(tile * tile):
-                col, row = tile_pixel(t, k, tiles_x, tile_rows, tile, width, height)
-                if col < 0:
-                    continue
-                pix = row * width + col
-                lod = lods[pix] if has_lod else 0.0
-                level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
-                ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, col, row,
-                                                                       width, height)
-                v, r, gg, b, a, dep, ns = _project(bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod,
-                                                   tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_near,
-                                                   t_far)
-                out_value[pix] = v
-                store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
+        for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
+            pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
+            if pix < 0:
+                continue
+            lod = lods[pix] if has_lod else 0.0
+            level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
+            ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, pix,
+                                                                   width, height)
+            v, r, gg, b, a, dep, ns = _project(bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod,
+                                               tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_near,
+                                               t_far)
+            out_value[pix] = v
+            store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
 
 
 # -- extended compositing -------------------------------------------------------------------
@@ -470,22 +467,19 @@ def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pg
          grids[1], grids[2], grids[4], grids[5])
     has_lod = lods.shape[0] == width * height
     no_cam = np.empty(0)
-    tiles_x = (width + tile - 1) // tile
     for lane in numba.prange(lanes):
-        for t in range(lane, tile_rows.shape[0] * tiles_x, lanes):
-            for k in range(tile * tile):
-                col, row = tile_pixel(t, k, tiles_x, tile_rows, tile, width, height)
-                if col < 0:
-                    continue
-                pix = row * width + col
-                lod = lods[pix] if has_lod else 0.0
-                level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
-                ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, col, row,
-                                                                       width, height)
-                r, gg, b, a, dep, ns = _march_ext(marker, light, bricks, offs, leap if lod == 0.0 else leap_lod[level],
-                                                  g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes, ox,
-                                                  oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_near, t_far)
-                store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
+        for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
+            pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
+            if pix < 0:
+                continue
+            lod = lods[pix] if has_lod else 0.0
+            level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
+            ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, pix,
+                                                                   width, height)
+            r, gg, b, a, dep, ns = _march_ext(marker, light, bricks, offs, leap if lod == 0.0 else leap_lod[level],
+                                              g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes, ox,
+                                              oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_near, t_far)
+            store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
 
 
 @parallel_kernel
@@ -500,29 +494,26 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
     (the render's times ``2**L``) and its opacity table ``level_tables[L]``, and skips
     with ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the lower of its two levels."""
     no_cam = np.empty(0)
-    tiles_x = (width + tile - 1) // tile
     for lane in numba.prange(lanes):
         scratch = np.empty(3 * SCRATCH)
-        for t in range(lane, tile_rows.shape[0] * tiles_x, lanes):
-            for k in range(tile * tile):
-                col, row = tile_pixel(t, k, tiles_x, tile_rows, tile, width, height)
-                if col < 0:
-                    continue
-                pix = row * width + col
-                lod = lods[pix]
-                ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, col, row,
-                                                                       width, height)
-                if lod == 0.0:
-                    r, gg, b, a, dep, ns = _march(marker, 0, 0, 0, bricks, offs, table, sigma, leap, grids, dims, ox,
-                                                  oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near, t_far)
-                else:
-                    # the plain loop, sampling two mip levels
-                    level = min(int(lod), n_levels - 1)
-                    r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), 0, 0, pyr, offs,
-                                                  level_tables[level], sigma, leap_lod[level], grids, dims, ox, oy, oz,
-                                                  dx, dy, dz, lo, hi, piece, p, level_steps[level], scratch, t_near,
-                                                  t_far)
-                store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
+        for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
+            pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
+            if pix < 0:
+                continue
+            lod = lods[pix]
+            ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, pix,
+                                                                   width, height)
+            if lod == 0.0:
+                r, gg, b, a, dep, ns = _march(marker, 0, 0, 0, bricks, offs, table, sigma, leap, grids, dims, ox,
+                                              oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near, t_far)
+            else:
+                # the plain loop, sampling two mip levels
+                level = min(int(lod), n_levels - 1)
+                r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), 0, 0, pyr, offs,
+                                              level_tables[level], sigma, leap_lod[level], grids, dims, ox, oy, oz,
+                                              dx, dy, dz, lo, hi, piece, p, level_steps[level], scratch, t_near,
+                                              t_far)
+            store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
 
 
 # -- volumes derived once per dataset ---------------------------------------------------------

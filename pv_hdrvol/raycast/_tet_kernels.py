@@ -42,8 +42,8 @@ import numba
 
 from .._jit import helper_kernel, kernel, parallel_kernel
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
-from ._kernels import (_accumulate, _finish, _marker_precision, _opacity, _start, store_pixel, table_position,
-                       tile_pixel)
+from ._kernels import (_accumulate, _finish, _marker_precision, _opacity, _start, lane_pixel, lane_pixels, store_pixel,
+                       table_position)
 from ._shading_kernels import SH_FADE, fade_weight, light_factors
 
 
@@ -575,27 +575,24 @@ def render_tiles(marker, points, cells_i, cells_f, active, btri, bcell, bface, t
     (``_march_in``); a pixel whose span is empty is skipped."""
     has_span = span.shape[0] > 0
     has_own = own.shape[0] > 0
-    tiles_x = (width + tile - 1) // tile
     for lane in numba.prange(lanes):
-        for t in range(lane, tile_rows.shape[0] * tiles_x, lanes):
-            for k in range(tile * tile):
-                col, row = tile_pixel(t, k, tiles_x, tile_rows, tile, width, height)
-                if col < 0:
-                    continue
-                pix = row * width + col
-                lo = hit_offsets[pix]
-                hi = hit_offsets[pix + 1]
-                if hi == lo or (has_own and not own[pix, 1] > own[pix, 0]) \
-                        or (has_span and not span[pix, 1] > span[pix, 0]):
-                    continue
-                ox, oy, oz, dx, dy, dz = pixel_ray(cam, col, row, width, height)
-                r, g, b, a, dep, nc, npc, guard = _march(
-                    marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
-                    hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
-                    own[pix, 0] / p.length_scale if has_own else -math.inf,
-                    own[pix, 1] / p.length_scale if has_own else math.inf,
-                    span[pix, 0] / p.length_scale if has_span else 0.0,
-                    span[pix, 1] / p.length_scale if has_span else math.inf)
-                store_pixel(out_rgba, out_depth, out_cells, pix, r, g, b, a, dep, nc)
-                out_pieces[pix] = npc
-                out_guard[pix] = guard
+        for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
+            pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
+            if pix < 0:
+                continue
+            lo = hit_offsets[pix]
+            hi = hit_offsets[pix + 1]
+            if hi == lo or (has_own and not own[pix, 1] > own[pix, 0]) \
+                    or (has_span and not span[pix, 1] > span[pix, 0]):
+                continue
+            ox, oy, oz, dx, dy, dz = pixel_ray(cam, pix % width, pix // width, width, height)
+            r, g, b, a, dep, nc, npc, guard = _march(
+                marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
+                hit_t, hit_face, hit_enter, lo, hi, ox, oy, oz, dx, dy, dz, p,
+                own[pix, 0] / p.length_scale if has_own else -math.inf,
+                own[pix, 1] / p.length_scale if has_own else math.inf,
+                span[pix, 0] / p.length_scale if has_span else 0.0,
+                span[pix, 1] / p.length_scale if has_span else math.inf)
+            store_pixel(out_rgba, out_depth, out_cells, pix, r, g, b, a, dep, nc)
+            out_pieces[pix] = npc
+            out_guard[pix] = guard

@@ -18,7 +18,7 @@ import numpy as np
 from .._jit import kernel
 from ..raycast import _kernels as K
 from ..raycast._kernels import _march as march, pixel_ray_span, store_pixel  # noqa: F401 (retargeted by name)
-from ..raycast._kernels_ext import _project as project  # noqa: F401
+from ..raycast._kernels_ext import _project as project, grid_geometry  # noqa: F401
 from ..raycast._tet_kernels import _march as tet_march, pixel_ray  # noqa: F401
 
 #: Threads of a CUDA block, (x, y): 8 x 8 pixels, a tile of the CPU kernels.
@@ -63,8 +63,7 @@ def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axe
     if row < 0:
         return
     pix = row * width + col
-    g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
-         grids[1], grids[2], grids[4], grids[5])
+    g = grid_geometry(dims, grids, p)
     ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width, height)
     v, r, gg, b, a, dep, ns = project(bricks, leap, g, pyr, pgeo, 0.0, tables, sigmas, axes, ox, oy, oz, dx, dy, dz,
                                       lo, hi, p, e, t_near, t_far)

@@ -245,22 +245,36 @@ def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, 
     return value, alpha * r, alpha * gg, alpha * b, alpha, depth, samples
 
 
+@kernel
+def grid_geometry(dims, grids, p):
+    """The geometry tuple ``g`` the extended loops read: points along x, y, z, their
+    last indices as floats, the brick shift and the block grid's (y, x) and the skip
+    grid's (y, x) extents."""
+    return (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
+            grids[1], grids[2], grids[4], grids[5])
+
+
+@kernel
+def pixel_lod(lods, pix, n_pixels, n_levels):
+    """``(lod, level)`` of pixel ``pix``: its ray's level of detail (0 without one: ``lods``
+    holds one per pixel or none) and the lower of the mip-map's two levels it samples."""
+    lod = lods[pix] if lods.shape[0] == n_pixels else 0.0
+    return lod, min(int(lod), n_levels - 1) if lod > 0.0 else 0
+
+
 @parallel_kernel
 def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tables, sigmas, axes, origins, directions,
                       span, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth,
                       out_samples):
     """Fill the pixels of the tiles in rows ``tile_rows`` with ``_project`` (as ``_kernels.render_tiles``)."""
-    g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
-         grids[1], grids[2], grids[4], grids[5])
-    has_lod = lods.shape[0] == width * height
+    g = grid_geometry(dims, grids, p)
     no_cam = np.empty(0)
     for lane in numba.prange(lanes):
         for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
             pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
             if pix < 0:
                 continue
-            lod = lods[pix] if has_lod else 0.0
-            level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
+            lod, level = pixel_lod(lods, pix, width * height, e.n_levels)
             ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, pix,
                                                                    width, height)
             v, r, gg, b, a, dep, ns = _project(bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod,
@@ -463,19 +477,16 @@ def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pg
     ``light`` (0: unshaded; see ``_kernels._march``). A ray with a level of detail
     samples the mip-map and skips with ``leap_lod[L]``, ``L`` the lower of its two
     levels; it is lit from the gradient of the full-resolution field."""
-    g = (dims[0], dims[1], dims[2], dims[0] - 1.0, dims[1] - 1.0, dims[2] - 1.0, p.block_shift,
-         grids[1], grids[2], grids[4], grids[5])
-    has_lod = lods.shape[0] == width * height
     no_cam = np.empty(0)
+    g = grid_geometry(dims, grids, p)
     for lane in numba.prange(lanes):
         for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
             pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
             if pix < 0:
                 continue
-            lod = lods[pix] if has_lod else 0.0
-            level = min(int(lod), e.n_levels - 1) if lod > 0.0 else 0
             ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, pix,
                                                                    width, height)
+            lod, level = pixel_lod(lods, pix, width * height, e.n_levels)
             r, gg, b, a, dep, ns = _march_ext(marker, light, bricks, offs, leap if lod == 0.0 else leap_lod[level],
                                               g, pyr, pgeo, lod, gbricks, slots, modes, tables, sigmas, axes, ox,
                                               oy, oz, dx, dy, dz, lo, hi, piece, p, e, t_near, t_far)

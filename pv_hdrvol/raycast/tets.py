@@ -442,9 +442,7 @@ def boundary_crossings(mesh, camera, size, cam=None, view=None):
     lists fit exactly, and the renderer covers exactly the pixels whose layers
     :func:`~pv_hdrvol.depth_layers` finds."""
     width, height = size
-    if cam is None:
-        cam = camera_array(camera, mesh, width, height)
-    geometry, bands, lanes = _face_table(mesh, cam, width, height, view)
+    cam, geometry, bands, lanes = _boundary_setup(mesh, camera, size, cam, view)
     n_pix = width * height
     counts = np.empty(n_pix, dtype=np.int64)
     empty_f = np.empty(0)
@@ -459,6 +457,17 @@ def boundary_crossings(mesh, camera, size, cam=None, view=None):
     entering = np.empty(total, dtype=np.bool_)
     LK.rasterize_hits(*geometry, cam, width, height, bands, lanes, False, offsets, counts, t, face, entering)
     return BoundaryHits(offsets, t, face, entering, width, height)
+
+
+def _boundary_setup(mesh, camera, size, cam=None, view=None):
+    """``(cam, geometry, bands, lanes)`` of the boundary rasterisers: the camera array
+    (``camera_array``, made here when not given) and the face table for it
+    (``_face_table``, reusing ``view`` when it was made for this camera)."""
+    width, height = size
+    if cam is None:
+        cam = camera_array(camera, mesh, width, height)
+    geometry, bands, lanes = _face_table(mesh, cam, width, height, view)
+    return cam, geometry, bands, lanes
 
 
 def mesh_layers(mesh, size, counts, t, thickness, t0):
@@ -482,9 +491,7 @@ def boundary_layers(mesh, camera, size, k, cam=None, view=None):
     pixels. ``cam``: ``camera_array`` (made here when not given); ``view``: a
     ``_view`` to reuse, see there."""
     width, height = size
-    if cam is None:
-        cam = camera_array(camera, mesh, width, height)
-    geometry, bands, lanes = _face_table(mesh, cam, width, height, view)
+    cam, geometry, bands, lanes = _boundary_setup(mesh, camera, size, cam, view)
     n_pix = width * height
     counts = np.empty(n_pix, dtype=np.int64)
     layers = np.empty((k, n_pix))

@@ -224,19 +224,12 @@ def _agree(args, comm, error):
 
 def _multiblock_options(args):
     """``(size, output, tf)`` of a ``.vtm`` render, each checked."""
-    from .._validate import as_size
-
     name = args.volume
     if args.pof:
         raise UserError(f"--pof culls the blocks of one image volume; {name!r} is a multiblock file: leave out --pof")
     if args.k is not None:
         raise UserError("--k weighs the bases of --pof; give --pof FILE.npz")
-    try:
-        size = as_size(tuple(args.size) if len(args.size) == 2 else args.size[0] if len(args.size) == 1 else None)
-    except (TypeError, ValueError):
-        raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
-    output = _output(args.output, OUTPUTS)
-    words = _words(args)
+    size, output, words = _size_output_words(args)
     tf = _read_tf("--tf", args.tf) if args.tf else None
     _existing_file("", name)
     return size, output, tf, words
@@ -444,14 +437,7 @@ def _prepare(args):
     """``(volume, tf, pof, camera, size, output, words)`` from the command line, each checked."""
     import pv_hdrvol as hv
 
-    from .._validate import as_size
-
-    try:
-        size = as_size(tuple(args.size) if len(args.size) == 2 else args.size[0] if len(args.size) == 1 else None)
-    except (TypeError, ValueError):
-        raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
-    output = _output(args.output, OUTPUTS)
-    words = _words(args)
+    size, output, words = _size_output_words(args)
     volume = _read_volume(args.volume, args.scalars)
     pof = tf = None
     if args.pof:
@@ -490,6 +476,17 @@ def _pof(args):
     print(f"{output}: {pof.grid_shape} blocks of {pof.block_size}^3, {int(pof.nonempty.any(-1).sum())} "
           f"non-empty, {len(pof.bases)} bases")
     return 0
+
+
+def _size_output_words(args):
+    """``--size``, ``-o`` and the transfer function's words of ``render``, each checked."""
+    from .._validate import as_size
+
+    try:
+        size = as_size(tuple(args.size) if len(args.size) == 2 else args.size[0] if len(args.size) == 1 else None)
+    except (TypeError, ValueError):
+        raise UserError(f"--size takes N or W H, positive; got {' '.join(map(str, args.size))}") from None
+    return size, _output(args.output, OUTPUTS), _words(args)
 
 
 def _output(name, suffixes):

@@ -227,8 +227,8 @@ def resolve_render_options(data, tf=None, options=None, *, cmap=None, clim=None,
 
     Examples
     --------
-    >>> import numpy as np
-    >>> volume = volume_from_array(np.linspace(0.0, 1.0, 64).reshape(4, 4, 4))
+    >>> import numpy as np, pv_hdrvol as hv
+    >>> volume = hv.volume_from_array(np.linspace(0.0, 1.0, 64).reshape(4, 4, 4))
     >>> tf, options = resolve_render_options(volume, clim=(0.2, 0.8), cmap="bone", step=0.25)
     >>> (tf.vmin, tf.vmax, options.step)
     (0.2, 0.8, 0.25)

@@ -96,9 +96,10 @@ class TransferFunctionEditor:
     Parameters
     ----------
     data : image volume or tetrahedral mesh
-        Anything :func:`pv_hdrvol.render` takes.
+        What the editor's image renders: anything :func:`pv_hdrvol.render` takes.
     tf : TransferFunction, optional
-        Default: the renderer's default for the data.
+        The function the editor starts from (default: the one ``pv_hdrvol.render``
+        chooses for the data).
     size : (width, height)
         The image's size.
     live : bool

@@ -329,6 +329,9 @@ def test_overwrite(tmp_path):
     with pytest.raises(TypeError, match="progress_bar must be True, False or None"):
         write_multiscale(np.ones((4, 4, 4), np.float32), path, overwrite=True, progress_bar="yes")
     assert MultiscaleStore(path).value_range == (1.0, 1.0)
+    with pytest.raises(ValueError, match="threads must be >= 1; got 0"):
+        write_multiscale(np.full((4, 4, 4), 2.0, np.float32), path, overwrite=True, threads=0)
+    assert MultiscaleStore(path).value_range == (1.0, 1.0)
 
 
 def test_missing_shard_is_an_error_naming_chunk_and_file(tmp_path):

@@ -377,6 +377,7 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
     """
     zarr = _zarr()
     src, chunk = _open_source(source, shape, dtype, spacing, origin, name, scalars, downsample, chunk, progress_bar)
+    workers = (os.cpu_count() or 1) if threads is None else as_int("threads", threads, low=1)  # before any removal
     path = os.fspath(path)
     _remove_old_store(path, overwrite)
     shapes, edges, dtypes = _plan_levels(src, chunk, downsample)
@@ -387,7 +388,6 @@ def write_multiscale(source, path, *, shape=None, dtype=None, spacing=None, orig
             "origin": list(src.origin), "name": src.name, "complete": False}
     group.attrs.update({"pv_hdrvol": meta})
     reduce = downsample_mean if downsample == "mean" else downsample_mode
-    workers = (os.cpu_count() or 1) if threads is None else as_int("threads", threads, low=1)
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="pv_hdrvol-writer")
     try:
         arr, rng, finite = _write_level0(group, src, shapes[0], edges[0], dtypes[0], chunk, pool, workers, bar)

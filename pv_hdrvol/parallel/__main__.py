@@ -240,12 +240,12 @@ def _render_multiblock(args, comm):
     blocks' union volume, and rank 0 composites them (:mod:`pv_hdrvol.parallel.multiblock`)."""
     import time
 
-    from ..data.blocks import Leaf, choose_block_scalars, gather_images, image_blocks
+    from ..data.blocks import gather_images
     from ..raycast.grid import resolve_render_options
     from ..raycast.memory import RenderMemoryError
     from .comm import use_rank_threads
-    from .multiblock import (SERIAL_HINT, BlockInfo, MultiblockError, assign_leaves, lattice_pieces, leaf_points,
-                             read_leaf, render_leaf_pieces, vtm_leaves)
+    from .multiblock import (SERIAL_HINT, MultiblockError, assign_leaves, lattice_pieces, leaf_points,
+                             render_leaf_pieces, vtm_leaves)
 
     started = time.perf_counter()
     vtm = args.volume
@@ -266,26 +266,7 @@ def _render_multiblock(args, comm):
     mine = [leaf for leaf, rank in zip(leaves, owners) if rank == comm.rank]
 
     # 2. each rank reads its own leaves, and only those
-    name = error = None
-    blocks, infos = [], []
-    try:
-        read = [(leaf, read_leaf(leaf, vtm)) for leaf in mine]
-        kept = [(leaf, data) for leaf, data in read if data.GetNumberOfPoints() and data.GetNumberOfCells()]
-        if kept:
-            name, use_cell, chosen, missing = choose_block_scalars([Leaf(leaf.path, data) for leaf, data in kept],
-                                                                   args.scalars)
-            if missing:
-                raise MultiblockError(f"blocks {missing} lack scalars {name!r}: python -m pv_hdrvol.parallel renders "
-                                      f"blocks that all have them; {hint}")
-            if use_cell:
-                raise MultiblockError(f"scalars {name!r} are cell data: python -m pv_hdrvol.parallel renders the "
-                                      f"point data of .vtm blocks (blocks of cell data do not share points); {hint}")
-            blocks = image_blocks(chosen, name, False)
-            files = {leaf.path: leaf.file for leaf, _ in kept}
-            infos = [BlockInfo(b.path, str(files[b.path]), tuple(b.origin.tolist()), tuple(b.spacing.tolist()),
-                               tuple(int(n) for n in b.values.shape[::-1])) for b in blocks]
-    except (UserError, MultiblockError, ValueError, TypeError) as exc:
-        error = str(exc)
+    name, blocks, infos, error = _read_own_leaves(args, mine, vtm, hint)
     _agree(args, comm, error)
 
     # 3. every rank: the blocks as pieces of one volume, or the reason not
@@ -338,6 +319,45 @@ def _render_multiblock(args, comm):
     per_rank = comm.gather(stats, root=0)
     if image is None:
         return 0
+    _write_multiblock_image(args, comm, image, output, camera, size, every, per_rank, started)
+    return 0
+
+
+def _read_own_leaves(args, mine, vtm, hint):
+    """``(name, blocks, infos, error)``: the scalars' name, the image blocks and their
+    descriptions of the leaves ``mine`` (this rank's), read here and only here; ``error``
+    the text of a user error instead (every rank then agrees to stop)."""
+    from ..data.blocks import Leaf, choose_block_scalars, image_blocks
+    from .multiblock import BlockInfo, MultiblockError, read_leaf
+
+    name = None
+    blocks, infos = [], []
+    try:
+        read = [(leaf, read_leaf(leaf, vtm)) for leaf in mine]
+        kept = [(leaf, data) for leaf, data in read if data.GetNumberOfPoints() and data.GetNumberOfCells()]
+        if kept:
+            name, use_cell, chosen, missing = choose_block_scalars([Leaf(leaf.path, data) for leaf, data in kept],
+                                                                   args.scalars)
+            if missing:
+                raise MultiblockError(f"blocks {missing} lack scalars {name!r}: python -m pv_hdrvol.parallel renders "
+                                      f"blocks that all have them; {hint}")
+            if use_cell:
+                raise MultiblockError(f"scalars {name!r} are cell data: python -m pv_hdrvol.parallel renders the "
+                                      f"point data of .vtm blocks (blocks of cell data do not share points); {hint}")
+            blocks = image_blocks(chosen, name, False)
+            files = {leaf.path: leaf.file for leaf, _ in kept}
+            infos = [BlockInfo(b.path, str(files[b.path]), tuple(b.origin.tolist()), tuple(b.spacing.tolist()),
+                               tuple(int(n) for n in b.values.shape[::-1])) for b in blocks]
+    except (UserError, MultiblockError, ValueError, TypeError) as exc:
+        return name, blocks, infos, str(exc)
+    return name, blocks, infos, None
+
+
+def _write_multiblock_image(args, comm, image, output, camera, size, every, per_rank, started):
+    """Rank 0: the multiblock render's metadata, the file and the lines it prints."""
+    import time
+
+    vtm = args.volume
     image.metadata["source_file"] = str(vtm)
     image.metadata["blocks"] = {"kind": "grid", "rendered": [i.path for i in every]}
     image.metadata["parallel"] = {"ranks": comm.size, "blocks": len(every), "per_rank": per_rank,
@@ -352,7 +372,6 @@ def _render_multiblock(args, comm):
         print(f"  rank {s['rank']}: {s['threads']} thread{'s' if s['threads'] != 1 else ''} ({s['threads_reason']}), "
               f"{len(s['blocks'])} block{'s' if len(s['blocks']) != 1 else ''} read and rendered, render "
               f"{s['render_seconds']:.3f} s, composite {s['composite_seconds']:.3f} s")
-    return 0
 
 
 def _render_store(args, comm):

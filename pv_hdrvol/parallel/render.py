@@ -213,23 +213,7 @@ def _render(volume, tf, camera, size, pof, bound, comm, curve, block_size, thres
     if opts.blending != "composite":
         raise ValueError(f"render_parallel composites blocks front to back: blending='composite' only; got "
                          f"{opts.blending!r}")
-    if bound is not None:
-        from ..culling.bound import OcclusionBound
-
-        if pof is not None:
-            raise ValueError("render_parallel takes pof= or bound=, not both")
-        if not isinstance(bound, OcclusionBound):
-            raise TypeError(f"bound must be an OcclusionBound; got {type(bound).__name__}")
-        if has_clip(opts):
-            raise ValueError("bound= culls blocks hidden behind the whole volume, which clip_planes= and crop_box= "
-                             "may cut away (the hidden blocks would show): render a clipped volume without bound=")
-    if pof is not None:
-        if not isinstance(pof, PlenopticOpacity):
-            raise TypeError(f"pof must be a PlenopticOpacity; got {type(pof).__name__}")
-        pof.check_volume(volume)
-        if has_clip(opts):
-            raise ValueError("pof= culls blocks hidden behind the whole volume, which clip_planes= and crop_box= may "
-                             "cut away (the hidden blocks would show): render a clipped volume without pof=")
+    _check_culling(volume, opts, pof, bound)
     bs = as_int("block_size", block_size if block_size is not None else (pof.block_size if pof else 16), low=2)
     if pof is not None and bs != pof.block_size:
         raise ValueError(f"block_size {bs} differs from the POF's ({pof.block_size})")
@@ -242,23 +226,7 @@ def _render(volume, tf, camera, size, pof, bound, comm, curve, block_size, thres
 
     # -- visibility: this rank's tile, then the union over ranks
     t = time.perf_counter()
-    if pof is not None:
-        from ..culling.cull import Culling
-
-        k = Culling(pof, threshold=threshold).weights_for(plan.tf, opts, float(np.min(volume.spacing)))
-        mine = visible_blocks(pof, volume, camera, size, k, threshold=threshold, window=tile).visible
-    else:
-        bases = plan.tf.bases if isinstance(plan.tf, TransferFunctionFamily) else [plan.tf]
-        family = TransferFunctionFamily(bases, None if not isinstance(plan.tf, TransferFunctionFamily) else plan.tf.k)
-        sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
-        mine = _nonempty(np.asarray(volume.values, dtype=np.float64), shape, bs, sigma, family).any(axis=-1)
-    if bound is not None:  # union over tiles of what rays sample, and of what they need
-        needed, met, _ = bound.blocks(volume, plan.tf, camera, size, opts, bs, window=tile)
-        votes = comm.allgather(np.stack([mine.reshape(-1), needed.reshape(-1), met.reshape(-1)]))
-        mine_any, needed_any, met_any = np.logical_or.reduce(votes)
-        visible = mine_any & ~(met_any & ~needed_any)
-    else:
-        visible = np.logical_or.reduce(comm.allgather(mine.reshape(-1)))
+    visible = _visible_blocks(plan, volume, camera, size, pof, bound, comm, shape, bs, tile, threshold)
     t_cull = time.perf_counter() - t
 
     # -- render this rank's visible blocks, each over its own rectangle
@@ -301,24 +269,81 @@ def _render(volume, tf, camera, size, pof, bound, comm, curve, block_size, thres
         for (col, row, w, h), (part, _) in zip(tiles, gathered):
             rgba[row:row + h, col:col + w] = part
         per_rank = [s for _, s in gathered]
-        # the keys of a single pass's metadata (GridPlan.execute), so that tools reading
-        # one read the other
-        meta = {"renderer": "pv_hdrvol parallel grid ray caster", "scalars": volume.name,
-                "precision": opts.precision, "step_voxels": opts.step, "step_world": plan.step_world,
-                "global_alpha": opts.global_alpha, "opacity_unit_distance": plan.unit,
-                "termination": opts.termination, "depth_threshold": opts.depth_threshold,
-                "transfer_function": repr(plan.tf), "camera": repr(camera),
-                "settings": settings_metadata(plan.tf, camera, size, opts, cull=pof if bound is None else bound),
-                "samples": int(sum(s["samples"] for s in per_rank)),
-                "parallel": {"ranks": n_ranks, "curve": curve, "block_size": bs, "blocks": int(np.prod(shape)),
-                             "visible": int(visible.sum()), "culled_by_pof": pof is not None,
-                             "culled_by_bound": bound is not None,
-                             "threshold": threshold, "per_rank": per_rank,
-                             "seconds": time.perf_counter() - t_start}}
+        meta = _parallel_metadata(plan, volume, camera, size, pof, bound, curve, bs, shape, visible, threshold,
+                                  per_rank, t_start)
         image = HDRImage(rgba, np.full((size[1], size[0]), np.inf), metadata=meta)
     if root is None:
         image = comm.bcast(image, root=0)
     return image
+
+
+def _check_culling(volume, opts, pof, bound):
+    """Refuse culling that cannot apply: ``pof=`` and ``bound=`` together, either of the
+    wrong type or with clip planes or a crop box (which may cut the occluders away), a
+    POF of another volume."""
+    if bound is not None:
+        from ..culling.bound import OcclusionBound
+
+        if pof is not None:
+            raise ValueError("render_parallel takes pof= or bound=, not both")
+        if not isinstance(bound, OcclusionBound):
+            raise TypeError(f"bound must be an OcclusionBound; got {type(bound).__name__}")
+        if has_clip(opts):
+            raise ValueError("bound= culls blocks hidden behind the whole volume, which clip_planes= and crop_box= "
+                             "may cut away (the hidden blocks would show): render a clipped volume without bound=")
+    if pof is not None:
+        if not isinstance(pof, PlenopticOpacity):
+            raise TypeError(f"pof must be a PlenopticOpacity; got {type(pof).__name__}")
+        pof.check_volume(volume)
+        if has_clip(opts):
+            raise ValueError("pof= culls blocks hidden behind the whole volume, which clip_planes= and crop_box= may "
+                             "cut away (the hidden blocks would show): render a clipped volume without pof=")
+
+
+def _visible_blocks(plan, volume, camera, size, pof, bound, comm, shape, bs, tile, threshold):
+    """The blocks (flat, ``shape`` of ``bs`` points a side) any rank's tile may show:
+    this rank's tile's non-empty blocks (or those its POF leaves visible), less those the
+    occlusion bound hides, united over the ranks."""
+    opts = plan.options
+    if pof is not None:
+        from ..culling.cull import Culling
+
+        k = Culling(pof, threshold=threshold).weights_for(plan.tf, opts, float(np.min(volume.spacing)))
+        mine = visible_blocks(pof, volume, camera, size, k, threshold=threshold, window=tile).visible
+    else:
+        bases = plan.tf.bases if isinstance(plan.tf, TransferFunctionFamily) else [plan.tf]
+        family = TransferFunctionFamily(bases, None if not isinstance(plan.tf, TransferFunctionFamily) else plan.tf.k)
+        sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
+        mine = _nonempty(np.asarray(volume.values, dtype=np.float64), shape, bs, sigma, family).any(axis=-1)
+    if bound is not None:  # union over tiles of what rays sample, and of what they need
+        needed, met, _ = bound.blocks(volume, plan.tf, camera, size, opts, bs, window=tile)
+        votes = comm.allgather(np.stack([mine.reshape(-1), needed.reshape(-1), met.reshape(-1)]))
+        mine_any, needed_any, met_any = np.logical_or.reduce(votes)
+        visible = mine_any & ~(met_any & ~needed_any)
+    else:
+        visible = np.logical_or.reduce(comm.allgather(mine.reshape(-1)))
+    return visible
+
+
+def _parallel_metadata(plan, volume, camera, size, pof, bound, curve, bs, shape, visible, threshold, per_rank,
+                       t_start):
+    """The parallel render's metadata on the root: a single pass's keys and the ranks'."""
+    opts = plan.options
+    # the keys of a single pass's metadata (GridPlan.execute), so that tools reading
+    # one read the other
+    meta = {"renderer": "pv_hdrvol parallel grid ray caster", "scalars": volume.name,
+            "precision": opts.precision, "step_voxels": opts.step, "step_world": plan.step_world,
+            "global_alpha": opts.global_alpha, "opacity_unit_distance": plan.unit,
+            "termination": opts.termination, "depth_threshold": opts.depth_threshold,
+            "transfer_function": repr(plan.tf), "camera": repr(camera),
+            "settings": settings_metadata(plan.tf, camera, size, opts, cull=pof if bound is None else bound),
+            "samples": int(sum(s["samples"] for s in per_rank)),
+            "parallel": {"ranks": len(per_rank), "curve": curve, "block_size": bs, "blocks": int(np.prod(shape)),
+                         "visible": int(visible.sum()), "culled_by_pof": pof is not None,
+                         "culled_by_bound": bound is not None,
+                         "threshold": threshold, "per_rank": per_rank,
+                         "seconds": time.perf_counter() - t_start}}
+    return meta
 
 
 def _default_on_root(comm, volume):

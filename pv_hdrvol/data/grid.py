@@ -410,13 +410,19 @@ def _image_array(dataset, scalars, preference):
         origin = origin + 0.5 * spacing * (np.array(dims) > 1)
     else:
         shape = dims[::-1]
-    if min(shape) < 2:
-        # as volume_from_array refuses 2-D arrays: such an image has no thickness, so
-        # every render of it would be empty
-        got = f"{shape[::-1]} cells of cell data {scalars!r}" if use_cell else f"dimensions {dims}"
-        raise ValueError(f"image data must be 3-D, with at least 2 {'cells' if use_cell else 'points'} along "
-                         f"every axis; got {got}: a 2-D image or a single voxel has no thickness to render")
+    # as volume_from_array refuses 2-D arrays: such an image has no thickness, so every
+    # render of it would be empty
+    _check_thickness(shape, dims, use_cell, scalars, "image data", "a 2-D image or a single voxel")
     return arr.reshape(shape), spacing, origin, scalars
+
+
+def _check_thickness(shape, dims, use_cell, scalars, kind, flat):
+    """Refuse a dataset with fewer than 2 points (cells, for cell data) along an axis of
+    its array's ``shape`` (z, y, x): ``kind`` names the dataset, ``flat`` what it is."""
+    if min(shape) < 2:
+        got = f"{shape[::-1]} cells of cell data {scalars!r}" if use_cell else f"dimensions {dims}"
+        raise ValueError(f"{kind} must be 3-D, with at least 2 {'cells' if use_cell else 'points'} along "
+                         f"every axis; got {got}: {flat} has no thickness to render")
 
 
 def _is_rectilinear(dataset):
@@ -444,10 +450,7 @@ def _rectilinear_array(dataset, scalars, preference):
         shape = tuple(max(d - 1, 1) for d in dims)[::-1]
     else:
         shape = dims[::-1]
-    if min(shape) < 2:
-        got = f"{shape[::-1]} cells of cell data {scalars!r}" if use_cell else f"dimensions {dims}"
-        raise ValueError(f"a rectilinear grid must be 3-D, with at least 2 {'cells' if use_cell else 'points'} "
-                         f"along every axis; got {got}: a 2-D grid has no thickness to render")
+    _check_thickness(shape, dims, use_cell, scalars, "a rectilinear grid", "a 2-D grid")
     return arr.reshape(shape), tuple(coords), scalars
 
 

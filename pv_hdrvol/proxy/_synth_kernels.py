@@ -20,7 +20,7 @@ import math
 import numba
 import numpy as np
 
-from .._jit import parallel_kernel
+from .._jit import kernel, parallel_kernel
 from ._kernels import _scaled
 
 #: pixels per chunk of ``predict_colors``
@@ -98,6 +98,17 @@ def predict_colors(atten, own, entry, scale, centroids, colors, jac, out_rgb, ou
                 out_rgb[pix, ch] = v
 
 
+@kernel
+def _neighbour(row, col, dr, dc, height, width):
+    """The pixel index of ``(row + dr, col + dc)``, a neighbour of ``(row, col)``; -1 for
+    the pixel itself or one outside the image."""
+    r2 = row + dr
+    c2 = col + dc
+    if (dr == 0 and dc == 0) or r2 < 0 or c2 < 0 or r2 >= height or c2 >= width:
+        return -1
+    return r2 * width + c2
+
+
 @parallel_kernel
 def splat_slabs(plane, lateral, fwd, dist_scale, entry, own, atten, cam, width, height, fill_min, passes, jump,
                 out_z, out_own, out_atten):
@@ -160,11 +171,10 @@ def splat_slabs(plane, lateral, fwd, dist_scale, entry, own, atten, cam, width, 
                     front = math.inf
                     for dr in range(-1, 2):
                         for dc in range(-1, 2):
-                            r2 = rr + dr
-                            c2 = cc + dc
-                            if (dr == 0 and dc == 0) or r2 < 0 or c2 < 0 or r2 >= height or c2 >= width:
+                            q2 = _neighbour(rr, cc, dr, dc, height, width)
+                            if q2 < 0:
                                 continue
-                            v = z0[r2 * width + c2]
+                            v = z0[q2]
                             if v < math.inf:
                                 count += 1
                                 if v < front:
@@ -177,11 +187,9 @@ def splat_slabs(plane, lateral, fwd, dist_scale, entry, own, atten, cam, width, 
                     m = 0
                     for dr in range(-1, 2):
                         for dc in range(-1, 2):
-                            r2 = rr + dr
-                            c2 = cc + dc
-                            if (dr == 0 and dc == 0) or r2 < 0 or c2 < 0 or r2 >= height or c2 >= width:
+                            q2 = _neighbour(rr, cc, dr, dc, height, width)
+                            if q2 < 0:
                                 continue
-                            q2 = r2 * width + c2
                             v = z0[q2]
                             if v < math.inf and v - front <= jump:
                                 sz += v

@@ -467,10 +467,8 @@ def unsharp_occlusion(depth, pitch, *, radius=8, strength=1.0):
 
     Parameters
     ----------
-    depth : array_like, shape (rows, cols), float
-        Depth proxy (world units, non-finite at misses). Not modified.
-    pitch : float
-        World size of a pixel, ``> 0``.
+    depth, pitch
+        As :func:`ambient_occlusion`: the depth proxy (not modified) and a pixel's world size.
     radius : int, optional
         The Gaussian's standard deviation is ``radius / 2`` pixels (default 8); also
         the normalising length, as in :func:`ambient_occlusion`.

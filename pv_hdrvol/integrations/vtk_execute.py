@@ -23,9 +23,13 @@ renders: collective, an error is raised on every process), ``prepare`` (this pro
 or the image as it is) and the output (the image, or an empty output: an aborted render,
 a piece other than 0).
 
-An execution reads the algorithm's settings through its getters and keeps what
-survives executions (plans, volumes, moved cells, open stores) in its
-:class:`ExecutionState`.
+An execution reads the algorithm's settings through its getters and three hooks of
+the class (``_scalars_to_render``: the array chosen, ``_transfer_function``: the
+function set or made of a lookup table, ``_should_abort``), reports through
+``UpdateProgress``/``SetProgressText``, and keeps what survives executions (plans,
+volumes, moved cells, open stores, the last camera) in the algorithm's
+:class:`ExecutionState`. A new kind of input is a new entry of :data:`KINDS` (and a
+branch of :func:`route`), not a copy of these steps.
 """
 from __future__ import annotations
 

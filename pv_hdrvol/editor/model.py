@@ -185,21 +185,10 @@ class TransferFunctionModel(EditorDisplay):
             callback(what)
 
     # -- the function -----------------------------------------------------------------
-    @property
-    def scale(self):
-        return self._state.scale
-
-    @property
-    def linthresh(self):
-        return self._state.linthresh
-
-    @property
-    def color_space(self):
-        return self._state.color_space
-
-    @property
-    def global_alpha(self):
-        return self._state.global_alpha
+    scale = property(lambda self: self._state.scale, doc="The function's axis: linear, log or symlog.")
+    linthresh = property(lambda self: self._state.linthresh, doc="A symlog axis's linear threshold.")
+    color_space = property(lambda self: self._state.color_space, doc="Where colours interpolate: rgb or hsv.")
+    global_alpha = property(lambda self: self._state.global_alpha, doc="The opacity's overall multiplier.")
 
     @property
     def range(self):

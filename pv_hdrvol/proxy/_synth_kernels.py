@@ -99,9 +99,11 @@ def predict_colors(atten, own, entry, scale, centroids, colors, jac, out_rgb, ou
 
 
 @kernel
-def _neighbour(row, col, dr, dc, height, width):
-    """The pixel index of ``(row + dr, col + dc)``, a neighbour of ``(row, col)``; -1 for
-    the pixel itself or one outside the image."""
+def _neighbour(row, col, nb, height, width):
+    """The pixel index of neighbour ``nb`` (0-8, row by row) of ``(row, col)`` in its 3 x 3
+    neighbourhood; -1 for the pixel itself (4) or one outside the image."""
+    dr = nb // 3 - 1
+    dc = nb % 3 - 1
     r2 = row + dr
     c2 = col + dc
     if (dr == 0 and dc == 0) or r2 < 0 or c2 < 0 or r2 >= height or c2 >= width:
@@ -169,33 +171,31 @@ def splat_slabs(plane, lateral, fwd, dist_scale, entry, own, atten, cam, width, 
                         continue
                     count = 0
                     front = math.inf
-                    for dr in range(-1, 2):
-                        for dc in range(-1, 2):
-                            q2 = _neighbour(rr, cc, dr, dc, height, width)
-                            if q2 < 0:
-                                continue
-                            v = z0[q2]
-                            if v < math.inf:
-                                count += 1
-                                if v < front:
-                                    front = v
+                    for nb in range(9):
+                        q2 = _neighbour(rr, cc, nb, height, width)
+                        if q2 < 0:
+                            continue
+                        v = z0[q2]
+                        if v < math.inf:
+                            count += 1
+                            if v < front:
+                                front = v
                     if count < fill_min:
                         continue
                     sz = 0.0
                     so = 0.0
                     sa = 0.0
                     m = 0
-                    for dr in range(-1, 2):
-                        for dc in range(-1, 2):
-                            q2 = _neighbour(rr, cc, dr, dc, height, width)
-                            if q2 < 0:
-                                continue
-                            v = z0[q2]
-                            if v < math.inf and v - front <= jump:
-                                sz += v
-                                so += o0[q2]
-                                sa += a0[q2]
-                                m += 1
+                    for nb in range(9):
+                        q2 = _neighbour(rr, cc, nb, height, width)
+                        if q2 < 0:
+                            continue
+                        v = z0[q2]
+                        if v < math.inf and v - front <= jump:
+                            sz += v
+                            so += o0[q2]
+                            sa += a0[q2]
+                            m += 1
                     z[q] = sz / m
                     o[q] = so / m
                     a[q] = sa / m

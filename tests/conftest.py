@@ -12,7 +12,7 @@ import re
 import pytest
 
 #: tests/paraview/ runs inside ParaView's pvbatch (tests/paraview/run.py sets
-#: PV_HDRVOL_IN_PARAVIEW); the main suite runs it from tests/test_paraview.py instead.
+#: PV_HDRVOL_IN_PARAVIEW); the main suite runs it from tests/integrations/test_paraview.py instead.
 collect_ignore = [] if os.environ.get("PV_HDRVOL_IN_PARAVIEW") else ["paraview"]
 
 #: Root of the repository (the folder holding pyproject.toml).

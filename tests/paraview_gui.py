@@ -1,7 +1,7 @@
 """Drive ParaView's GUI as a person does: real X events (XTest through ``xdotool``) on a
 private Xvfb, screenshots of the X screen (ImageMagick's ``import``).
 
-Used by tests/test_paraview.py from the main suite's interpreter (not inside ParaView).
+Used by tests/integrations/test_paraview.py from the main suite's interpreter (not inside ParaView).
 What the GUI holds is read back the way a user would: typed into View > Python Shell,
 which writes files the test reads. Coordinates are those of ParaView 5.11's default
 layout (``--dr``: no saved settings) on a 1280x1024 screen; the Apply button and the

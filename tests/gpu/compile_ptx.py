@@ -3,7 +3,7 @@ capability 9.0 (an H100/H200), with no GPU and no driver: numba-cuda types and
 lowers the whole kernel and NVVM compiles it, so what only the real CUDA target
 rejects (an overload it cannot type, a construct with no CUDA lowering) fails here.
 
-Run as a script (tests/test_gpu.py runs it in a subprocess, without the simulator):
+Run as a script (tests/gpu/test_gpu.py runs it in a subprocess, without the simulator):
 prints one line per variant, ``<variant> <PTX bytes> <seconds>``.
 """
 import sys

@@ -1,4 +1,4 @@
-"""Render the cases of tests/test_gpu.py with device="cuda" under numba-cuda's CUDA
+"""Render the cases of tests/gpu/test_gpu.py with device="cuda" under numba-cuda's CUDA
 simulator and save them for the test to compare with the CPU's renders.
 
 Run with NUMBA_ENABLE_CUDASIM=1 (the simulator is chosen when numba.cuda is first

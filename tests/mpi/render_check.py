@@ -2,7 +2,7 @@
 ranks equals the serial block-wise render bit for bit, and the single-pass render to
 rounding; each rank's box rendered as one piece (``render_in_pieces``, the command
 line's path without ``--pof``) equals the single-pass render to rounding; printed by
-rank 0 as ``OK ...`` lines (tests/test_parallel.py reads them).
+rank 0 as ``OK ...`` lines (tests/parallel/test_parallel.py reads them).
 Any failure raises, and the whole job aborts (MPI.COMM_WORLD.Abort), never hangs."""
 import os
 import sys
@@ -28,7 +28,7 @@ def scene():
 
 def main():
     comm = MPI.COMM_WORLD
-    if os.environ.get("PV_HDRVOL_FAIL_RANK") == str(comm.rank):  # tests/test_parallel.py: a failing rank
+    if os.environ.get("PV_HDRVOL_FAIL_RANK") == str(comm.rank):  # tests/parallel/test_parallel.py: a failing rank
         raise RuntimeError(f"rank {comm.rank} fails on purpose")
     volume, tf = scene()
     camera = hv.Camera.fit(volume.bounds, "iso", parallel_projection=True)

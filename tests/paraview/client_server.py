@@ -4,7 +4,7 @@
 The plugin is loaded on both sides (the filter runs on the server, the links and the
 colour map are set by the client); the filter takes the array's colour map and the
 view's camera, and the image fetched to the client equals ``pv_hdrvol.render`` of the
-file with that colour map. Exits non-zero on failure. Run by tests/test_paraview.py.
+file with that colour map. Exits non-zero on failure. Run by tests/integrations/test_paraview.py.
 """
 import os
 import sys

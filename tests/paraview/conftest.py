@@ -19,7 +19,7 @@ def plugin():
     # minutes of compiling ("Fatal Python error: Aborted" in CreateView), which never
     # happened locally; this keeps the checks off that path and fails at once if X or
     # OpenGL is missing. (Not reproduced here with a cold numba cache, bounds checking and
-    # MALLOC_CHECK_=3; tests/test_paraview.py now prints the text before such a crash.)
+    # MALLOC_CHECK_=3; tests/integrations/test_paraview.py now prints the text before such a crash.)
     simple.Delete(simple.CreateView("RenderView"))
     ns = {"__name__": "pv_hdrvol_checks"}  # LoadPlugin fills globals() when given an empty namespace
     simple.LoadPlugin(PLUGIN, ns=ns)

@@ -1,6 +1,6 @@
 """Load the plugin and leave: one short line per process saying whether the plugin
 named a foreign mpiexec while it loaded (short lines: the processes share the pipe).
-Run by tests/test_paraview.py under an mpiexec that is not ParaView's MPI's, and under
+Run by tests/integrations/test_paraview.py under an mpiexec that is not ParaView's MPI's, and under
 Open MPI's."""
 import os
 

@@ -9,7 +9,7 @@ tetrahedral mesh, rank 0 reads and renders everything, bit for bit ``pv_hdrvol.r
 No rank renders a piece as if it were the whole. A level of a multiresolution store
 (``$PV_HDRVOL_MPI_STORE``) renders as the whole store, out of core, on rank 0. Exits
 non-zero on any rank that finds
-otherwise. Run by tests/test_paraview.py with 2 and 3 ranks.
+otherwise. Run by tests/integrations/test_paraview.py with 2 and 3 ranks.
 """
 import os
 import sys

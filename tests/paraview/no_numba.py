@@ -1,6 +1,6 @@
 """Loading the plugin where ParaView's Python has no numba must not break ParaView.
 
-Run by tests/test_paraview.py under pvbatch with a PYTHONPATH whose ``numba`` fails to
+Run by tests/integrations/test_paraview.py under pvbatch with a PYTHONPATH whose ``numba`` fails to
 import. The plugin must load without an exception, say why in the output window, and
 ParaView must go on working.
 """

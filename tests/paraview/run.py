@@ -4,7 +4,7 @@
 
 with ``pv-hdrvol paraview``'s environment (the shim on PYTHONPATH). ParaView's Python
 is Debian's /usr/bin/python3 here; only the source tree is added to its path.
-``tests/test_paraview.py`` runs this from the main suite.
+``tests/integrations/test_paraview.py`` runs this from the main suite.
 """
 import os
 import sys

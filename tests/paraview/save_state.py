@@ -1,6 +1,6 @@
 """Save a ParaView state with HDR Volume Render shown in a render view, as a pvbatch
 user would: ``pvbatch save_state.py OUT.pvsm`` (plugin on PV_PLUGIN_PATH, engine from
-$PV_HDRVOL_DATA). tests/test_paraview.py loads it in the GUI."""
+$PV_HDRVOL_DATA). tests/integrations/test_paraview.py loads it in the GUI."""
 import os
 import sys
 

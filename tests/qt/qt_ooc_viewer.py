@@ -5,7 +5,7 @@ purpose) until converged -- bit for bit the waiting render -- and the status bar
 which levels each frame drew; a drag renders coarse again, then refines; what the
 out-of-core path cannot do yet (the lens, the probe's data value) is off and says so.
 
-Run by tests/test_viewer_qt.py under xvfb-run (see tests/qt/qt_viewer.py).
+Run by tests/viewer/test_viewer_qt.py under xvfb-run (see tests/qt/qt_viewer.py).
 """
 import sys
 import threading

@@ -1,7 +1,7 @@
 """The proxy viewer in a real window under Xvfb (pytest-qt): each control gives the
 image ProxySet.synthesize gives for the settings it stands for, bit for bit.
 
-Run by tests/test_viewer_qt.py under xvfb-run (see there).
+Run by tests/viewer/test_viewer_qt.py under xvfb-run (see there).
 """
 import numpy as np
 import pytest

@@ -1,7 +1,7 @@
 """The Qt viewer for real: a window under Xvfb driven by synthetic mouse and key
 events (pytest-qt), asserting on the rendered pixels.
 
-Run by tests/test_viewer_qt.py under xvfb-run (see there); not collected otherwise
+Run by tests/viewer/test_viewer_qt.py under xvfb-run (see there); not collected otherwise
 (file names qt_*.py). By hand: ``xvfb-run -a python -m pytest -c /dev/null --rootdir .
 tests/qt/qt_viewer.py`` (pyproject.toml's options switch pytest-qt off for the main
 suite). Renders in float32, the viewer's default, whose kernels the main suite compiles

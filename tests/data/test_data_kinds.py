@@ -152,7 +152,7 @@ def test_vtk_algorithm_renders_as_render(make):
 
 def test_the_data_types_page_prints_what_it_says(tmp_path, monkeypatch):
     from conftest import REPO_ROOT
-    from test_docs import python_blocks, run_blocks
+    from docblocks import python_blocks, run_blocks
 
     page = REPO_ROOT / "docs" / "data_types.md"
     blocks, _ = python_blocks(page)

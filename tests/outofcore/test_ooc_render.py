@@ -315,7 +315,7 @@ def test_the_out_of_core_page_prints_what_it_says(tmp_path, monkeypatch):
     import re
 
     from conftest import REPO_ROOT
-    from test_docs import python_blocks, run_blocks
+    from docblocks import python_blocks, run_blocks
 
     page = REPO_ROOT / "docs" / "out_of_core.md"
     blocks, _ = python_blocks(page)

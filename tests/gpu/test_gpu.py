@@ -23,8 +23,8 @@ from pv_hdrvol.params import RenderOptions
 from pv_hdrvol.raycast.grid import GridPlan
 
 HERE = pathlib.Path(__file__).resolve().parent
-SIM = HERE / "gpu" / "sim_renders.py"
-PTX = HERE / "gpu" / "compile_ptx.py"
+SIM = HERE / "sim_renders.py"
+PTX = HERE / "compile_ptx.py"
 #: relative to the CPU image's peak: the issue's bound for float64; float32 measured 1.8e-8
 TOLERANCE = {"float64": 1e-6, "float32": 1e-6}
 
@@ -32,7 +32,7 @@ TOLERANCE = {"float64": 1e-6, "float32": 1e-6}
 def _env(**extra):
     env = dict(os.environ)
     env.pop("NUMBA_ENABLE_CUDASIM", None)
-    env["PYTHONPATH"] = os.pathsep.join([str(HERE.parent)] + [p for p in [env.get("PYTHONPATH")] if p])
+    env["PYTHONPATH"] = os.pathsep.join([str(HERE.parents[1])] + [p for p in [env.get("PYTHONPATH")] if p])
     env.update(extra)
     return env
 

@@ -169,7 +169,7 @@ def test_the_cli_prints_the_warning_on_stderr(tmp_path):
     grid = pv.ImageData(dimensions=(6, 6, 6))
     grid["v"] = np.full(grid.n_points, 2.0)
     grid.save(tmp_path / "const.vti")
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env = {**os.environ, "PYTHONPATH": root, "PYTHONWARNINGS": ""}
     result = subprocess.run([sys.executable, "-m", "pv_hdrvol.integrations.cli", "render", str(tmp_path / "const.vti"),
                              "-o", str(tmp_path / "c.npy"), "--size", "8", "--no-progress"],

@@ -392,7 +392,7 @@ def test_the_paraview_plugin_calls_only_methods_the_algorithm_has():
     import ast
     import pathlib
 
-    source = (pathlib.Path(__file__).resolve().parents[1] / "paraview_plugin" / "pv_hdrvol_plugin.py").read_text()
+    source = (pathlib.Path(__file__).resolve().parents[2] / "paraview_plugin" / "pv_hdrvol_plugin.py").read_text()
     tree = ast.parse(source)
     plugin = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef) and n.name == "HDRVolumeRender")
     own = {n.name for n in plugin.body if isinstance(n, ast.FunctionDef)}

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import pv_hdrvol as hv
-from conftest import REPO_ROOT, in_ci
+from conftest import REPO_ROOT
+from mpirun import mpi_env as _mpi_env, mpiexec as _mpiexec
 from pv_hdrvol.culling.cull import visible_blocks
 from pv_hdrvol.culling.pof import PlenopticOpacity
 from pv_hdrvol.parallel.comm import rank_threads, threads_for
@@ -237,22 +238,6 @@ def test_pixels_do_not_depend_on_the_thread_count():
     np.testing.assert_array_equal(images[0].rgba, images[1].rgba)
 
 
-def _mpiexec():
-    """The mpiexec beside this Python: the mpich wheel's for pip's mpi4py, Debian's Open
-    MPI one (/usr/bin) for Debian's python3-mpi4py; never a mismatched pair from PATH."""
-    try:
-        import mpi4py  # noqa: F401 (only whether it is there)
-    except ImportError:
-        if in_ci():
-            pytest.fail("mpi4py is missing (pip install -e '.[test]' installs mpi4py and mpich)", pytrace=False)
-        pytest.skip("mpi4py is not installed")
-    path = os.path.join(os.path.dirname(sys.executable), "mpiexec")
-    if not os.access(path, os.X_OK):
-        if in_ci():
-            pytest.fail(f"no mpiexec beside {sys.executable} (the mpich wheel installs one)", pytrace=False)
-        pytest.skip(f"no mpiexec beside {sys.executable}")
-    return path
-
 
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_mpi_ranks_give_the_serial_image_bit_for_bit(ranks):
@@ -421,12 +406,6 @@ def test_command_line_errors_are_one_line_naming_the_file_and_the_fix(tmp_path, 
     assert "--tf" in line and "tf.json' is not a transfer function" in line
 
 
-def _mpi_env(**extra):
-    # Open MPI (Debian's Python uses /usr/bin/mpiexec) refuses root, and more ranks than
-    # cores, without these; MPICH ignores them
-    env = dict(os.environ, PYTHONPATH=str(REPO_ROOT), OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1", **extra)
-    return env
 
 
 def test_mpi_command_line_shares_the_cores_and_gives_the_serial_image(tmp_path, capsys):

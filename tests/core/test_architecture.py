@@ -17,7 +17,7 @@ import pytest
 
 pytestmark = pytest.mark.core
 
-PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "pv_hdrvol"
+PACKAGE = pathlib.Path(__file__).resolve().parents[2] / "pv_hdrvol"
 FACE = "pv_hdrvol"
 #: the front ends, which may use the package's face (``import pv_hdrvol as hv``)
 FRONT_ENDS = ("pv_hdrvol.integrations", "pv_hdrvol.viewer")

@@ -7,7 +7,7 @@ import pytest
 pytestmark = pytest.mark.core
 pytest_plugins = ["pytester"]
 
-CONFTEST = pathlib.Path(__file__).with_name("conftest.py")
+CONFTEST = pathlib.Path(__file__).resolve().parents[1] / "conftest.py"
 
 TESTS = '''
 import pytest

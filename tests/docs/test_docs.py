@@ -4,36 +4,12 @@ Every fenced block whose info string is ``python`` is run, the blocks of one fil
 order in one namespace, in a scratch folder. Blocks marked ``python fragment`` are
 excerpts (names from the surrounding text, a test file's header) and are not run.
 """
-import contextlib
-import io
 import re
 
 import pytest
 
 from conftest import REPO_ROOT
-
-BLOCK = re.compile(r"^```([^\n]*)\n(.*?)^```", re.S | re.M)
-
-
-def python_blocks(path):
-    """The runnable blocks of a Markdown file, and the fragments."""
-    runnable, fragments = [], []
-    for info, code in BLOCK.findall(path.read_text()):
-        words = info.split()
-        if words[:1] == ["python"]:
-            (fragments if "fragment" in words[1:] else runnable).append(code)
-    return runnable, fragments
-
-
-def run_blocks(blocks, tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
-    out = io.StringIO()
-    namespace = {"__name__": "__docs__"}
-    with contextlib.redirect_stdout(out):
-        for code in blocks:
-            exec(compile(code, "<docs>", "exec"), namespace)
-    return out.getvalue()
-
+from docblocks import python_blocks, run_blocks
 
 def test_every_python_block_is_runnable_or_marked_a_fragment():
     docs = [REPO_ROOT / "README.md", *sorted((REPO_ROOT / "docs").glob("*.md"))]

@@ -14,7 +14,7 @@ from pv_hdrvol.outofcore.parallel import render_multiscale_pieces, store_pieces 
 from pv_hdrvol.parallel.pieces import check_tiling  # noqa: E402
 from test_ooc_render import _field  # noqa: E402
 from conftest import REPO_ROOT  # noqa: E402
-from test_parallel import _mpi_env, _mpiexec  # noqa: E402
+from mpirun import mpi_env as _mpi_env, mpiexec as _mpiexec  # noqa: E402
 from thread_comm import run_spmd  # noqa: E402
 
 SIZE = (48, 40)

@@ -15,7 +15,7 @@ cell data spans the cell centres only), cameras equal within 1e-6, images equal.
 parallel command line renders image data only, so it frames an image of cell data.
 
 The Qt viewer needs a display: tests/qt/qt_viewer.py checks it with the same words and
-grid under Xvfb (tests/test_viewer_qt.py).
+grid under Xvfb (tests/viewer/test_viewer_qt.py).
 """
 import dataclasses
 import re
@@ -45,7 +45,7 @@ from pv_hdrvol.viewer.progressive import ProgressiveRenderer  # noqa: E402
 SIZE = (32, 24)
 #: the parallel command line composites its ranks' pieces one after another, with early
 #: ray termination per piece: its image equals the single pass's to this fraction of the
-#: brightest value (tests/test_parallel.py; on one rank, as here, bit for bit)
+#: brightest value (tests/parallel/test_parallel.py; on one rank, as here, bit for bit)
 PARALLEL_TOLERANCE = 2e-6
 
 #: PyVista's words, alone and together (scalars: the grid's second array)

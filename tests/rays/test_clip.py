@@ -216,7 +216,7 @@ def test_the_clipping_page_prints_what_it_says(tmp_path, monkeypatch):
     pytest.importorskip("pyvista")  # hv.datasets makes PyVista grids
 
     from conftest import REPO_ROOT
-    from test_docs import python_blocks, run_blocks
+    from docblocks import python_blocks, run_blocks
 
     page = REPO_ROOT / "docs" / "clipping.md"
     blocks, _ = python_blocks(page)

@@ -425,7 +425,7 @@ def test_sigint_mid_write_leaves_a_store_no_reader_accepts(tmp_path):
         write_multiscale(slow, {str(path)!r}, shape=(5120, 8, 8), dtype="float32", chunk=8, progress_bar=False)
         print("finished")
     """)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.dirname(os.path.dirname(__file__)),
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
                                                        os.environ.get("PYTHONPATH", "")]))
     proc = subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)

@@ -73,3 +73,33 @@ def uindex(i):
     """An index known to be >= 0, as uint64: numba then emits no negative-index
     wraparound (a compare and a conditional move per load)."""
     return np.uint64(i)
+
+
+#: Stubs: plain functions that stand for an implementation numba chooses by the argument
+#: types when a kernel compiles (:func:`compiled_only`), each declared with
+#: :func:`stub_overload`. ``pv_hdrvol.gpu`` resolves every one of them per variant from
+#: this list.
+STUBS = []
+
+
+def compiled_only(fn):
+    """Mark ``fn`` a stub (``fn.compiled_only``): its body only raises; numba compiles the
+    implementation :func:`stub_overload` declares for it."""
+    fn.compiled_only = True
+    return fn
+
+
+def stub_overload(stub, **options):
+    """``numba.extending.overload(stub, **options)`` that also keeps the implementation's
+    generator on the stub (``stub.implementation``) and the stub in :data:`STUBS`."""
+    from numba.extending import overload
+
+    if not getattr(stub, "compiled_only", False):
+        raise TypeError(f"{stub.__qualname__} is not marked compiled_only")
+
+    def register(generator):
+        stub.implementation = generator
+        STUBS.append(stub)
+        return overload(stub, **options)(generator)
+
+    return register

@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from .._jit import kernel
+from .._jit import STUBS, compiled_only, kernel
 from ..raycast import _kernels as K
 from ..raycast._kernels import _march as march, pixel_ray_span, store_pixel  # noqa: F401 (retargeted by name)
 from ..raycast._kernels_ext import _project as project, grid_geometry  # noqa: F401
@@ -124,43 +124,31 @@ def _light_tuple(shading, lights, gvec):
     return shading, lights, gvec
 
 
+@compiled_only
 def _make_light(shading, lights, gvec):
     """The ``light`` of ``_kernels.lit`` from its three arrays (compiled only: resolved
     per variant to 0 or the tuple; a kernel takes arrays, not a tuple of them)."""
     raise NotImplementedError("compiled only")
 
 
-def _impl(generator, *types):
-    """The Python implementation an ``@overload`` generator returns for these types
-    (positional; trailing arguments it does not look at are ``None``)."""
-    n = generator.__code__.co_argcount
-    return generator(*(types + (None,) * (n - len(types))))
+def _impl(generator, types_by_name):
+    """The Python implementation an ``@overload`` generator returns for the argument
+    types named in ``types_by_name`` (its other arguments ``None``: it does not look)."""
+    names = generator.__code__.co_varnames[:generator.__code__.co_argcount]
+    return generator(*(types_by_name.get(name) for name in names))
 
 
 def _resolve(precision, shaded):
     """Stub -> implementation for the compositing loop of one variant (uniform grid,
-    bricks in memory, plain sampler)."""
+    bricks in memory, plain sampler): every stub of the CPU kernels (``_jit.STUBS``),
+    from its generator given the variant's types by argument name."""
     i64 = numba.types.int64
     marker = numba.types.float64 if precision == "float64" else numba.types.float32
     light = numba.types.Tuple((numba.types.float64[:],) * 3) if shaded else i64
-    array = numba.types.float64[:]
-    return {
-        K._march_loop: _impl(K._march_loop_impl, marker, i64),
-        K._marker_precision: _impl(K._marker_precision_impl, marker),
-        K._start: _impl(K._start_impl, marker),
-        K._accumulate: _impl(K._accumulate_impl, marker),
-        K._opacity: _impl(K._opacity_impl, marker),
-        K._finish: _impl(K._finish_impl, marker),
-        K.stencil: _impl(K._stencil_impl, None, array),
-        K.span_of: _impl(K._span_of_impl, array),
-        K.warp_at: _impl(K._warp_at_impl, i64),
-        K.nominal_end: _impl(K._nominal_end_impl, i64),
-        K.leap_past: _impl(K._leap_past_impl, i64),
-        K.eye_of: _impl(K._eye_of_impl, light),
-        K.lit: _impl(K._lit_impl, light),
-        K._sample: _impl(K._sample_impl, i64),
-        _make_light: _light_tuple if shaded else _no_light,
-    }
+    by_name = {"marker": marker, "sampler": i64, "light": light, "warp": i64, "offs": numba.types.float64[:]}
+    resolved = {stub: _impl(stub.implementation, by_name) for stub in STUBS}
+    resolved[_make_light] = _light_tuple if shaded else _no_light
+    return resolved
 
 
 _built = {}

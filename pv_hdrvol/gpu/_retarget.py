@@ -1,7 +1,7 @@
 """The CPU kernels' own source, compiled for CUDA.
 
 A kernel of ``raycast/`` is a numba CPU dispatcher whose Python function refers to
-other dispatchers and to *stubs* (plain functions that raise "compiled only"), which
+other dispatchers and to *stubs* (plain functions marked ``compiled_only``), which
 numba's ``@overload`` resolves at compile time by the argument types. The CUDA target
 cannot take all of them as they are: numba-cuda's typing fails on overloads declared
 ``inline="always"`` (the stencil, the warp, the lighting), and the CUDA simulator
@@ -59,8 +59,7 @@ class Retarget:
                 glob[name] = self(self._resolve[obj])
             elif isinstance(obj, Dispatcher):
                 glob[name] = self(obj.py_func)
-            elif getattr(obj, "__doc__", None) and "compiled only" in (obj.__doc__ or "") \
-                    and isinstance(obj, types.FunctionType):
+            elif getattr(obj, "compiled_only", False):
                 raise TypeError(f"{fn.__qualname__} calls the overloaded {obj.__qualname__}, which this variant "
                                 "does not resolve")
         closure = fn.__closure__

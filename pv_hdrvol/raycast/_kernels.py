@@ -30,11 +30,10 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numba.extending import overload
 
 from .._jit import (
-    FUSED_JIT_OPTIONS as _FUSED_JIT, IR_INLINE_HELPERS, JIT_OPTIONS as _JIT, fused_kernel, fused_parallel_kernel,
-    inline_kernel, kernel, uindex as _u,
+    FUSED_JIT_OPTIONS as _FUSED_JIT, IR_INLINE_HELPERS, JIT_OPTIONS as _JIT, compiled_only, fused_kernel,
+    fused_parallel_kernel, inline_kernel, kernel, stub_overload, uindex as _u,
 )
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
 from ._shading_kernels import (
@@ -329,6 +328,7 @@ def mip_value(pyr, sampler, x, y, z):
     return v0 + f * (trilinear(pyr, g1[0], g1[1], g1[2], g1[3], g1[4], g1[5], x * s1, y * s1, z * s1) - v0)
 
 
+@compiled_only
 def _sample(sampler, bricks, leap, g, x, y, z):
     """The block radius at voxel position ``(x, y, z)`` and, in a block to sample, the
     value there: ``(radius, ib, jb, kb, v)`` (compiled only).
@@ -347,7 +347,7 @@ def _sample(sampler, bricks, leap, g, x, y, z):
     raise NotImplementedError("compiled only")
 
 
-@overload(_sample, jit_options=_JIT, inline="always")
+@stub_overload(_sample, jit_options=_JIT, inline="always")
 def _sample_impl(sampler, bricks, leap, g, x, y, z):
     # Inlined into the marching loop (as a call per sample, passing arrays, it cost 5-20 %). The
     # plain sampler is written out here, not through another inlined helper: numba's IR
@@ -429,6 +429,7 @@ def _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
 # ``u`` (a bucket holds at most a cell boundary or two), so the cell is found in O(1).
 # Rays stay in nominal coordinates with ``t`` in world units (the map from world to nominal
 # coordinates is affine), so steps are world lengths; only the sample positions move.
+@compiled_only
 def warp_at(warp, base, axis, n, u):
     """The index coordinate (cell ``i`` plus the fraction within it) of nominal voxel
     coordinate ``u`` along ``axis`` (``n`` points, its entries from ``base``): ``u``
@@ -438,7 +439,7 @@ def warp_at(warp, base, axis, n, u):
     raise NotImplementedError("compiled only")
 
 
-@overload(warp_at, jit_options=_FUSED_JIT, inline="always")
+@stub_overload(warp_at, jit_options=_FUSED_JIT, inline="always")
 def _warp_at_impl(warp, base, axis, n, u):
     if isinstance(warp, numba.types.Integer):
         return lambda warp, base, axis, n, u: u
@@ -448,6 +449,7 @@ def _warp_at_impl(warp, base, axis, n, u):
     return warped
 
 
+@compiled_only
 def nominal_end(warp, base, n):
     """The nominal coordinate of an axis's last point (``n`` points, entries from
     ``base``): ``n - 1`` on a uniform grid and on a whole rectilinear one, where a piece of
@@ -455,7 +457,7 @@ def nominal_end(warp, base, n):
     raise NotImplementedError("compiled only")
 
 
-@overload(nominal_end, jit_options=_FUSED_JIT, inline="always")
+@stub_overload(nominal_end, jit_options=_FUSED_JIT, inline="always")
 def _nominal_end_impl(warp, base, n):
     if isinstance(warp, numba.types.Integer):
         return lambda warp, base, n: n - 1.0
@@ -489,12 +491,13 @@ def _warped_exit(cu, base, n, o, inv_d, b, radius, size):
     return math.inf
 
 
+@compiled_only
 def leap_past(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
     """``_leap_to`` on the grid ``warp`` describes (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
-@overload(leap_past, jit_options=_JIT)
+@stub_overload(leap_past, jit_options=_JIT)
 def _leap_past_impl(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
     if isinstance(warp, numba.types.Integer):
         def uniform(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size):
@@ -537,21 +540,25 @@ def sigma_at(sigma, i, f):
 # loop with a runtime branch kept all twelve live and spilled them to the stack on every
 # sample. (numba's IR inlining would also specialise, but numba 0.56 takes minutes to
 # deep-copy the IR of a loop this size.)
+@compiled_only
 def _start(marker):
     """Empty compositing state for the precision ``marker`` stands for (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
+@compiled_only
 def _accumulate(marker, prec, state, a_i, r, g, b):
     """Add one sample (opacity ``a_i``, colour ``r, g, b``) behind ``state`` (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
+@compiled_only
 def _opacity(marker, state):
     """Accumulated opacity of ``state``, float64 (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
+@compiled_only
 def _finish(marker, state):
     """``(r, g, b, alpha)`` of ``state`` as float64 (compiled only)."""
     raise NotImplementedError("compiled only")
@@ -561,7 +568,7 @@ def _is_f32(marker):
     return isinstance(marker, numba.types.Float) and marker.bitwidth == 32
 
 
-@overload(_start, jit_options=_FUSED_JIT)
+@stub_overload(_start, jit_options=_FUSED_JIT)
 def _start_impl(marker):
     if _is_f32(marker):
         def start32(marker):
@@ -574,7 +581,7 @@ def _start_impl(marker):
     return start64
 
 
-@overload(_accumulate, jit_options=_FUSED_JIT)
+@stub_overload(_accumulate, jit_options=_FUSED_JIT)
 def _accumulate_impl(marker, prec, state, a_i, r, g, b):
     if _is_f32(marker):
         def accumulate32(marker, prec, state, a_i, r, g, b):
@@ -607,14 +614,14 @@ def _accumulate_impl(marker, prec, state, a_i, r, g, b):
     return accumulate_emulated
 
 
-@overload(_opacity, jit_options=_FUSED_JIT)
+@stub_overload(_opacity, jit_options=_FUSED_JIT)
 def _opacity_impl(marker, state):
     def opacity(marker, state):
         return np.float64(state[3])
     return opacity
 
 
-@overload(_finish, jit_options=_FUSED_JIT)
+@stub_overload(_finish, jit_options=_FUSED_JIT)
 def _finish_impl(marker, state):
     def finish(marker, state):
         return np.float64(state[0]), np.float64(state[1]), np.float64(state[2]), np.float64(state[3])
@@ -741,19 +748,21 @@ def _edge_gradient(bricks, g, x, y, z):
     return gx, gy, gz
 
 
+@compiled_only
 def eye_of(light, dx, dy, dz):
     """Per ray: the unit direction towards the eye (``_eye``); unused when ``light`` is 0
     (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
+@compiled_only
 def lit(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, linthresh):
     """The colour of a sample under ``light``: ``(r, gg, b)`` unchanged when it is 0, else
     lit by Blinn-Phong (``_shade``) (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
-@overload(eye_of, jit_options=_FUSED_JIT, inline=_LIGHT_INLINE)
+@stub_overload(eye_of, jit_options=_FUSED_JIT, inline=_LIGHT_INLINE)
 def _eye_of_impl(light, dx, dy, dz):
     if isinstance(light, numba.types.Integer):
         return lambda light, dx, dy, dz: (0.0, 0.0, 0.0)
@@ -972,7 +981,7 @@ def _shade(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, 
     return _light_colour(shading, lights, eye, gx, gy, gz, v, r, gg, b, scale, inv_range, linthresh)
 
 
-@overload(lit, jit_options=_FUSED_JIT, inline=_LIGHT_INLINE)
+@stub_overload(lit, jit_options=_FUSED_JIT, inline=_LIGHT_INLINE)
 def _lit_impl(light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, linthresh):
     if isinstance(light, numba.types.Integer):
         return lambda light, eye, bricks, offs, g, x, y, z, v, r, gg, b, scale, inv_range, linthresh: (r, gg, b)
@@ -986,6 +995,7 @@ PAGE_SHIFT = 6
 SLOT_EDGE = (1 << PAGE_SHIFT) + 3
 
 
+@compiled_only
 def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
     """The trilinear value at voxel position ``(x, y, z)`` (clamped to the volume;
     ``xi = int(x)`` ...; ``(ib, jb, kb)`` its empty-space block, ``bx, by`` blocks per
@@ -1010,7 +1020,7 @@ def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, z
     raise NotImplementedError("compiled only")
 
 
-@overload(stencil, jit_options=_FUSED_JIT, inline="always")
+@stub_overload(stencil, jit_options=_FUSED_JIT, inline="always")
 def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
     # no call to another jitted helper in either: see _sample
     if isinstance(offs, numba.types.Array):
@@ -1085,6 +1095,7 @@ def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi,
     return paged
 
 
+@compiled_only
 def span_of(offs, ib, jb, kb, by, bx):
     """Segments a sample in block ``(ib, jb, kb)`` stands for (compiled only): 1 for a
     volume in memory (``offs`` an array); an out-of-core volume's ``offs`` tuple carries
@@ -1092,7 +1103,7 @@ def span_of(offs, ib, jb, kb, by, bx):
     raise NotImplementedError("compiled only")
 
 
-@overload(span_of, jit_options=_FUSED_JIT, inline="always")
+@stub_overload(span_of, jit_options=_FUSED_JIT, inline="always")
 def _span_of_impl(offs, ib, jb, kb, by, bx):
     if isinstance(offs, numba.types.Array):
         return lambda offs, ib, jb, kb, by, bx: 1
@@ -1296,13 +1307,14 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
     return cr, cg, cb, alpha, depth, samples
 
 
+@compiled_only
 def _march_loop(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
                 t1, p, step, scratch, k0, k1, last):
     """``_march_plain`` for the plain sampler, ``_march_in`` for a mip-map sampler (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
-@overload(_march_loop, jit_options=_JIT)
+@stub_overload(_march_loop, jit_options=_JIT)
 def _march_loop_impl(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
                      t0, t1, p, step, scratch, k0, k1, last):
     if isinstance(sampler, numba.types.Integer):
@@ -1321,6 +1333,7 @@ def _march_loop_impl(marker, sampler, light, warp, prec, bricks, offs, table, si
     return mipmapped
 
 
+@compiled_only
 def _marker_precision(marker, p):
     """The precision code of a compositing marker (compiled only): float64 and float32
     markers name their precision at compile time; an integer marker leaves it to
@@ -1328,7 +1341,7 @@ def _marker_precision(marker, p):
     raise NotImplementedError("compiled only")
 
 
-@overload(_marker_precision, jit_options=_JIT, inline="always")
+@stub_overload(_marker_precision, jit_options=_JIT, inline="always")
 def _marker_precision_impl(marker, p):
     if marker == numba.types.float64:
         return lambda marker, p: F64

@@ -181,3 +181,32 @@ def test_every_kernel_variant_compiles_to_ptx_for_compute_capability_9():
     for name, result in lines.items():
         size, seconds = result.split()
         assert int(size) > 10_000, name
+
+
+def test_the_stubs_the_gpu_resolves_are_every_stub_of_the_cpu_kernels():
+    """A stub (a plain function numba compiles through an overload) is marked
+    ``compiled_only`` and declared with ``stub_overload``; the GPU's variants resolve
+    every one of them from that list, none typed by hand. Read with ast: every function
+    of a kernel module whose body only raises is marked."""
+    import ast
+
+    from pv_hdrvol import _jit
+    from pv_hdrvol.gpu import _kernels as G
+    from pv_hdrvol.raycast import _kernels as K
+
+    raising = set()
+    for path in (pathlib.Path(K.__file__).parent).glob("_*kernels*.py"):
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.FunctionDef):
+                body = [s for s in node.body if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant))]
+                if len(body) == 1 and isinstance(body[0], ast.Raise):
+                    raising.add(node.name)
+                    assert any(getattr(d, "id", None) == "compiled_only" for d in node.decorator_list), node.name
+    assert {stub.__name__ for stub in _jit.STUBS} == raising and len(_jit.STUBS) == len(raising) == 14
+    for precision in ("float32", "float64"):
+        for shaded in (False, True):
+            resolved = G._resolve(precision, shaded)
+            assert set(resolved) == set(_jit.STUBS) | {G._make_light}
+            assert all(callable(f) and not getattr(f, "compiled_only", False) for f in resolved.values())
+    with pytest.raises(TypeError, match="is not marked compiled_only"):
+        _jit.stub_overload(lambda x: x)

@@ -28,8 +28,7 @@ CHUNK_SECONDS = 0.25
 # the clock that times the first chunk (tests replace it)
 _clock = time.perf_counter
 
-#: The precision's compile-time marker: each kernel compiles that precision's loop only.
-#: The compositing marker of each precision: its type picks the one loop ``render_tiles`` compiles.
+#: The compositing marker of each precision: its type picks the one loop a kernel compiles.
 MARKERS = {"float64": np.float64(0.0), "float32": np.float32(0.0), "float16": np.int64(0), "uint8": np.int64(0)}
 
 

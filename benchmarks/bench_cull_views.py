@@ -55,7 +55,7 @@ from pv_hdrvol.culling.cull import Culling, visible_blocks
 from pv_hdrvol.culling.pof import PlenopticOpacity, _nonempty
 from pv_hdrvol.culling.reference import ert_oracle, exact_sequential
 from pv_hdrvol.params import RenderOptions
-from pv_hdrvol.raycast.grid import _grid_shape
+from pv_hdrvol.raycast.grid import block_grid_shape
 from pv_hdrvol.parallel.render import render_parallel
 from pv_hdrvol.raycast.grid import as_volume
 
@@ -225,7 +225,7 @@ def measure_bound(name, volume, bases, k, views, size, block_size, groups, r2_vi
     bit-for-bit views, march time."""
     tf = hv.TransferFunction.family(bases, k)
     family = hv.TransferFunctionFamily(bases, k)
-    shape = _grid_shape(volume.dims, block_size)
+    shape = block_grid_shape(volume.dims, block_size)
     sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
     ne = _nonempty(np.asarray(volume.values, dtype=np.float64), shape, block_size, sigma, family).any(axis=-1)
     opts = RenderOptions.from_kwargs(None, termination=TERMINATION)

@@ -432,7 +432,7 @@ class OcclusionBound:
         rectangle's pixels only (a tile of a parallel render: a block is culled where
         the union over tiles of ``met`` holds and that of ``needed`` does not)."""
         from .._validate import as_size
-        from ..raycast.grid import _grid_shape
+        from ..raycast.grid import block_grid_shape
 
         if options.blending != "composite" or options.gradient_opacity is not None:
             raise ValueError("cull=OcclusionBound() applies to blending='composite' without gradient_opacity (it "
@@ -456,7 +456,7 @@ class OcclusionBound:
             r = camera.rays((width, height), window)
             rays = Rays(np.ascontiguousarray((r.origins - origin) * (1.0 / spacing)),
                         np.ascontiguousarray(r.directions * (1.0 / spacing)), r.width, r.height)
-        shape = _grid_shape(volume.dims, block_size)
+        shape = block_grid_shape(volume.dims, block_size)
         hi = np.array(volume.dims, dtype=np.float64) - 1.0
         step = options.step * volume.min_cell_width
         needed, met, t_march = _march(ext, empty, rays, np.zeros(3), hi, float(self.group), float(block_size),

@@ -10,7 +10,7 @@ import numpy as np
 
 from .._validate import as_real
 from ..rays.camera import Camera
-from ..raycast.grid import _grid_shape
+from ..raycast.grid import block_grid_shape
 from . import _kernels as K
 
 #: The paper's threshold: a pixel at accumulated opacity 0.95 counts as opaque.
@@ -41,7 +41,7 @@ def block_boxes(volume, block_size, blocks=None):
     """``(lo, hi)`` (B, 3) world boxes of blocks of ``block_size`` cells (x, y, z), for the
     flat z-y-x block indices ``blocks`` (default all): block ``(k, j, i)`` spans points
     ``i * block_size`` to ``min((i + 1) * block_size, nx - 1)`` along x, and so on."""
-    shape = _grid_shape(volume.dims, block_size)
+    shape = block_grid_shape(volume.dims, block_size)
     flat = np.arange(int(np.prod(shape))) if blocks is None else np.asarray(blocks, dtype=np.int64).reshape(-1)
     lo_pt = np.stack(np.unravel_index(flat, shape), axis=-1)[:, ::-1] * block_size
     hi_pt = np.minimum(lo_pt + block_size, np.array(volume.dims) - 1)

@@ -171,7 +171,7 @@ class PlenopticOpacity:
         ``sets=True`` also keeps the paper's POF sets (``p**2`` tables per block, the
         ``method="sets"`` of :meth:`block_opacity`); they cost no extra rendering.
         """
-        from ..raycast.grid import _grid_shape, as_volume
+        from ..raycast.grid import block_grid_shape, as_volume
 
         volume = as_volume(volume)
         bases = _as_bases(bases)
@@ -194,7 +194,7 @@ class PlenopticOpacity:
         axis_inv = 1.0 / (a1 - a0) if a1 > a0 else 0.0
         values = np.ascontiguousarray(volume.values, dtype=np.float64)
         dims = volume.dims
-        shape = _grid_shape(dims, block_size)
+        shape = block_grid_shape(dims, block_size)
         nonempty = _nonempty(values, shape, block_size, sigma, family)
         theta, phi = view_angles()
         frames = view_frames(direction(theta[:, None], phi[None, :]).reshape(-1, 3))

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays.camera import Camera
-from ..raycast.grid import _grid_shape
+from ..raycast.grid import block_grid_shape
 from .cull import DEFAULT_THRESHOLD, block_boxes, single_block_mask, visibility_order
 
 
@@ -44,7 +44,7 @@ def ert_oracle(volume, tf, camera, size, *, block_size=16, threshold=DEFAULT_THR
     t1 = np.nan_to_num(np.maximum(ta, tb), nan=np.inf).min(axis=1)
     depth = image.depth.reshape(-1)
     end = np.minimum(t1, depth)
-    shape = _grid_shape(volume.dims, block_size)
+    shape = block_grid_shape(volume.dims, block_size)
     marked = np.zeros(shape, dtype=bool)
     for r in np.nonzero(t1 > t0)[0]:
         n = int(np.ceil((t1[r] - t0[r]) / step_world))
@@ -66,7 +66,7 @@ def exact_sequential(volume, tf, camera, size, *, block_size=16, threshold=DEFAU
     if not isinstance(camera, Camera) or not camera.parallel_projection:
         raise ValueError("exact_sequential needs an orthographic Camera")
     volume = as_volume(volume)
-    shape = _grid_shape(volume.dims, block_size)
+    shape = block_grid_shape(volume.dims, block_size)
     nonempty = np.ones(shape, dtype=bool) if nonempty is None else nonempty
     width, height = (size, size) if np.isscalar(size) else size
     cam = camera.kernel_array((width, height))

@@ -212,7 +212,7 @@ class TransferFunction:
             ops = np.repeat(ops, 2)
         a0, a1 = scale_forward([vmin, vmax], scale, linthresh)
         axis = np.linspace(a0, a1, n)
-        values = _scale_inverse(axis, scale, linthresh)
+        values = scale_inverse(axis, scale, linthresh)
         values[0], values[-1] = vmin, vmax
         colors = colormap_rgb(cmap, np.linspace(0.0, 1.0, n))
         opac = np.interp(np.linspace(0, 1, n), np.linspace(0, 1, ops.size), ops)
@@ -300,7 +300,7 @@ class TransferFunction:
         position = (x - a0) / (a1 - a0) * (n - 1)
         j = np.clip(np.floor(position).astype(np.int64), 0, n - 2)
         f = position - j
-        values = _scale_inverse(x, self.scale, self.linthresh)
+        values = scale_inverse(x, self.scale, self.linthresh)
         values[-self._axis.size:] = self.values  # the control points exactly, not through the axis
         alpha = np.minimum(self.opacity_at(values), _ALPHA_MAX)
         sigma_x = -np.log1p(-alpha)
@@ -345,7 +345,7 @@ class TransferFunction:
         if key not in self._tables:
             a0, a1 = self.axis_range
             axis = np.linspace(a0, a1, size)
-            values = _scale_inverse(axis, self.scale, self.linthresh)
+            values = scale_inverse(axis, self.scale, self.linthresh)
             values[0], values[-1] = self.vmin, self.vmax
             rgb = self.color_at(values)
             alpha = np.minimum(self.opacity_at(values) * global_alpha, _ALPHA_MAX)
@@ -495,7 +495,7 @@ class TransferFunctionFamily(TransferFunction):
         key = (np.dtype(dtype).str, float(global_alpha), float(unit_distance), size)
         if key not in self._tables:
             a0, a1 = self.axis_range
-            values = _scale_inverse(np.linspace(a0, a1, size), self.scale, self.linthresh)
+            values = scale_inverse(np.linspace(a0, a1, size), self.scale, self.linthresh)
             values[0], values[-1] = self.vmin, self.vmax
             rgb, sigma = self._mix(values, global_alpha)
             self._tables = {key: (np.ascontiguousarray(rgb, dtype=dtype),
@@ -506,7 +506,7 @@ class TransferFunctionFamily(TransferFunction):
         """``(p, size)`` float64 extinction of each basis on the family's table entries."""
         size = self.table_size if size is None else as_int("table size", size, low=2, high=MAX_TABLE_SIZE)
         a0, a1 = self.axis_range
-        values = _scale_inverse(np.linspace(a0, a1, size), self.scale, self.linthresh)
+        values = scale_inverse(np.linspace(a0, a1, size), self.scale, self.linthresh)
         values[0], values[-1] = self.vmin, self.vmax
         return self._basis_sigmas(values, global_alpha) / unit_distance
 
@@ -542,7 +542,9 @@ def _check_keys(kind, data, required, optional=()):
     return data
 
 
-def _scale_inverse(axis, scale, linthresh):
+def scale_inverse(axis, scale, linthresh):
+    """Data values (float64) of positions ``axis`` on a ``"linear"``, ``"log"`` (base 10)
+    or ``"symlog"`` axis (linear threshold ``linthresh``): the inverse of the axis map."""
     axis = np.asarray(axis, dtype=np.float64)
     if scale == "linear":
         return axis.copy()
@@ -722,9 +724,9 @@ def auto_transfer_function(values, ray_length, *, spacing=None, weights=None, sc
     if vmin is None or vmax is None or opacity is None:
         t0, t1, notch = _structure_range(axis, a_lo, a_hi, w)
         if vmin is None:
-            vmin = float(_scale_inverse([t0], scale, linthresh)[0]) if t0 > a_lo else lo
+            vmin = float(scale_inverse([t0], scale, linthresh)[0]) if t0 > a_lo else lo
         if vmax is None:
-            vmax = float(_scale_inverse([t1], scale, linthresh)[0]) if t1 < a_hi else hi
+            vmax = float(scale_inverse([t1], scale, linthresh)[0]) if t1 < a_hi else hi
     if scale == "log" and vmin <= 0:  # before any axis arithmetic on it
         raise ValueError(f"scale='log' needs a positive low end of clim; got {vmin!r}")
     if lo == hi and opacity is None:
@@ -1037,7 +1039,7 @@ def _signed_default(values, v, w, scale, vmin, vmax, cmap, opacity, ray_length, 
         axis_points = np.linspace(a0, a1, n)
         # in proportion to the magnitude, 0 at zero (on a symlog axis, as a log axis's density:
         # faint decades get little opacity and stay visible in the HDR image, not a fog)
-        magnitude = np.abs(_scale_inverse(axis_points, scale, linthresh))
+        magnitude = np.abs(scale_inverse(axis_points, scale, linthresh))
         points = magnitude / magnitude.max()
         raw = np.asarray(values)
         if spacing is not None and raw.ndim == 3:

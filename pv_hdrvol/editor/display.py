@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import as_int
-from ..data.transfer import _scale_inverse, scale_forward
+from ..data.transfer import scale_inverse, scale_forward
 from .axis import Focus, FocusContextAxis, ValueAxis
 
 
@@ -36,7 +36,7 @@ class EditorDisplay:
     def from_axis(self, x):
         """Data values at positions ``x`` in [0, 1] of the scaled axis."""
         b0, b1 = scale_forward(self.range, self.scale, self.linthresh)
-        return _scale_inverse(b0 + np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0) * (b1 - b0), self.scale,
+        return scale_inverse(b0 + np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0) * (b1 - b0), self.scale,
                               self.linthresh)
 
     def screen_x(self, values):

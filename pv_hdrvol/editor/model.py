@@ -21,7 +21,7 @@ import numpy as np
 
 from .._validate import as_choice, as_int, as_real
 from ..data.transfer import (COLOR_SPACES, DEFAULT_TABLE_SIZE, SCALES, TransferFunction, TransferFunctionFamily,
-                             _scale_inverse, colormap_rgb, scale_forward)
+                             scale_inverse, colormap_rgb, scale_forward)
 from .axis import Focus, FocusContextAxis, ValueAxis
 from .display import EditorDisplay
 from .presets import (_export_points, _pick, _simplify, data_range, read_json, read_paraview_presets,
@@ -421,7 +421,7 @@ class TransferFunctionModel(EditorDisplay):
     def _rescaled(values, vmin, vmax, s):
         a = scale_forward(np.array(values), s.scale, s.linthresh)
         b0, b1 = scale_forward([vmin, vmax], s.scale, s.linthresh)
-        out = _scale_inverse(b0 + (a - a[0]) / (a[-1] - a[0]) * (b1 - b0), s.scale, s.linthresh)
+        out = scale_inverse(b0 + (a - a[0]) / (a[-1] - a[0]) * (b1 - b0), s.scale, s.linthresh)
         out[0], out[-1] = vmin, vmax
         return tuple(out.tolist())
 
@@ -453,7 +453,7 @@ class TransferFunctionModel(EditorDisplay):
         s = self._state
         b0, b1 = scale_forward(self.range, s.scale, s.linthresh)
         axis = np.linspace(b0, b1, n)
-        values = _scale_inverse(axis, s.scale, s.linthresh)
+        values = scale_inverse(axis, s.scale, s.linthresh)
         values[0], values[-1] = self.range
         colors = colormap_rgb(cmap, np.linspace(0.0, 1.0, n))
         keep = _simplify(axis, colors, SIMPLIFY_TOLERANCE) if s.color_space == "rgb" else np.arange(n)

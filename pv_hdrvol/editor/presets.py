@@ -35,7 +35,7 @@ import os
 import numpy as np
 
 from .._validate import as_int
-from ..data.transfer import TransferFunction, _scale_inverse
+from ..data.transfer import TransferFunction, scale_inverse
 
 #: Points sampled over the range for colour spaces and opacity curves read through VTK.
 SAMPLES = 4096
@@ -280,9 +280,9 @@ def _export_points(tf, tolerance=EXPORT_TOLERANCE, most=EXPORT_MAX_POINTS):
     f = np.linspace(0.0, 1.0, 17)[1:-1]
     while True:
         axis = np.unique(np.concatenate([np.linspace(a0, a1, n), tf._axis]))
-        x = _scale_inverse(axis, tf.scale, tf.linthresh)
+        x = scale_inverse(axis, tf.scale, tf.linthresh)
         x[0], x[-1] = tf.vmin, tf.vmax
-        inner = _scale_inverse((axis[:-1, None] * (1 - f) + axis[1:, None] * f), tf.scale, tf.linthresh)
+        inner = scale_inverse((axis[:-1, None] * (1 - f) + axis[1:, None] * f), tf.scale, tf.linthresh)
         w = (inner - x[:-1, None]) / (x[1:, None] - x[:-1, None])  # ParaView's weights, in data units
         rgb, alpha = tf.color_at(x), tf.opacity_at(x)
         lin_rgb = rgb[:-1, None] * (1 - w)[..., None] + rgb[1:, None] * w[..., None]
@@ -310,7 +310,7 @@ def export_error(tf, preset):
     interpolation in data units, colours as written) and ``tf``, sampled at 100,001
     points evenly along ``tf``'s axis: ``(colour relative to the brightest, opacity)``."""
     a0, a1 = tf.axis_range
-    v = _scale_inverse(np.linspace(a0, a1, 100_001), tf.scale, tf.linthresh)
+    v = scale_inverse(np.linspace(a0, a1, 100_001), tf.scale, tf.linthresh)
     v[0], v[-1] = tf.vmin, tf.vmax
     c = np.asarray(preset["RGBPoints"], dtype=np.float64).reshape(-1, 4)
     o = np.asarray(preset["Points"], dtype=np.float64).reshape(-1, 4)

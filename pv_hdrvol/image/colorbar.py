@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data.transfer import _scale_inverse, scale_forward
+from ..data.transfer import scale_inverse, scale_forward
 
 #: Entries of the colour bar's colormap, sampled evenly along the transfer function's axis.
 COLORBAR_ENTRIES = 256
@@ -68,7 +68,7 @@ def colorbar_figure(picture, tf, *, label=None, dpi=100):
                         14 * k / (cols + bar_px), 1.0 - 2.0 * margin / fig_rows])
 
     a0, a1 = tf.axis_range
-    values = _scale_inverse(np.linspace(a0, a1, COLORBAR_ENTRIES), tf.scale, tf.linthresh)
+    values = scale_inverse(np.linspace(a0, a1, COLORBAR_ENTRIES), tf.scale, tf.linthresh)
     values[0], values[-1] = tf.vmin, tf.vmax
     rgb = np.clip(tf.color_at(values), 0.0, None)
     top = rgb.max()
@@ -84,7 +84,7 @@ def colorbar_figure(picture, tf, *, label=None, dpi=100):
             return scale_forward(v, "symlog", tf.linthresh)
 
         def inverse(a):
-            return _scale_inverse(a, "symlog", tf.linthresh)
+            return scale_inverse(a, "symlog", tf.linthresh)
 
         norm = mcolors.FuncNorm((forward, inverse), tf.vmin, tf.vmax)
     else:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data.transfer import TransferFunction, _scale_inverse, scale_forward
+from ..data.transfer import TransferFunction, scale_inverse, scale_forward
 
 #: Where VTK's functions are not linear on the transfer function's axis (colour spaces
 #: other than RGB, midpoints and sharpness, an opacity function on the other axis),
@@ -266,7 +266,7 @@ def _bisect(values, scale, linthresh, evaluate):
     pending = np.ones(values.size - 1, dtype=bool)  # segments not yet checked
     for _ in range(MAX_BISECTIONS):
         axis = scale_forward(values, scale, linthresh)
-        mid = _scale_inverse(0.5 * (axis[:-1] + axis[1:]), scale, linthresh)
+        mid = scale_inverse(0.5 * (axis[:-1] + axis[1:]), scale, linthresh)
         check = np.flatnonzero(pending & (mid > values[:-1]) & (mid < values[1:]))
         if check.size == 0:
             break

@@ -36,7 +36,7 @@ from ..data.transfer import TF_KEYWORDS, TransferFunctionFamily
 from ..image.hdr import HDRImage
 from ..rays.camera import Camera, as_size
 from ..rays.clip import has_clip
-from ..raycast.grid import BlockGrid, GridPlan, _grid_shape, as_volume, default_transfer_function
+from ..raycast.grid import BlockGrid, GridPlan, block_grid_shape, as_volume, default_transfer_function
 from ..settings import settings_metadata
 from .comm import WORLD, _communicator, use_rank_threads
 from .composite import composite, tile_grid
@@ -113,7 +113,7 @@ def block_partials(plan, volume, camera, size, block_size, blocks):
     block rendered alone (``plan.execute`` with a one-block mask) over its screen
     rectangle ``rect = (col, row, w, h)``; ``image.metadata["samples"]`` counts its samples."""
     opts = plan.options
-    shape = _grid_shape(volume.dims, block_size)
+    shape = block_grid_shape(volume.dims, block_size)
     render_shape = BlockGrid.of(plan.source, opts.block_size).shape
     blocks = np.asarray(blocks, dtype=np.int64).reshape(-1)
     lo, hi = block_boxes(volume, block_size, blocks)
@@ -219,7 +219,7 @@ def _render(volume, tf, camera, size, pof, bound, comm, curve, block_size, thres
         raise ValueError(f"block_size {bs} differs from the POF's ({pof.block_size})")
     if bs % opts.block_size:
         raise ValueError(f"block_size ({bs}) must be a multiple of the render's block_size option ({opts.block_size})")
-    shape = _grid_shape(volume.dims, bs)
+    shape = block_grid_shape(volume.dims, bs)
     tiles = tile_grid(n_ranks, *size)
     tile = tiles[rank]
     owner = assign(shape, n_ranks, curve)

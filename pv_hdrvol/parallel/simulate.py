@@ -49,12 +49,12 @@ def measure(volume, tf, camera, size, *, pof=None, block_size=16, repeat=1, **op
     from ..culling.cull import visible_blocks
     from ..culling.pof import _nonempty
     from ..data.transfer import TransferFunctionFamily
-    from ..raycast.grid import GridPlan, _grid_shape, as_volume
+    from ..raycast.grid import GridPlan, block_grid_shape, as_volume
     from .render import block_partials
 
     volume = as_volume(volume)
     plan = GridPlan(volume, tf, **options)
-    shape = _grid_shape(volume.dims, block_size)
+    shape = block_grid_shape(volume.dims, block_size)
     t = time.perf_counter()
     if pof is not None:
         result = visible_blocks(pof, volume, camera, size, getattr(plan.tf, "k", None))

@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .._validate import as_int, as_real, as_size
-from ..data.transfer import SCALE_CODES, _scale_inverse
+from ..data.transfer import SCALE_CODES, scale_inverse
 from ..params import PRECISION_CODES, RenderOptions
 from ..raycast import _kernels as K
 from ..raycast.grid import as_volume, resolve_transfer_function
@@ -111,7 +111,7 @@ def interval_edges(tf, intervals):
     """The ``intervals + 1`` value edges of uniform intervals on ``tf``'s axis."""
     a0, a1 = tf.axis_range
     axis = np.linspace(a0, a1, intervals + 1)
-    return np.asarray(_scale_inverse(axis, tf.scale, tf.linthresh), dtype=np.float64)
+    return np.asarray(scale_inverse(axis, tf.scale, tf.linthresh), dtype=np.float64)
 
 
 def opacity_peaks(tf, count, samples=4096):
@@ -119,7 +119,7 @@ def opacity_peaks(tf, count, samples=4096):
     layers "at peaks of the user opacity function"), ascending."""
     count = as_int("count", count, low=1)
     a0, a1 = tf.axis_range
-    values = np.asarray(_scale_inverse(np.linspace(a0, a1, samples), tf.scale, tf.linthresh))
+    values = np.asarray(scale_inverse(np.linspace(a0, a1, samples), tf.scale, tf.linthresh))
     op = np.asarray(tf.opacity_at(values), dtype=np.float64)
     rising = np.concatenate([[True], op[1:] > op[:-1]])
     falling = np.concatenate([op[:-1] >= op[1:], [True]])

@@ -307,7 +307,7 @@ def warn_empty(reason):
         warnings.warn(reason, EmptyRenderWarning, stacklevel=4)
 
 
-def _grid_shape(dims, size):
+def block_grid_shape(dims, size):
     """Blocks of ``size`` cells along (z, y, x) covering a volume of ``dims`` (x, y, z) points."""
     return tuple(max(1, -(-max(n - 1, 1) // size)) for n in dims[::-1])
 
@@ -358,7 +358,7 @@ class BlockGrid:
     def __init__(self, volume, block_size=4):
         self.block_size = block_size
         self.shift = int(round(math.log2(block_size)))
-        shape = _grid_shape(volume.dims, block_size)
+        shape = block_grid_shape(volume.dims, block_size)
         self.minimum = np.empty(shape)
         self.maximum = np.empty(shape)
         K.block_ranges(volume.values, self.shift, self.minimum, self.maximum)
@@ -1187,7 +1187,7 @@ def render_bytes(volume, tf, opts, width, height, rays=None, lod=None, labels=No
             parts["8-bit levels of the volume"] = 4 * n + 24 * n  # the float32 levels, float64 temporaries
         cache, item = ({} if derived is None else derived.cache), 4
     if ("blocks", opts.block_size) not in cache:
-        parts["block ranges"] = 16 * int(np.prod(_grid_shape(volume.dims, opts.block_size)))
+        parts["block ranges"] = 16 * int(np.prod(block_grid_shape(volume.dims, opts.block_size)))
     brick_points = int(np.prod(_brick_shape(volume.dims))) * ((1 << K.BRICK_SHIFT) + 1) ** 3
     if "bricks" not in cache:
         parts["bricks"] = brick_points * item

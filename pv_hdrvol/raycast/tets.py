@@ -13,7 +13,7 @@ import numpy as np
 
 from ..data.grid import content_digest
 from ..data.tets import as_tetmesh
-from ..data.transfer import SCALE_CODES, _scale_inverse
+from ..data.transfer import SCALE_CODES, scale_inverse
 from ..image.upsample import DepthLayers
 from .._validate import as_int, as_real, as_size
 from ..params import PRECISION_CODES
@@ -315,7 +315,7 @@ def _table(tf, prec, global_alpha, unit):
     table = np.empty((table_size, TK.TABLE_COLUMNS))
     table[:, :3] = rgb
     table[:, 3] = sigma
-    knots = _scale_inverse(np.linspace(a0, a1, table_size), tf.scale, tf.linthresh)
+    knots = scale_inverse(np.linspace(a0, a1, table_size), tf.scale, tf.linthresh)
     knots[0], knots[-1] = tf.vmin, tf.vmax
     table[:, 8] = np.maximum.accumulate(knots)  # monotone despite rounding of the inverse axis
     TK.cumulative_tables(table)

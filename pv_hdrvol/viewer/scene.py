@@ -552,10 +552,10 @@ def _lookup_table(tf, n=256):
     is labelled in data values by annotations (:func:`_symlog_ticks`)."""
     import pyvista as pv
 
-    from ..data.transfer import _scale_inverse, scale_forward
+    from ..data.transfer import scale_inverse, scale_forward
 
     a0, a1 = scale_forward([tf.values[0], tf.values[-1]], tf.scale, tf.linthresh)
-    values = _scale_inverse(np.linspace(a0, a1, n), tf.scale, tf.linthresh)
+    values = scale_inverse(np.linspace(a0, a1, n), tf.scale, tf.linthresh)
     rgb = tf.color_at(values)
     rgb = rgb / max(float(np.max(tf.colors)), 1e-300)
     lut = pv.LookupTable()

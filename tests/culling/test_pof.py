@@ -416,7 +416,7 @@ def test_block_ranges_are_the_min_and_max_of_each_blocks_points():
     """Blocks share their faces (points i bs .. (i + 1) bs, clipped); NaN is ignored, and
     a block of NaN only is NaN (empty)."""
     from pv_hdrvol.culling.pof import block_ranges
-    from pv_hdrvol.raycast.grid import _grid_shape
+    from pv_hdrvol.raycast.grid import block_grid_shape
 
     rng = np.random.default_rng(13)
     for dims, bs in (((17, 9, 5), 4), ((33, 2, 34), 16), ((3, 3, 3), 8), ((20, 7, 11), 2)):
@@ -424,7 +424,7 @@ def test_block_ranges_are_the_min_and_max_of_each_blocks_points():
         values[rng.random(values.shape) < 0.2] = np.nan
         values[:, :, :min(3, dims[0])] = np.nan  # whole blocks of NaN where bs <= 2
         lo, hi = block_ranges(values, bs)
-        assert lo.shape == hi.shape == _grid_shape(dims, bs)
+        assert lo.shape == hi.shape == block_grid_shape(dims, bs)
         for k, j, i in np.ndindex(*lo.shape):
             block = values[k * bs:(k + 1) * bs + 1, j * bs:(j + 1) * bs + 1, i * bs:(i + 1) * bs + 1]
             if np.isnan(block).all():

@@ -21,8 +21,8 @@ def _log_tf():
 
 def _grid(tf, n=20001):
     a0, a1 = tf.axis_range
-    from pv_hdrvol.data.transfer import _scale_inverse
-    v = _scale_inverse(np.linspace(a0, a1, n), tf.scale, tf.linthresh)
+    from pv_hdrvol.data.transfer import scale_inverse
+    v = scale_inverse(np.linspace(a0, a1, n), tf.scale, tf.linthresh)
     v[0], v[-1] = tf.vmin, tf.vmax
     return v
 

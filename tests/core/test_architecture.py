@@ -108,6 +108,29 @@ def test_nothing_below_the_front_ends_imports_the_face():
     assert importers == []
 
 
+#: The stages in pipeline order (docs/development.md draws them): a module imports only
+#: modules of its own stage or of earlier ones. ``pv_hdrvol`` is the face.
+STAGES = ("_validate", "_jit", "params", "data", "datasets", "rays", "settings", "image", "raycast", "gpu", "culling",
+          "parallel", "outofcore", "editor", "proxy", "viewer", "dispatch", "pv_hdrvol", "integrations")
+#: Imports of a later stage that are allowed, with the reason: the proxy viewer is a Qt
+#: window that runs in the viewer's Qt loop.
+LATER_ALLOWED = {("pv_hdrvol.proxy.qt", "pv_hdrvol.viewer.qt")}
+
+
+def _stage(module):
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "pv_hdrvol"
+
+
+def test_every_stage_imports_only_earlier_stages():
+    graph = import_graph()
+    assert set(map(_stage, graph)) == set(STAGES)  # every stage is placed
+    rank = {stage: i for i, stage in enumerate(STAGES)}
+    later = sorted((m, e) for m, edges in graph.items() for e in edges
+                   if not m.endswith("__main__") and rank[_stage(e)] > rank[_stage(m)])
+    assert set(later) == LATER_ALLOWED, later
+
+
 def test_the_face_defines_nothing_but_re_exports():
     """``pv_hdrvol/__init__.py`` holds imports, ``__version__``, ``__all__`` and the lazy
     ``__getattr__`` of an optional name only: the logic behind ``render`` and ``view``

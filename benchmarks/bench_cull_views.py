@@ -52,7 +52,7 @@ import numpy as np
 import pv_hdrvol as hv
 from pv_hdrvol.culling.bound import OcclusionBound
 from pv_hdrvol.culling.cull import Culling, visible_blocks
-from pv_hdrvol.culling.pof import PlenopticOpacity, _nonempty
+from pv_hdrvol.culling.pof import PlenopticOpacity, nonempty_blocks
 from pv_hdrvol.culling.reference import ert_oracle, exact_sequential
 from pv_hdrvol.params import RenderOptions
 from pv_hdrvol.raycast.grid import block_grid_shape
@@ -227,7 +227,7 @@ def measure_bound(name, volume, bases, k, views, size, block_size, groups, r2_vi
     family = hv.TransferFunctionFamily(bases, k)
     shape = block_grid_shape(volume.dims, block_size)
     sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
-    ne = _nonempty(np.asarray(volume.values, dtype=np.float64), shape, block_size, sigma, family).any(axis=-1)
+    ne = nonempty_blocks(np.asarray(volume.values, dtype=np.float64), shape, block_size, sigma, family).any(axis=-1)
     opts = RenderOptions.from_kwargs(None, termination=TERMINATION)
     rows = {g: dict(culled=0, false=0, false_views=0, exact=0, r2_hit=0, r2_in=0, march=[], first=None)
             for g in groups}

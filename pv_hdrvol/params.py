@@ -90,7 +90,7 @@ class Light:
         return tuple(float(x) for x in v / np.sqrt(v @ v))
 
 
-def _as_lights(value):
+def as_lights(value):
     """``lights=`` as a tuple of :class:`Light`: a Light, a direction, or a sequence of them."""
     if isinstance(value, Light):
         return (value,)
@@ -407,7 +407,7 @@ class RenderOptions:
             object.__setattr__(self, name, as_real(name, getattr(self, name), low=0))
         object.__setattr__(self, "specular_power", as_real("specular_power", self.specular_power, low=1))
         if self.lights is not None:
-            object.__setattr__(self, "lights", _as_lights(self.lights))
+            object.__setattr__(self, "lights", as_lights(self.lights))
         as_choice("shade_gradient", self.shade_gradient, SHADE_GRADIENTS)
         object.__setattr__(self, "shade_threshold", as_real("shade_threshold", self.shade_threshold, low=0))
         if self.shade and self.blending != "composite":

@@ -195,7 +195,7 @@ class PlenopticOpacity:
         values = np.ascontiguousarray(volume.values, dtype=np.float64)
         dims = volume.dims
         shape = block_grid_shape(dims, block_size)
-        nonempty = _nonempty(values, shape, block_size, sigma, family)
+        nonempty = nonempty_blocks(values, shape, block_size, sigma, family)
         theta, phi = view_angles()
         frames = view_frames(direction(theta[:, None], phi[None, :]).reshape(-1, 3))
         p = len(bases)
@@ -401,7 +401,7 @@ def block_ranges(values, block_size):
     return lo, hi
 
 
-def _nonempty(values, shape, block_size, sigma, family):
+def nonempty_blocks(values, shape, block_size, sigma, family):
     """(bz, by, bx, p): the block's value range (its points, NaN ignored) reaches an
     entry of non-zero extinction of the basis (``table_entry_span``: the entries
     ``block_min_depth``'s interpolation reads, no more)."""

@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .grid import (DatasetCache, ScalarsError, _arrays, _image_array, _kernel_dtype, choose_scalars, content_digest,
+from .grid import (DatasetCache, ScalarsError, _arrays, image_array, _kernel_dtype, choose_scalars, content_digest,
                    volume_from_array)
 
 #: VTK classes of uniform image leaves (gathered onto one lattice)
@@ -280,7 +280,7 @@ def image_blocks(leaves, scalars, use_cell):
                 out.append(ImageBlock(leaf.path, values, np.array([a[0] for a in axes]),
                                       np.array([(a[-1] - a[0]) / (a.size - 1) for a in axes]), tuple(axes)))
                 continue
-            values, spacing, origin, _ = _image_array(leaf.dataset, scalars, preference)
+            values, spacing, origin, _ = image_array(leaf.dataset, scalars, preference)
         except (TypeError, ValueError) as e:
             raise type(e)(f"block {leaf.path!r}: {e}") from e
         out.append(ImageBlock(leaf.path, values, origin, spacing))

@@ -326,7 +326,7 @@ def cached_volume_from_dataset(dataset, scalars=None, preference="point"):
             volume = _VOLUME_CACHE.store(dataset, key,
                                          _framed(volume_from_rectilinear(arr, *axes, name=name), dataset))
         return volume
-    arr, spacing, origin, name = _image_array(dataset, scalars, preference)
+    arr, spacing, origin, name = image_array(dataset, scalars, preference)
     key = (int(dataset.GetMTime()), scalars, preference, name, arr.__array_interface__["data"][0],
            tuple(spacing.tolist()), tuple(origin.tolist()), content_digest(arr))
     volume = _VOLUME_CACHE.lookup(dataset, key)
@@ -364,7 +364,7 @@ def volume_from_dataset(dataset, scalars=None, preference="point"):
     if _is_rectilinear(dataset):
         arr, axes, scalars = _rectilinear_array(dataset, scalars, preference)
         return _framed(volume_from_rectilinear(arr, *axes, name=scalars), dataset)
-    arr, spacing, origin, scalars = _image_array(dataset, scalars, preference)
+    arr, spacing, origin, scalars = image_array(dataset, scalars, preference)
     # np.asarray of a VTK array is a view: volume_from_array copies before any change.
     return _framed(volume_from_array(arr, spacing, origin, name=scalars), dataset)
 
@@ -375,10 +375,10 @@ def labels_from_dataset(dataset, name, preference="point"):
     For label (segmentation) arrays, which must stay integers: see
     ``render_volume(labels=...)``.
     """
-    return np.array(_image_array(dataset, name, preference)[0])
+    return np.array(image_array(dataset, name, preference)[0])
 
 
-def _image_array(dataset, scalars, preference):
+def image_array(dataset, scalars, preference):
     """``(array (z, y, x) view, spacing, origin, name)`` of one array of an image dataset."""
     as_choice("preference", preference, ("point", "cell"))
     cls_name = dataset.GetClassName() if hasattr(dataset, "GetClassName") else type(dataset).__name__

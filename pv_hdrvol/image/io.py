@@ -36,7 +36,8 @@ def check_writable(path):
         raise PermissionError(errno.EACCES, f"cannot write {str(path)!r}: the folder is not writable", str(folder))
 
 
-def _openexr():
+def openexr_module():
+    """The ``OpenEXR`` module, or an ``ImportError`` that says how to install it."""
     try:
         import OpenEXR
     except ImportError:  # pragma: no cover - depends on the environment
@@ -52,7 +53,7 @@ def write_exr(path, rgba, depth, metadata, pixel_type="float32", value=None):
     """
     if pixel_type not in EXR_TYPES:
         raise ValueError(f"pixel_type must be one of {list(EXR_TYPES)}; got {pixel_type!r}")
-    OpenEXR = _openexr()
+    OpenEXR = openexr_module()
     dtype = np.float16 if pixel_type == "float16" else np.float32
     with np.errstate(over="ignore"):
         rgba_out = np.ascontiguousarray(rgba, dtype=dtype)
@@ -80,7 +81,7 @@ def read_exr(path):
         The file is not a readable OpenEXR image (another format, truncated, corrupt)
         or has no RGB(A) channels.
     """
-    OpenEXR = _openexr()
+    OpenEXR = openexr_module()
     with open(path, "rb") as f:  # Python's own errors for missing files, folders, permissions
         magic = f.read(4)
     if magic != EXR_MAGIC:

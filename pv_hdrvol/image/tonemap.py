@@ -685,7 +685,7 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
     weights = _roi_weights(roi, shape)
     if isinstance(op, Gamma) and encoding == "srgb":
         encoding = float(op.gamma)
-    enc_code, gamma = _encoding(encoding)
+    enc_code, gamma = display_encoding(encoding)
     if fitted is not None and not isinstance(fitted, Fitted):
         raise TypeError(f"fitted must be a Fitted (ToneMapped.fitted); got {type(fitted).__name__}")
     flat = np.ascontiguousarray(pixels).reshape(-1, pixels.shape[2])
@@ -747,7 +747,7 @@ def _roi_weights(roi, shape):
     return w
 
 
-def _encoding(encoding):
+def display_encoding(encoding):
     """``(kernel code, gamma)``: gamma None for sRGB (both read a table)."""
     if isinstance(encoding, str):
         if encoding == "srgb":

@@ -30,7 +30,7 @@ from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm, vtkStreamingDemandD
 from .._validate import as_choice, as_int, as_real
 from ..image.hdr import HDRImage
 from ..image.io import EXR_MAGIC, EXR_TYPES
-from ..image.tonemap import OPERATORS, _encoding, make_operator, tonemap
+from ..image.tonemap import OPERATORS, display_encoding, make_operator, tonemap
 from ..image.upsample import GUIDES, METHODS, SPATIAL, upsample
 from .vtk_base import ReportingAlgorithm, request_whole_extent
 
@@ -173,7 +173,7 @@ class HDRToneMapper(_ImageOutput, ReportingAlgorithm):
         :func:`pv_hdrvol.tonemap` does."""
         if isinstance(encoding, bool) or not isinstance(encoding, (str, numbers.Real)):
             raise TypeError(f"encoding must be 'srgb', 'linear' or a gamma > 0; got {encoding!r}")
-        _encoding(encoding)  # the one validation, tonemap's
+        display_encoding(encoding)  # the one validation, tonemap's
         if not isinstance(encoding, str):
             encoding = float(encoding)
         if not _same(encoding, self._encoding):

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import as_size
-from ..parallel.comm import WORLD, _communicator
+from ..parallel.comm import WORLD, as_communicator
 from ..parallel.pieces import gather_pieces, split_boxes
 from ..raycast.grid import VolumePiece
 from ..rays.camera import Rays, as_camera
@@ -65,7 +65,7 @@ def render_multiscale_pieces(volume, tf, camera=None, size=(512, 512), *, comm=W
     """
     from ..data.transfer import TransferFunction
 
-    comm = _communicator(comm)
+    comm = as_communicator(comm)
     image = rays = piece = error = None
     try:
         if not isinstance(tf, TransferFunction):

@@ -43,7 +43,7 @@ from .._validate import as_real, as_size
 from ..data.transfer import SCALE_CODES, auto_transfer_function
 from ..params import PRECISION_CODES
 from ..raycast import _kernels as K
-from ..raycast.grid import VolumePiece, _visible, dilate, leap_radius, resolve_render_options
+from ..raycast.grid import VolumePiece, ranges_visible, dilate, leap_radius, resolve_render_options
 from ..raycast.frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_progress_bar, frame_metadata, frame_rays,
                               pixel_rows, tile_lanes, voxel_rays, windowed)
 from ..rays.camera import Camera, Rays, as_camera
@@ -280,7 +280,7 @@ class MultiscalePlan(FramePlan):
             lo, hi = np.clip(lo, v0, v1), np.clip(hi, v0, v1)
             lo[none], hi[none] = np.inf, -np.inf
         table = self.table(0)[0]
-        return _visible(lo, hi, table[:, 3], self.params).astype(bool)
+        return ranges_visible(lo, hi, table[:, 3], self.params).astype(bool)
 
     def _ready_at(self, cache, level):
         lv = self.volume.store.levels[level]

@@ -217,14 +217,14 @@ def _read_file(path, shape, dtype, scalars):
         return _raw_memmap(p, shape, dtype), None, None, os.path.splitext(os.path.basename(p))[0]
     if shape is not None or dtype is not None:
         raise ValueError(f"shape and dtype describe a .raw file or a function source; {p!r} has its own")
-    from ..data.grid import _image_array
+    from ..data.grid import image_array
     from ..data.kinds import as_renderable
     from ..data.files import IMAGE_FORMATS, READABLE, read_dataset
 
     dataset = read_dataset(p, READABLE)
     if getattr(dataset, "GetClassName", lambda: "")() in ("vtkImageData", "vtkStructuredPoints", "vtkUniformGrid"):
         # the file's own dtype (a GridVolume may hold a float32 copy of integers)
-        arr, spacing, origin, name = _image_array(dataset, scalars, "point")
+        arr, spacing, origin, name = image_array(dataset, scalars, "point")
         return arr, spacing, origin, name
     volume = as_renderable(dataset, scalars=scalars)
     from ..data.grid import GridVolume
@@ -240,7 +240,7 @@ def _read_file(path, shape, dtype, scalars):
 
 def _as_source(source, shape, dtype, spacing, origin, name, scalars=None):
     """What :func:`write_multiscale` reads: shape, dtype, a reader of boxes, geometry."""
-    from ..data.grid import GridVolume, _image_array
+    from ..data.grid import GridVolume, image_array
 
     default_spacing, default_origin, default_name = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), ""
     if isinstance(source, (str, os.PathLike)):
@@ -265,7 +265,7 @@ def _as_source(source, shape, dtype, spacing, origin, name, scalars=None):
     elif hasattr(source, "GetClassName"):  # pyvista.ImageData, vtkImageData
         if getattr(source, "GetClassName")() in ("vtkRectilinearGrid",):
             raise ValueError("a multiresolution store holds uniform grids; resample a rectilinear grid first")
-        arr, sp, org, default_name = _image_array(source, scalars, "point")
+        arr, sp, org, default_name = image_array(source, scalars, "point")
         default_spacing, default_origin = tuple(sp), tuple(org)
         kind = f"a {type(source).__name__}"
     else:

@@ -442,12 +442,12 @@ def _fail(args, comm, message):
 
 
 def _comm(args):
-    from .comm import _communicator
+    from .comm import as_communicator
 
     if args.serial:
-        return _communicator(None)
+        return as_communicator(None)
     try:
-        return _communicator("world")
+        return as_communicator("world")
     except ImportError as exc:
         raise UserError(f"{exc}; or add --serial") from None
 

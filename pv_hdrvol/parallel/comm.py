@@ -69,7 +69,10 @@ class PointToPointComm:
         return [row[0] for row in table]
 
 
-def _communicator(comm):
+def as_communicator(comm):
+    """``comm`` as a communicator: ``None`` a serial one (one process), ``"world"``
+    mpi4py's ``COMM_WORLD``, else an mpi4py communicator as given (checked by the methods
+    the renderers call)."""
     if comm is None:
         return _Serial()
     if isinstance(comm, str) and comm == WORLD:
@@ -91,7 +94,7 @@ def node_size(comm):
     mpi4py communicators split by shared memory (``Split_type(COMM_TYPE_SHARED)``);
     others (VTK's processes, ``comm=None``) compare host names (``allgather``).
     """
-    comm = _communicator(comm)
+    comm = as_communicator(comm)
     if comm.size == 1:
         return 1
     if hasattr(comm, "Split_type"):

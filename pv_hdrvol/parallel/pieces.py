@@ -39,7 +39,7 @@ from ..params import RenderOptions
 from ..rays.camera import Rays, ray_box_spans
 from ..raycast.compositing import composite_in_order
 from ..raycast.grid import GridPlan, VolumePiece, as_volume
-from .comm import WORLD, _communicator
+from .comm import WORLD, as_communicator
 
 
 def split_boxes(dims, n):
@@ -216,7 +216,7 @@ def render_pieces(volume, piece, tf, camera, size=(512, 512), *, comm=WORLD, roo
         The whole render on ``root`` (to rounding the serial render of the whole
         volume, see the module's notes); ``None`` elsewhere.
     """
-    comm = _communicator(comm)
+    comm = as_communicator(comm)
     image, volume, rays, error = _render_own_piece(volume, piece, tf, camera, size, None, options)
     return gather_pieces(image, piece, None if error else volume.spacing, rays, comm=comm, root=root, error=error)
 
@@ -302,7 +302,7 @@ def render_in_pieces(volume, tf=None, camera=None, size=(512, 512), *, comm=WORL
     from .comm import use_rank_threads
 
     t_start = time.perf_counter()
-    comm = _communicator(comm)
+    comm = as_communicator(comm)
     chosen = None
     if comm.rank == 0:  # one choice for all: the default transfer function reads every value
         try:
@@ -376,7 +376,7 @@ def gather_boxes(image, box, rays, *, comm=WORLD, root=0, error=None, check=None
     (lo, hi)``; a tetrahedral mesh's :class:`~pv_hdrvol.raycast.tets.MeshPiece`);
     ``check``, when given, is called on every process with the list of all ``piece``
     values and raises if they do not fit together."""
-    comm = _communicator(comm)
+    comm = as_communicator(comm)
     pieces = allgather_or_raise(comm, piece, error)
     if check is not None:
         check(pieces)

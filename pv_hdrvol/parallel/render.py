@@ -31,14 +31,14 @@ import numpy as np
 from .._validate import as_int
 from ..culling.cull import (DEFAULT_THRESHOLD, block_boxes, single_block_mask, visibility_order,
                             visible_blocks)
-from ..culling.pof import PlenopticOpacity, _nonempty
+from ..culling.pof import PlenopticOpacity, nonempty_blocks
 from ..data.transfer import TF_KEYWORDS, TransferFunctionFamily
 from ..image.hdr import HDRImage
 from ..rays.camera import Camera, as_size
 from ..rays.clip import has_clip
 from ..raycast.grid import BlockGrid, GridPlan, block_grid_shape, as_volume, default_transfer_function
 from ..settings import settings_metadata
-from .comm import WORLD, _communicator, use_rank_threads
+from .comm import WORLD, as_communicator, use_rank_threads
 from .composite import composite, tile_grid
 from .distribute import assign
 
@@ -181,7 +181,7 @@ def render_parallel(volume, tf, camera, size=(512, 512), *, pof=None, bound=None
     on every ray, so the image is the single pass's to rounding (early termination is
     per block: ``termination`` of the light may pass where the single pass stops).
     """
-    comm = _communicator(comm)
+    comm = as_communicator(comm)
     threads, reason, previous = use_rank_threads(comm, threads)
     try:
         return _render(volume, tf, camera, size, pof, bound, comm, curve, block_size, threshold, root, reason,
@@ -314,7 +314,7 @@ def _visible_blocks(plan, volume, camera, size, pof, bound, comm, shape, bs, til
         bases = plan.tf.bases if isinstance(plan.tf, TransferFunctionFamily) else [plan.tf]
         family = TransferFunctionFamily(bases, None if not isinstance(plan.tf, TransferFunctionFamily) else plan.tf.k)
         sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
-        mine = _nonempty(np.asarray(volume.values, dtype=np.float64), shape, bs, sigma, family).any(axis=-1)
+        mine = nonempty_blocks(np.asarray(volume.values, dtype=np.float64), shape, bs, sigma, family).any(axis=-1)
     if bound is not None:  # union over tiles of what rays sample, and of what they need
         needed, met, _ = bound.blocks(volume, plan.tf, camera, size, opts, bs, window=tile)
         votes = comm.allgather(np.stack([mine.reshape(-1), needed.reshape(-1), met.reshape(-1)]))

@@ -47,7 +47,7 @@ def measure(volume, tf, camera, size, *, pof=None, block_size=16, repeat=1, **op
     """Render every visible block of one view alone and time it (the serial block-wise
     render: ``render_parallel(comm=None)``'s work)."""
     from ..culling.cull import visible_blocks
-    from ..culling.pof import _nonempty
+    from ..culling.pof import nonempty_blocks
     from ..data.transfer import TransferFunctionFamily
     from ..raycast.grid import GridPlan, block_grid_shape, as_volume
     from .render import block_partials
@@ -63,7 +63,7 @@ def measure(volume, tf, camera, size, *, pof=None, block_size=16, repeat=1, **op
     else:
         family = plan.tf if isinstance(plan.tf, TransferFunctionFamily) else TransferFunctionFamily([plan.tf])
         sigma = family.basis_tables(1.0, 1.0) * family.k[:, None]
-        candidates = _nonempty(np.asarray(volume.values, float), shape, block_size, sigma, family).any(-1).reshape(-1)
+        candidates = nonempty_blocks(np.asarray(volume.values, float), shape, block_size, sigma, family).any(-1).reshape(-1)
         visible, test_seconds = candidates.copy(), 0.0
     n = visible.size
     seconds, samples, rects = np.zeros(n), np.zeros(n, dtype=np.int64), {}

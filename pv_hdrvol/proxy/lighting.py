@@ -33,7 +33,7 @@ import numpy as np
 
 from .._validate import as_real
 from ..image.filters import gaussian_blur
-from ..params import Light, _as_lights
+from ..params import Light, as_lights
 from . import _lighting_kernels as _k
 
 __all__ = ["normals_from_depth", "shade", "occlusion_sum", "ambient_occlusion", "unsharp_occlusion",
@@ -210,7 +210,7 @@ def _as_basis(basis):
 
 def _eye_lights(lights, basis):
     """``(n, 3)`` unit directions towards the lights in eye space and ``(n, 3)`` intensities."""
-    lights = (Light(),) if lights is None else _as_lights(lights)
+    lights = (Light(),) if lights is None else as_lights(lights)
     b = None if basis is None else _as_basis(basis)
     dirs = np.empty((len(lights), 3))
     rgb = np.empty((len(lights), 3))

@@ -389,13 +389,13 @@ class ProxySet:
     def save(self, path):
         """Write the proxy folder ``path`` (created; existing proxy files in it are
         replaced, other files are left alone). Returns the path."""
-        from ..image.io import _openexr, check_writable
+        from ..image.io import openexr_module, check_writable
 
         folder = pathlib.Path(path)
         if folder.exists() and not folder.is_dir():
             raise ValueError(f"{os.fspath(path)!r} exists and is not a folder: a proxy set is saved as a folder")
         folder.mkdir(parents=True, exist_ok=True)
-        OpenEXR = _openexr()
+        OpenEXR = openexr_module()
         channels = {"R": self.rgba[..., 0], "G": self.rgba[..., 1], "B": self.rgba[..., 2], "A": self.rgba[..., 3]}
         groups = {}
         for group, stack in self.arrays.items():
@@ -441,7 +441,7 @@ def load_proxies(path):
     ProxyFormatError (a ValueError)
         A channel is missing, has another size, or the parameters disagree with it.
     """
-    from ..image.io import _openexr
+    from ..image.io import openexr_module
     from .model import ColorModel
 
     folder = pathlib.Path(path)
@@ -460,7 +460,7 @@ def load_proxies(path):
     if meta.get("version") != VERSION:
         raise ProxyFormatError(f"{os.fspath(meta_path)!r} has version {meta.get('version')!r}; this pv_hdrvol "
                                f"reads version {VERSION}")
-    OpenEXR = _openexr()
+    OpenEXR = openexr_module()
     try:
         with OpenEXR.File(os.fspath(exr)) as f:
             ch = {name: np.asarray(c.pixels, dtype=np.float64) for name, c in f.channels().items()}

@@ -202,13 +202,13 @@ def view(proxies, title=None, *, block=None):
     """Open a :class:`ProxyViewer` on a :class:`ProxySet` or proxy folder. ``block``
     (default: unless an IPython event loop runs Qt) runs the Qt event loop until the
     window closes. Returns the window."""
-    from ..viewer.qt import _ipython_qt_loop
+    from ..viewer.qt import ipython_qt_loop
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     window = ProxyViewer(proxies, title=title)
     window.show()
     if block is None:
-        block = not _ipython_qt_loop()
+        block = not ipython_qt_loop()
     if block:
         app.exec_() if hasattr(app, "exec_") else app.exec()
     return window

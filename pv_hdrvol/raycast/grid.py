@@ -384,10 +384,10 @@ class BlockGrid:
         between those of its minimum and maximum. Non-linear axes get a margin of 1e-9
         of the axis, because the kernel's ``log10`` may differ from numpy's by an ulp.
         """
-        return _visible(self.minimum, self.maximum, opacity, params)
+        return ranges_visible(self.minimum, self.maximum, opacity, params)
 
 
-def _visible(minimum, maximum, opacity, params):
+def ranges_visible(minimum, maximum, opacity, params):
     """:meth:`BlockGrid.visible` for any arrays of block ranges."""
     n = opacity.size
     nonzero = np.concatenate([[0], np.cumsum(opacity > 0)])
@@ -410,9 +410,9 @@ def _active_blocks(minimum, maximum, opts, styles, table, params):
     if styles is not None:
         active = np.zeros(minimum.shape, np.uint8)
         for t in styles.opacity_columns():
-            active |= _visible(minimum, maximum, t, params)
+            active |= ranges_visible(minimum, maximum, t, params)
         return active
-    return _visible(minimum, maximum, table[:, 3], params)
+    return ranges_visible(minimum, maximum, table[:, 3], params)
 
 
 def _base_active(volume, blocks, opts, styles, table, params):
@@ -908,7 +908,7 @@ class GridPlan(FramePlan):
         elif opts.skip_empty:  # the unmasked classification: whether the function shows anything at all
             visible = bool(_base_active(volume, blocks, opts, styles, table, params).any())
         else:
-            visible = bool(_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
+            visible = bool(ranges_visible(blocks.minimum, blocks.maximum, table[:, 3], params).any())
         reason = empty_render_reason(volume.value_range, volume.any_finite, self.tf, flat=flat, visible=visible,
                                      default_tf=self.default_tf)
         if reason is not None and not visible and opts.precision == "uint8":

@@ -22,7 +22,7 @@ from ..rays.clip import ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _layer_kernels as LK
 from . import _tet_kernels as TK
-from .grid import _visible, cached, empty_render_reason, resolve_render_options, warn_empty
+from .grid import ranges_visible, cached, empty_render_reason, resolve_render_options, warn_empty
 from .frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_far, check_progress_bar, frame_metadata, pixel_rows,
                     tile_lanes)
 from .memory import check_memory
@@ -594,6 +594,6 @@ def _active_cells(mesh, sigma, params):
     key = (params.scale, params.axis_lo, params.axis_inv_range, params.linthresh, content_digest(sigma))
     # the tet kernel interpolates the table in every precision (no nearest-entry rule)
     return cached(mesh.cache, "active_cells", key,
-                  lambda: _visible(lo, hi, sigma, params._replace(precision=PRECISION_CODES["float64"])),
+                  lambda: ranges_visible(lo, hi, sigma, params._replace(precision=PRECISION_CODES["float64"])),
                   _ACTIVE_CACHE)
 

@@ -695,13 +695,15 @@ def view(data, tf=None, *, block=None, **kwargs):
     viewer = HDRViewer(data, tf, **kwargs)
     viewer.show()
     if block is None:
-        block = not _ipython_qt_loop()
+        block = not ipython_qt_loop()
     if block:
         app.exec_() if hasattr(app, "exec_") else app.exec()
     return viewer
 
 
-def _ipython_qt_loop():
+def ipython_qt_loop():
+    """Whether the code runs in an IPython kernel whose Qt event loop is on (``%gui qt``):
+    a window then shows without ``exec()`` blocking the notebook."""
     import sys
 
     ipython = sys.modules.get("IPython")

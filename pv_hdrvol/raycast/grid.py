@@ -853,8 +853,8 @@ class GridPlan(FramePlan):
         # the precision's marker and the lighting (0: none): each kernel compiles that
         # precision's loop, lit or not, only
         light = _light(volume, opts, prec, piece) if not flat else 0
-        frame = _GridFrame(prec, MARKERS[prec], light, bricks, table, sigma, leap, grids, dims, cam, origins, directions, span,
-                           width, height, tile_lanes(), lo, hi, piece_box, params,
+        frame = _GridFrame(prec, MARKERS[prec], light, bricks, table, sigma, leap, grids, dims, cam, origins,
+                           directions, span, width, height, tile_lanes(), lo, hi, piece_box, params,
                            warp_arrays(volume, None if piece is None or nominal is None else nominal[1]), kernel_args,
                            _grid_kernel(flat, extended, opts, styles, lod), out)
 

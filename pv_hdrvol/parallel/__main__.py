@@ -9,7 +9,7 @@ Transfer functions are JSON files of ``TransferFunction.to_dict()``. ``render`` 
 ``--pof`` renders with ``--tf`` (or the default transfer function, as ``pv-hdrvol
 render``'s, chosen on rank 0) and ``pv-hdrvol render``'s camera (perspective), each rank
 its own box of the volume as one piece (:func:`~pv_hdrvol.parallel.pieces.render_in_pieces`:
-``split_volume(volume, ranks)[rank]``, ``GridPlan.execute(piece=...)``, ``gather_pieces``,
+``volume_piece(volume, ranks, rank)``, ``GridPlan.execute(piece=...)``, ``gather_pieces``,
 the path of ParaView's ranks), composited on rank 0 in depth order. On one rank that is
 ``pv-hdrvol render``'s image bit for bit, in about its time; on more, its image to
 rounding (the pieces composited in float64: measured 8.1e-8 of the brightest value in

@@ -116,25 +116,29 @@ def split_volume(volume, n, ghosts=1):
     they are evenly spaced within the piece) and :meth:`VolumePiece.from_rectilinear`
     (its plan takes :meth:`VolumePiece.options_for`)."""
     volume = as_volume(volume)
+    return [volume_piece(volume, n, index, ghosts) for index in range(n)]
+
+
+def volume_piece(volume, n, index, ghosts=1):
+    """Piece ``index`` of :func:`split_volume`'s ``n``, made alone: a process that holds
+    the whole volume copies only its own box."""
+    volume = as_volume(volume)
     ghosts = as_int("ghosts", ghosts, low=0)
     dims = np.array(volume.dims)
-    out = []
-    for lo, hi in split_boxes(volume.dims, n):
-        a = np.maximum(np.array(lo) - ghosts, 0)
-        b = np.minimum(np.array(hi) + ghosts, dims - 1)
-        values = volume.values[a[2]:b[2] + 1, a[1]:b[1] + 1, a[0]:b[0] + 1]
-        if volume.axes is None:
-            part = volume_from_array(values, volume.spacing, volume.origin + a * volume.spacing, name=volume.name)
-            out.append((part, VolumePiece(tuple(volume.origin.tolist()), tuple(volume.dims), tuple(a.tolist()),
-                                          tuple(lo), tuple(hi))))
-            continue
-        # a rectilinear grid: before, its pieces were made uniform at the nominal spacing
-        local = tuple(c[i:j + 1] for c, i, j in zip(volume.axes, a, b))
-        part = volume_from_rectilinear(values, *local, name=volume.name)
-        if part.axes is None:  # even within the piece, uneven in the whole
-            part = dataclasses.replace(part, axes=local, cache={})
-        out.append((part, VolumePiece.from_rectilinear(volume.axes, a, lo, hi)))
-    return out
+    lo, hi = split_boxes(volume.dims, n)[index]
+    a = np.maximum(np.array(lo) - ghosts, 0)
+    b = np.minimum(np.array(hi) + ghosts, dims - 1)
+    values = volume.values[a[2]:b[2] + 1, a[1]:b[1] + 1, a[0]:b[0] + 1]
+    if volume.axes is None:
+        part = volume_from_array(values, volume.spacing, volume.origin + a * volume.spacing, name=volume.name)
+        return part, VolumePiece(tuple(volume.origin.tolist()), tuple(volume.dims), tuple(a.tolist()), tuple(lo),
+                                 tuple(hi))
+    # a rectilinear grid: before, its pieces were made uniform at the nominal spacing
+    local = tuple(c[i:j + 1] for c, i, j in zip(volume.axes, a, b))
+    part = volume_from_rectilinear(values, *local, name=volume.name)
+    if part.axes is None:  # even within the piece, uneven in the whole
+        part = dataclasses.replace(part, axes=local, cache={})
+    return part, VolumePiece.from_rectilinear(volume.axes, a, lo, hi)
 
 
 def check_tiling(pieces):
@@ -253,7 +257,7 @@ def render_in_pieces(volume, tf=None, camera=None, size=(512, 512), *, comm=WORL
     as one piece, composited on ``root`` (SPMD: every process calls it alike).
 
     The path of ``python -m pv_hdrvol.parallel render VOLUME`` without ``--pof``: process
-    ``r`` renders ``split_volume(volume, comm.size)[r]`` (its owned box and one ghost
+    ``r`` renders ``volume_piece(volume, comm.size, r)`` (its owned box and one ghost
     layer) with :func:`render_pieces`' steps, and :func:`gather_pieces` composites the
     pieces on ``root``. One piece per process, one render each: on one process it
     costs what a serial render costs (:func:`~pv_hdrvol.parallel.render.render_parallel`
@@ -318,7 +322,7 @@ def render_in_pieces(volume, tf=None, camera=None, size=(512, 512), *, comm=WORL
     camera = fit_camera(volume, camera)
     threads, reason, previous = use_rank_threads(comm, threads)
     try:
-        part, piece = split_volume(volume, comm.size)[comm.rank]
+        part, piece = volume_piece(volume, comm.size, comm.rank)
         t = time.perf_counter()
         image, part, rays, error = _render_own_piece(part, piece, tf, camera, size, opts, {})
         t_render = time.perf_counter() - t
@@ -390,5 +394,4 @@ def gather_boxes(image, box, rays, *, comm=WORLD, root=0, error=None, check=None
 
 
 __all__ = ["allgather_or_raise", "box_entries", "check_tiling", "composite_pieces", "gather_boxes", "gather_pieces",
-           "render_in_pieces", "render_pieces",
-           "split_boxes", "split_bounds", "split_volume"]
+           "render_in_pieces", "render_pieces", "split_boxes", "split_bounds", "split_volume", "volume_piece"]

@@ -6,7 +6,7 @@ import pytest
 
 import pv_hdrvol as hv
 from pv_hdrvol.parallel.pieces import (check_tiling, composite_pieces, render_pieces, split_boxes,
-                                       split_volume)
+                                       split_volume, volume_piece)
 from pv_hdrvol.raycast.grid import GridPlan, VolumePiece, resolve_transfer_function
 from thread_comm import run_spmd
 
@@ -96,6 +96,32 @@ def test_pieces_composited_in_depth_order_are_the_whole_render(options, atol):
         assert np.array_equal(np.isfinite(image.depth), hit)
         # the depth where the first piece with opacity crosses the threshold alone: exact
         assert np.mean(image.depth[hit] == whole.depth[hit]) > 0.7
+
+
+def test_one_piece_made_alone_is_that_piece_of_the_split():
+    """A process that holds the whole volume makes only its own piece (volume_piece),
+    equal to the split's, uniform and rectilinear."""
+    uniform = _volume()
+    axes = (np.cumsum(np.r_[0.0, np.linspace(0.5, 1.5, uniform.dims[0] - 1)]),
+            np.linspace(0.0, 3.0, uniform.dims[1]), np.linspace(-1.0, 1.0, uniform.dims[2]))
+    rectilinear = hv.volume_from_rectilinear(uniform.values, *axes)
+    for volume in (uniform, rectilinear):
+        for ghosts in (0, 1):
+            whole = split_volume(volume, 3, ghosts)
+            for index, (part, piece) in enumerate(whole):
+                alone, alone_piece = volume_piece(volume, 3, index, ghosts)
+                for field in piece._fields:
+                    a, b = getattr(alone_piece, field), getattr(piece, field)
+                    if isinstance(b, tuple) and b and isinstance(b[0], np.ndarray):  # a rectilinear whole's axes
+                        assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b)), field
+                    else:
+                        assert np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object)), field
+                np.testing.assert_array_equal(alone.values, part.values)
+                np.testing.assert_array_equal(alone.origin, part.origin)
+                assert (alone.axes is None) == (part.axes is None)
+                if part.axes is not None:
+                    for a, b in zip(alone.axes, part.axes):
+                        np.testing.assert_array_equal(a, b)
 
 
 def test_opaque_geometry_stops_every_piece_where_it_stops_the_whole():

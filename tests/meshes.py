@@ -1,4 +1,5 @@
-"""Test helpers: tetrahedral meshes built with numpy (no VTK), exact ray-box lengths."""
+"""Test helpers: tetrahedral meshes built with numpy (no VTK), exact ray-box lengths, and a
+CTH-like rectilinear grid of cell data (PyVista)."""
 import itertools
 
 import numpy as np
@@ -59,3 +60,17 @@ def oblique_camera(center, distance=10.0, parallel=True, scale=3.0):
     direction /= np.linalg.norm(direction)
     return hv.Camera(tuple(np.asarray(center) + distance * direction), tuple(center), (0.0, 0.0, 1.0),
                      parallel_projection=parallel, parallel_scale=scale)
+
+
+def cth_like_grid():
+    """A CTH-like ``pyvista.RectilinearGrid``: uneven cells along x and y, and the values
+    on the cells (cell data ``"density"``)."""
+    import pyvista as pv
+
+    xs = np.cumsum(np.r_[0.0, np.linspace(0.2, 0.6, 15)])
+    ys = np.cumsum(np.r_[0.0, np.linspace(0.5, 0.25, 12)])
+    zs = np.linspace(0.0, 3.0, 10)
+    rect = pv.RectilinearGrid(xs, ys, zs)
+    cz, cy, cx = np.meshgrid(*(np.arange(n - 1) for n in (len(zs), len(ys), len(xs))), indexing="ij")
+    rect.cell_data["density"] = (np.cos(0.5 * cx) * np.sin(0.6 * cy) + 0.1 * cz).ravel()
+    return rect

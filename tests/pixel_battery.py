@@ -31,7 +31,9 @@ def _field(shape):
 
 
 def scenes():
-    """``{name: callable() -> HDRImage}``: the pinned scenes."""
+    """``{name: callable() -> HDRImage}``: the pinned scenes. Built here from numpy and
+    PyVista alone, not from the tests' helpers: the battery is written with the tree
+    before a change, whose helpers may differ."""
     import pyvista as pv
 
     import pv_hdrvol as hv

@@ -23,6 +23,7 @@ import re
 import numpy as np
 import pytest
 
+from meshes import cth_like_grid
 from offscreen import require_offscreen_vtk
 
 try:  # before pyvista imports VTK's rendering: the scene's cases need an offscreen window
@@ -75,17 +76,6 @@ def _grid():
     return g
 
 
-def _cth():
-    """A CTH-like rectilinear grid: uneven cells, the values on them (cell data)."""
-    xs = np.cumsum(np.r_[0.0, np.linspace(0.2, 0.6, 15)])
-    ys = np.cumsum(np.r_[0.0, np.linspace(0.5, 0.25, 12)])
-    zs = np.linspace(0.0, 3.0, 10)
-    rect = pv.RectilinearGrid(xs, ys, zs)
-    cz, cy, cx = np.meshgrid(*(np.arange(n - 1) for n in (len(zs), len(ys), len(xs))), indexing="ij")
-    rect.cell_data["density"] = (np.cos(0.5 * cx) * np.sin(0.6 * cy) + 0.1 * cz).ravel()
-    return rect
-
-
 def _cell_image():
     """An image with cell data, for the parallel command line (image data only)."""
     g = pv.ImageData(dimensions=(17, 15, 13), spacing=(0.5, 0.4, 0.3), origin=(1.0, -2.0, 0.5))
@@ -97,7 +87,7 @@ def _cell_image():
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("option_path")
-    grid, cth, cells = _grid(), _cth(), _cell_image()
+    grid, cth, cells = _grid(), cth_like_grid(), _cell_image()
     grid.save(folder / "grid.vti")
     cth.save(folder / "cth.vtr")
     cells.save(folder / "cells.vti")
@@ -329,7 +319,7 @@ def test_the_parallel_command_line_frames_an_image_of_cell_data_on_its_bounds(fi
 
 
 def test_a_volume_of_cell_data_keeps_its_datasets_bounds_for_the_view():
-    cth = _cth()
+    cth = cth_like_grid()
     volume = hv.volume_from_dataset(cth)
     assert volume.dataset_bounds == tuple(cth.bounds)
     assert volume.bounds[0] > cth.bounds[0]  # the values sit at the cell centres

@@ -368,18 +368,17 @@ def test_pyvistas_words_open_the_viewer_on_their_function_framed_as_hv_render_fr
     """hv.view(data, cmap=, clim=, opacity=, scale=, global_alpha=): the editor starts from
     the function hv.render makes of the words, and a CTH-like rectilinear grid of cell
     data is framed on its bounds (the cells' corners), as hv.render frames it."""
-    import pyvista as pv
+    import sys
+    from pathlib import Path
 
     from pv_hdrvol.editor.model import TransferFunctionModel
     from pv_hdrvol.raycast.grid import resolve_render_options
     from pv_hdrvol.rays.camera import fit_camera
 
-    xs = np.cumsum(np.r_[0.0, np.linspace(0.2, 0.6, 15)])
-    ys = np.cumsum(np.r_[0.0, np.linspace(0.5, 0.25, 12)])
-    zs = np.linspace(0.0, 3.0, 10)
-    rect = pv.RectilinearGrid(xs, ys, zs)
-    cz, cy, cx = np.meshgrid(*(np.arange(n - 1) for n in (len(zs), len(ys), len(xs))), indexing="ij")
-    rect.cell_data["density"] = (np.cos(0.5 * cx) * np.sin(0.6 * cy) + 0.1 * cz).ravel()
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from meshes import cth_like_grid
+
+    rect = cth_like_grid()
     words = dict(cmap="bone", clim=(-0.5, 1.0), opacity="sigmoid", scale="linear")
     window = HDRViewer(rect, precision="float32", global_alpha=0.5, **words)
     qtbot.addWidget(window)

@@ -4,7 +4,7 @@ Nothing here imports ``numba.cuda`` at import time: :func:`composite_kernel` and
 :func:`projection_kernel` build a variant (precision, shading) when a render first
 asks for it, through :class:`~pv_hdrvol.gpu._retarget.Retarget`, and numba-cuda
 compiles it at its first launch. The kernel bodies below are the per-pixel bodies of
-``raycast._kernels.render_tiles`` and ``raycast._kernels_ext.render_projection``; the
+``raycast._kernels.render_tiles`` (composite or projection, by the marker's type); the
 marching, sampling, classification, lighting and compositing they call are the CPU
 kernels' own functions.
 """
@@ -18,7 +18,6 @@ import numpy as np
 from .._jit import STUBS, compiled_only, kernel
 from ..raycast import _kernels as K
 from ..raycast._kernels import _march as march, pixel_ray_span, store_pixel  # noqa: F401 (retargeted by name)
-from ..raycast._kernels_ext import _project as project, grid_geometry  # noqa: F401
 from ..raycast._tet_kernels import _march as tet_march, pixel_ray  # noqa: F401
 
 #: Threads of a CUDA block, (x, y): 8 x 8 pixels, a tile of the CPU kernels.
@@ -37,10 +36,12 @@ def launch_row(col, y, tile_rows, tile, width, height):
     return row
 
 
-def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width,
-                      height, tile_rows, lo, hi, piece, p, shading, lights, gvec, out_rgba, out_depth, out_samples):
+def _grid_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width, height,
+                 tile_rows, lo, hi, piece, p, shading, lights, gvec, out_value, out_rgba, out_depth, out_samples):
     """One pixel of ``render_tiles`` per thread: pixel column ``x``, and the ``y``-th row
-    of the rows of tiles ``tile_rows`` (``raycast.frame.run_in_chunks``)."""
+    of the rows of tiles ``tile_rows`` (``raycast.frame.run_in_chunks``). Composited or
+    projected as ``marker`` says (``raycast._composite_kernels``); a projection's values
+    go to ``out_value`` (empty for a composite)."""
     col, y = cuda.grid(2)  # noqa: F821 (injected)
     row = launch_row(col, y, tile_rows, TILE, width, height)  # noqa: F821
     if row < 0:
@@ -48,34 +49,19 @@ def _composite_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam
     pix = row * width + col
     ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width, height)
     scratch = cuda.local.array(SCRATCH_LEN, numba.float64)  # noqa: F821
-    r, g, b, a, dep, ns = march(marker, 0, _make_light(shading, lights, gvec), 0, bricks, offs, table, sigma,  # noqa
-                                leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
-                                t_near, t_far)
+    r, g, b, a, dep, ns, v = march(marker, _make_light(shading, lights, gvec), 0, bricks, offs, table, sigma,  # noqa
+                                   leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
+                                   t_near, t_far)
     store_pixel(out_rgba, out_depth, out_samples, pix, r, g, b, a, dep, ns)
-
-
-def _projection_pixels(bricks, leap, grids, dims, pyr, pgeo, tables, sigmas, axes, cam, origins, directions, span,
-                       width, height, tile_rows, lo, hi, p, e, out_value, out_rgba, out_depth, out_samples):
-    """One pixel of ``render_projection`` per thread (no level of detail), as
-    :func:`_composite_pixels` places it."""
-    col, y = cuda.grid(2)  # noqa: F821
-    row = launch_row(col, y, tile_rows, TILE, width, height)  # noqa: F821
-    if row < 0:
-        return
-    pix = row * width + col
-    g = grid_geometry(dims, grids, p)
-    ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width, height)
-    v, r, gg, b, a, dep, ns = project(bricks, leap, g, pyr, pgeo, 0.0, tables, sigmas, axes, ox, oy, oz, dx, dy, dz,
-                                      lo, hi, p, e, t_near, t_far)
-    out_value[pix] = v
-    store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
+    if out_value.shape[0] > 0:
+        out_value[pix] = v
 
 
 def _tet_pixels(marker, points, cells_i, cells_f, active, btri, bcell, bface, table, grads, shading, lights,
                 hit_offsets, hit_t, hit_face, hit_enter, cam, own, span, width, height, tile_rows, p, out_rgba,
                 out_depth, out_cells, out_pieces, out_guard):
     """One pixel of ``raycast._tet_kernels.render_tiles`` per thread, as
-    :func:`_composite_pixels` places it (the boundary crossings ``hit_*`` come from the
+    :func:`_grid_pixels` places it (the boundary crossings ``hit_*`` come from the
     CPU's rasteriser)."""
     col, y = cuda.grid(2)  # noqa: F821
     row = launch_row(col, y, tile_rows, TILE, width, height)  # noqa: F821
@@ -138,14 +124,14 @@ def _impl(generator, types_by_name):
     return generator(*(types_by_name.get(name) for name in names))
 
 
-def _resolve(precision, shaded):
-    """Stub -> implementation for the compositing loop of one variant (uniform grid,
-    bricks in memory, plain sampler): every stub of the CPU kernels (``_jit.STUBS``),
-    from its generator given the variant's types by argument name."""
+def _resolve(marker, shaded):
+    """Stub -> implementation for the grid loop of one variant (uniform grid, bricks in
+    memory; ``marker`` the numba type of a compositing precision's or a projection's
+    marker): every stub of the CPU kernels (``_jit.STUBS``), from its generator given the
+    variant's types by argument name."""
     i64 = numba.types.int64
-    marker = numba.types.float64 if precision == "float64" else numba.types.float32
     light = numba.types.Tuple((numba.types.float64[:],) * 3) if shaded else i64
-    by_name = {"marker": marker, "sampler": i64, "light": light, "warp": i64, "offs": numba.types.float64[:]}
+    by_name = {"marker": marker, "light": light, "warp": i64, "offs": numba.types.float64[:]}
     resolved = {stub: _impl(stub.implementation, by_name) for stub in STUBS}
     resolved[_make_light] = _light_tuple if shaded else _no_light
     return resolved
@@ -169,15 +155,17 @@ def composite_kernel(precision, shaded):
     """The compositing kernel of ``precision`` (``"float32"``/``"float64"``), lit or not."""
     key = ("composite", precision, bool(shaded))
     if key not in _built:
-        _built[key] = _build(_composite_pixels, _resolve(precision, shaded))
+        _built[key] = _build(_grid_pixels, _resolve(numba.typeof(marker(precision)), shaded))
     return _built[key]
 
 
-def projection_kernel():
-    """The projection kernel (maximum, minimum, average, additive; ``ExtParams.mode``)."""
-    key = ("projection",)
+def projection_kernel(projection):
+    """The kernel of a projection's marker (``raycast._composite_kernels.projection_marker``):
+    one per kind (an extreme or an integral; the mode is a value of the marker)."""
+    kind = numba.typeof(projection)
+    key = ("projection", type(projection).__name__)
     if key not in _built:
-        _built[key] = _build(_projection_pixels, _resolve("float64", False))
+        _built[key] = _build(_grid_pixels, _resolve(kind, False))
     return _built[key]
 
 
@@ -185,7 +173,7 @@ def tet_kernel(precision):
     """The tetrahedral kernel of ``precision`` (shading is a run-time flag there)."""
     key = ("tets", precision)
     if key not in _built:
-        _built[key] = _build(_tet_pixels, _resolve(precision, False))
+        _built[key] = _build(_tet_pixels, _resolve(numba.typeof(marker(precision)), False))
     return _built[key]
 
 

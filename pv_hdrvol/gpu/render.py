@@ -64,7 +64,7 @@ class CudaRunner:
         if self._out is None or self._out[0] != key:
             c = self.cuda
             self._out = (key, (c.device_array((n, 4), dtype), c.device_array(n, np.float64),
-                               c.device_array(n, np.int64), c.device_array(n if value else 1, np.float64)))
+                               c.device_array(n, np.int64), c.device_array(n if value else 0, np.float64)))
         return self._out[1]
 
     def launch(self, kernel, width, rows, *args):
@@ -123,9 +123,26 @@ def composite_frame(runner, prec, light, bricks, table, sigma, leap, grids, dims
     """``(cast, finish)`` of a composite render on the GPU: ``cast(tile_rows)`` renders
     those rows of tiles (``raycast.frame.run_in_chunks``), ``finish()`` copies the image
     into the host arrays ``out_*``. Arguments as ``raycast._kernels.render_tiles``."""
+    return _grid_frame(runner, G.composite_kernel(prec, light != 0), G.marker(prec), light, bricks, table, sigma, leap,
+                       grids, dims, cam, origins, directions, span, width, height, lo, hi, piece, params, None,
+                       out_rgba, out_depth, out_samples)
+
+
+def projection_frame(runner, bricks, table, leap, grids, dims, a, cam, origins, directions, span, width, height,
+                     lo, hi, params, out_value, out_rgba, out_depth, out_samples):
+    """As :func:`composite_frame`, for a projection: the same loop with the projection's
+    marker (``a``: the frame's ``_Extended`` arguments; no level of detail). ``cam``: the
+    camera's kernel array, or empty with the rays in ``origins``/``directions``."""
+    piece = np.concatenate([lo, hi, np.zeros(3)])
+    return _grid_frame(runner, G.projection_kernel(a.projection), a.projection, 0, bricks, table, a.sigmas, leap,
+                       grids, dims, cam, origins, directions, span, width, height, lo, hi, piece, params, out_value,
+                       out_rgba, out_depth, out_samples)
+
+
+def _grid_frame(runner, kernel, marker, light, bricks, table, sigma, leap, grids, dims, cam, origins, directions, span,
+                width, height, lo, hi, piece, params, out_value, out_rgba, out_depth, out_samples):
     from ..raycast.frame import pixel_rows
 
-    kernel = G.composite_kernel(prec, light != 0)
     d = runner.device_array
     if light != 0:
         shading, lights, gvec = (d("shading", light[0]), d("lights", light[1]), d("gvec", light[2]))
@@ -133,47 +150,19 @@ def composite_frame(runner, prec, light, bricks, table, sigma, leap, grids, dims
         shading = lights = gvec = d("no light", _NO_LIGHT)
     static = (d("bricks", bricks.values), d("offsets", bricks.offsets), d("table", table).reshape(-1),
               d("sigma", sigma), d("leap", leap), d("grids", grids), d("dims", dims))
-    cam, origins, directions, span = (runner.small(a) for a in (cam, origins, directions, span))
-    rgba, depth, samples, _ = runner.outputs(width * height, out_rgba.dtype, False)
-    marker = G.marker(prec)
+    cam, origins, directions, span = (runner.small(x) for x in (cam, origins, directions, span))
+    rgba, depth, samples, value = runner.outputs(width * height, out_rgba.dtype, out_value is not None)
 
     def cast(tile_rows):
         rows = runner.small(np.ascontiguousarray(tile_rows, dtype=np.int64))
         runner.launch(kernel, width, tile_rows.shape[0], marker, *static, cam, origins, directions, span, width,
                       height, rows, runner.small(lo), runner.small(hi), runner.small(piece), params, shading, lights,
-                      gvec, rgba, depth, samples)
+                      gvec, value, rgba, depth, samples)
         return pixel_rows(tile_rows, height)
 
     def finish():
-        rgba.copy_to_host(out_rgba)
-        depth.copy_to_host(out_depth)
-        samples.copy_to_host(out_samples)
-
-    return cast, finish
-
-
-def projection_frame(runner, bricks, table, leap, grids, dims, a, cam, origins, directions, span, width, height,
-                     lo, hi, params, out_value, out_rgba, out_depth, out_samples):
-    """As :func:`composite_frame`, for ``raycast._kernels_ext.render_projection`` (``a``:
-    its ``_Extended`` arguments; no level of detail). ``cam``: the camera's kernel array,
-    or empty with the rays in ``origins``/``directions``."""
-    from ..raycast.frame import pixel_rows
-
-    kernel = G.projection_kernel()
-    d = runner.device_array
-    static = (d("bricks", bricks.values), d("leap", leap), d("grids", grids), d("dims", dims), d("pyr", a.pyr),
-              d("pgeo", a.pgeo), d("table", table).reshape(-1), d("sigma", a.sigmas), runner.small(a.axes))
-    cam, origins, directions, span = (runner.small(x) for x in (cam, origins, directions, span))
-    rgba, depth, samples, value = runner.outputs(width * height, out_rgba.dtype, True)
-
-    def cast(tile_rows):
-        rows = runner.small(np.ascontiguousarray(tile_rows, dtype=np.int64))
-        runner.launch(kernel, width, tile_rows.shape[0], *static, cam, origins, directions, span, width, height, rows,
-                      runner.small(lo), runner.small(hi), params, a.e, value, rgba, depth, samples)
-        return pixel_rows(tile_rows, height)
-
-    def finish():
-        value.copy_to_host(out_value)
+        if out_value is not None:
+            value.copy_to_host(out_value)
         rgba.copy_to_host(out_rgba)
         depth.copy_to_host(out_depth)
         samples.copy_to_host(out_samples)

@@ -36,14 +36,14 @@ from .._jit import (
     fused_parallel_kernel, inline_kernel, kernel, stub_overload, uindex as _u,
 )
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
+from ._composite_kernels import (
+    LOG, SYMLOG, U8, _accumulate, _lookup, _opacity, _result, _start, _take, exit_t, lattice_at, lattice_end,
+    projects, sample_t, sigma_at, table_position, table_row,
+)
 from ._shading_kernels import (
     SH_AMBIENT, SH_DIFFUSE, SH_FADE, SH_INV_SPACING, SH_POWER, SH_SAMPLED, SH_SPACING, SH_SPECULAR,
 )
 
-# precision codes (params.PRECISION_CODES)
-F64, F32, F16, U8 = 0, 1, 2, 3
-# transfer-function axis codes (data/transfer.SCALE_CODES)
-LINEAR, LOG, SYMLOG = 0, 1, 2
 # bricks of 2**BRICK_SHIFT cells a side (memory layout; independent of skip blocks)
 BRICK_SHIFT = 3
 # values a ray samples before it classifies them (``_march_plain``'s two phases)
@@ -66,56 +66,6 @@ class GridParams(NamedTuple):
     alpha_stop: float  # stop once accumulated opacity reaches this (1 - termination)
     depth_alpha: float  # accumulated opacity that records depth
     block_shift: int  # log2(edge of an empty-space block, in cells)
-
-
-# -- rounding that emulates a buffer's precision ---------------------------------------
-@kernel
-def round_half(x):
-    """Round a float64 to the nearest IEEE half value (ties to even), as float64."""
-    if x == 0.0 or x != x:
-        return x
-    ax = abs(x)
-    if ax >= 65520.0:  # rounds to infinity in half
-        return math.copysign(math.inf, x)
-    m, e = math.frexp(ax)  # ax = m * 2**e, 0.5 <= m < 1
-    ex = e - 1
-    if ex < -14:
-        ex = -14  # subnormal range: fixed quantum 2**-24
-    q = math.ldexp(1.0, ex - 10)
-    r = ax / q
-    f = math.floor(r)
-    d = r - f
-    if d > 0.5 or (d == 0.5 and (f - 2.0 * math.floor(0.5 * f)) == 1.0):
-        f += 1.0
-    return math.copysign(f * q, x)
-
-
-@kernel
-def round_u8(x):
-    """Round to the nearest multiple of 1/255 in [0, 1], as an 8-bit buffer stores it."""
-    if x <= 0.0:
-        return 0.0
-    if x >= 1.0:
-        return 1.0
-    return math.floor(x * 255.0 + 0.5) / 255.0
-
-
-@inline_kernel
-def _round(x, precision):
-    """Round to what an emulated ``float16`` or ``uint8`` buffer stores (else unchanged)."""
-    if precision == F16:
-        return round_half(x)
-    if precision == U8:
-        return round_u8(x)
-    return x
-
-
-@inline_kernel
-def _kahan_add32(total, comp, x):
-    """Compensated float32 ``total + x``: returns the new total and compensation."""
-    y = x - comp
-    t = total + y
-    return t, (t - total) - y
 
 
 # -- geometry --------------------------------------------------------------------------
@@ -190,54 +140,6 @@ def piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, step, t_far):
     return k0, k1, a <= tm and (tm < b or b >= t1)
 
 
-# -- classification ---------------------------------------------------------------------
-@inline_kernel
-def table_position(v, p):
-    """Position in [0, 1] of data value ``v`` on the table's axis (float64)."""
-    if p.scale == LOG:
-        if v > 0.0:
-            a = math.log10(v)
-        else:
-            return 0.0
-    elif p.scale == SYMLOG:
-        a = math.copysign(math.log10(1.0 + abs(v) / p.linthresh), v)
-    else:
-        a = v
-    u = (a - p.axis_lo) * p.axis_inv_range
-    if u < 0.0:
-        return 0.0
-    if u > 1.0:
-        return 1.0
-    return u
-
-
-@inline_kernel
-def table_row(table, base, n, u, u8):
-    """Interpolated row ``(r, g, b, a)`` at axis position ``u`` (``table_position``) of
-    the ``n``-row table starting at ``table[base]`` (flat, 4 values per row), and its
-    entry ``i`` and fraction ``f``. ``u8``: the nearest of the rows, no interpolation
-    (the 8-bit pipeline). The lerp is in the table's precision (float32 tables: no
-    conversions). Inlined, so it takes the caller's flags: every compositing loop that
-    must give the same bits is a ``fused_kernel``."""
-    if u8:
-        # the row itself: at u = 1 it is the last, and a lerp would read the row past it
-        i = int(u * (n - 1) + 0.5)
-        q = _u(base + 4 * i)
-        return table[q], table[q + _u(1)], table[q + _u(2)], table[q + _u(3)], i, 0.0
-    x = u * (n - 1)
-    i = int(x)
-    if i > n - 2:
-        i = n - 2
-    f = x - i
-    q = _u(base + 4 * i)
-    ft = table.dtype.type(f)
-    r = table[q] + ft * (table[q + _u(4)] - table[q])
-    g = table[q + _u(1)] + ft * (table[q + _u(5)] - table[q + _u(1)])
-    b = table[q + _u(2)] + ft * (table[q + _u(6)] - table[q + _u(2)])
-    a = table[q + _u(3)] + ft * (table[q + _u(7)] - table[q + _u(3)])
-    return r, g, b, a, i, f
-
-
 # -- the ray -----------------------------------------------------------------------------
 @inline_kernel
 def _axis_exit(o, inv_d, b, radius, size):
@@ -252,7 +154,7 @@ def _axis_exit(o, inv_d, b, radius, size):
 
 @inline_kernel
 def _block(leap, g, x, y, z):
-    """Leap radius and block indices of voxel position ``(x, y, z)`` (as ``_sample``)."""
+    """Leap radius and block indices of voxel position ``(x, y, z)`` (as the loops' ``stencil`` callers)."""
     nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
     xi = min(int(min(max(x, 0.0), x_max)), nx - 2)
     yi = min(int(min(max(y, 0.0), y_max)), ny - 2)
@@ -301,7 +203,7 @@ def trilinear(bricks, base, nx, ny, nz, qy, qx, x, y, z):
 
 @kernel
 def mip_sampler(pgeo, lod, n_levels):
-    """The sampler tuple of a ray at level of detail ``lod`` (see ``_sample``): the two
+    """The sampler tuple of a ray at level of detail ``lod`` (see ``stencil``): the two
     levels' geometry and scale, read once per ray, not per sample. (No array in it: the
     mip-map itself travels as ``bricks``.)
 
@@ -326,86 +228,6 @@ def mip_value(pyr, sampler, x, y, z):
     if f == 0.0:
         return v0
     return v0 + f * (trilinear(pyr, g1[0], g1[1], g1[2], g1[3], g1[4], g1[5], x * s1, y * s1, z * s1) - v0)
-
-
-@compiled_only
-def _sample(sampler, bricks, leap, g, x, y, z):
-    """The block radius at voxel position ``(x, y, z)`` and, in a block to sample, the
-    value there: ``(radius, ib, jb, kb, v)`` (compiled only).
-
-    ``g`` is the geometry tuple built in ``_march``; ``radius`` comes from ``leap`` (0:
-    sample), with the block indices; ``v`` is NaN when ``radius != 0`` (not sampled).
-    The plain ``sampler`` (an int) interpolates ``bricks`` trilinearly; a ``mip_sampler``
-    tuple interpolates the mip-map passed as ``bricks`` between two levels.
-
-    The plain sampler calls no other jitted helper: numba 0.56 deep-copies the
-    dispatchers an inlined function refers to, which made compiling the loop take
-    minutes. Each coordinate is clamped to ``[0, n - 1]``; ``x = n - 1`` takes the
-    "cell" past the last one with fraction 0 (the bricks repeat the edge there), so
-    every grid value comes back exactly, and its block index is that of the last cell.
-    """
-    raise NotImplementedError("compiled only")
-
-
-@stub_overload(_sample, jit_options=_JIT, inline="always")
-def _sample_impl(sampler, bricks, leap, g, x, y, z):
-    # Inlined into the marching loop (as a call per sample, passing arrays, it cost 5-20 %). The
-    # plain sampler is written out here, not through another inlined helper: numba's IR
-    # inlining of nested inlines trips its own scope checks.
-    if isinstance(sampler, numba.types.Integer):
-        def plain(sampler, bricks, leap, g, x, y, z):
-            nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
-            x = min(max(x, 0.0), x_max)
-            y = min(max(y, 0.0), y_max)
-            z = min(max(z, 0.0), z_max)
-            xi = int(x)
-            yi = int(y)
-            zi = int(z)
-            ib = min(xi, nx - 2) >> shift
-            jb = min(yi, ny - 2) >> shift
-            kb = min(zi, nz - 2) >> shift
-            radius = leap[np.uint64((kb * by + jb) * bx + ib)]
-            if radius != 0:
-                return radius, ib, jb, kb, math.nan
-            fx = x - xi
-            fy = y - yi
-            fz = z - zi
-            # trilinear interpolation inside one brick
-            m = (1 << BRICK_SHIFT) - 1
-            pitch = (1 << BRICK_SHIFT) + 1
-            brick = ((zi >> BRICK_SHIFT) * qy + (yi >> BRICK_SHIFT)) * qx + (xi >> BRICK_SHIFT)
-            q = np.uint64(brick * (pitch * pitch * pitch) + ((zi & m) * pitch + (yi & m)) * pitch + (xi & m))
-            p1 = np.uint64(pitch)
-            p2 = np.uint64(pitch * pitch)
-            one = np.uint64(1)
-            v000 = np.float64(bricks[q])
-            v100 = np.float64(bricks[q + one])
-            v010 = np.float64(bricks[q + p1])
-            v110 = np.float64(bricks[q + p1 + one])
-            v001 = np.float64(bricks[q + p2])
-            v101 = np.float64(bricks[q + p2 + one])
-            v011 = np.float64(bricks[q + p2 + p1])
-            v111 = np.float64(bricks[q + p2 + p1 + one])
-            c00 = v000 + fx * (v100 - v000)
-            c10 = v010 + fx * (v110 - v010)
-            c01 = v001 + fx * (v101 - v001)
-            c11 = v011 + fx * (v111 - v011)
-            c0 = c00 + fy * (c10 - c00)
-            c1 = c01 + fy * (c11 - c01)
-            return 0, ib, jb, kb, c0 + fz * (c1 - c0)
-        return plain
-
-    def mipmapped(sampler, bricks, leap, g, x, y, z):
-        # _block written out, for the same reason; mip_value is a call
-        nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
-        ib = min(int(min(max(x, 0.0), x_max)), nx - 2) >> shift
-        jb = min(int(min(max(y, 0.0), y_max)), ny - 2) >> shift
-        kb = min(int(min(max(z, 0.0), z_max)), nz - 2) >> shift
-        radius = leap[np.uint64((kb * by + jb) * bx + ib)]
-        if radius != 0:
-            return radius, ib, jb, kb, math.nan
-        return 0, ib, jb, kb, mip_value(bricks, sampler, x, y, z)
-    return mipmapped
 
 
 @kernel
@@ -516,179 +338,6 @@ def _leap_past_impl(warp, g, k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, ra
         kn = int(math.ceil((te - t0) / step - 0.5))
         return kn if kn > k else k + 1
     return warped
-
-
-@fused_kernel
-def _lookup(table, v, n, p):
-    """Interpolated table row ``(r, g, b, a)`` of data value ``v``, and its entry and fraction."""
-    return table_row(table, 0, n, table_position(v, p), p.precision == U8)
-
-
-@fused_kernel
-def sigma_at(sigma, i, f):
-    """Extinction between entries ``i`` and ``i + 1`` of ``sigma`` at fraction ``f`` (float64).
-    ``f = 0`` reads entry ``i`` alone: the 8-bit lookup gives the last entry that way."""
-    s0 = np.float64(sigma[_u(i)])
-    if f == 0.0:
-        return s0
-    return s0 + f * (np.float64(sigma[_u(i + 1)]) - s0)
-
-
-# -- compositing: start / accumulate / finish, one implementation per precision -----------
-# Chosen at compile time by the type of a marker argument (float64, float32, or an int for
-# the emulations), so each precision's loop carries only its own accumulators: a single
-# loop with a runtime branch kept all twelve live and spilled them to the stack on every
-# sample. (numba's IR inlining would also specialise, but numba 0.56 takes minutes to
-# deep-copy the IR of a loop this size.)
-@compiled_only
-def _start(marker):
-    """Empty compositing state for the precision ``marker`` stands for (compiled only)."""
-    raise NotImplementedError("compiled only")
-
-
-@compiled_only
-def _accumulate(marker, prec, state, a_i, r, g, b):
-    """Add one sample (opacity ``a_i``, colour ``r, g, b``) behind ``state`` (compiled only)."""
-    raise NotImplementedError("compiled only")
-
-
-@compiled_only
-def _opacity(marker, state):
-    """Accumulated opacity of ``state``, float64 (compiled only)."""
-    raise NotImplementedError("compiled only")
-
-
-@compiled_only
-def _finish(marker, state):
-    """``(r, g, b, alpha)`` of ``state`` as float64 (compiled only)."""
-    raise NotImplementedError("compiled only")
-
-
-def _is_f32(marker):
-    return isinstance(marker, numba.types.Float) and marker.bitwidth == 32
-
-
-@stub_overload(_start, jit_options=_FUSED_JIT)
-def _start_impl(marker):
-    if _is_f32(marker):
-        def start32(marker):
-            z = np.float32(0.0)
-            return z, z, z, z, z, z, z, z  # r, g, b, alpha, then their Kahan compensations
-        return start32
-
-    def start64(marker):
-        return 0.0, 0.0, 0.0, 0.0
-    return start64
-
-
-@stub_overload(_accumulate, jit_options=_FUSED_JIT)
-def _accumulate_impl(marker, prec, state, a_i, r, g, b):
-    if _is_f32(marker):
-        def accumulate32(marker, prec, state, a_i, r, g, b):
-            # float32 arithmetic throughout, with compensated sums
-            r32, g32, b32, a32, er, eg, eb, ea = state
-            w = (np.float32(1.0) - a32) * np.float32(a_i)
-            r32, er = _kahan_add32(r32, er, w * np.float32(r))
-            g32, eg = _kahan_add32(g32, eg, w * np.float32(g))
-            b32, eb = _kahan_add32(b32, eb, w * np.float32(b))
-            a32, ea = _kahan_add32(a32, ea, w)
-            return r32, g32, b32, a32, er, eg, eb, ea
-        return accumulate32
-    if isinstance(marker, numba.types.Float):
-        def accumulate64(marker, prec, state, a_i, r, g, b):
-            # plain float64 sums are accurate to ~n eps
-            cr, cg, cb, alpha = state
-            w = (1.0 - alpha) * a_i
-            return cr + w * r, cg + w * g, cb + w * b, alpha + w
-        return accumulate64
-
-    def accumulate_emulated(marker, prec, state, a_i, r, g, b):
-        # the conventional `over` operator in a half-float or 8-bit buffer
-        cr, cg, cb, alpha = state
-        a = _round(np.float64(a_i), prec)
-        rest = _round(1.0 - alpha, prec)
-        cr = _round(cr + _round(rest * _round(a * r, prec), prec), prec)
-        cg = _round(cg + _round(rest * _round(a * g, prec), prec), prec)
-        cb = _round(cb + _round(rest * _round(a * b, prec), prec), prec)
-        return cr, cg, cb, _round(alpha + _round(rest * a, prec), prec)
-    return accumulate_emulated
-
-
-@stub_overload(_opacity, jit_options=_FUSED_JIT)
-def _opacity_impl(marker, state):
-    def opacity(marker, state):
-        return np.float64(state[3])
-    return opacity
-
-
-@stub_overload(_finish, jit_options=_FUSED_JIT)
-def _finish_impl(marker, state):
-    def finish(marker, state):
-        return np.float64(state[0]), np.float64(state[1]), np.float64(state[2]), np.float64(state[3])
-    return finish
-
-
-@kernel
-def _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, k0, k1,
-              last):
-    """The sampling and compositing loop of ``_march`` for a mip-map ``sampler``
-    (``_sample``; rays with a level of detail), compiled once per ``marker`` and
-    sampler type. The plain sampler has its own loop, ``_march_plain``.
-
-    Full segments take their opacity from the table; the last, shorter one from the
-    extinction ``sigma``. Only segments ``k0 <= k < k1`` and, if ``last``, the last one
-    are sampled (``piece_segments``).
-    """
-    size = 1 << p.block_shift
-    n_table = table.shape[0] // 4
-    rx = 1.0 / dx if dx != 0.0 else 0.0  # reciprocals for block exits (0: never exits)
-    ry = 1.0 / dy if dy != 0.0 else 0.0
-    rz = 1.0 / dz if dz != 0.0 else 0.0
-    n_seg = int(math.ceil((t1 - t0) / step))
-    if n_seg < 1:
-        n_seg = 1
-    state = _start(marker)
-    depth = math.inf
-    samples = 0
-    stopped = False
-    k = k0
-    n_full = n_seg - 1
-    while k < k1:
-        tm = t0 + (k + 0.5) * step
-        radius, ib, jb, kb, v = _sample(sampler, bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
-        if radius != 0:
-            k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
-            continue
-        k += 1
-        if v != v:  # NaN in the stencil: empty
-            continue
-        samples += 1
-        r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
-        if a_i <= 0.0:
-            continue
-        state = _accumulate(marker, prec, state, a_i, r, gg, b)
-        alpha = _opacity(marker, state)
-        if depth == math.inf and alpha >= p.depth_alpha:
-            depth = tm
-        if alpha >= p.alpha_stop:
-            stopped = True
-            break
-    if last and not stopped:
-        # the last segment ends exactly at the exit and is shorter than a step: its
-        # opacity comes from the extinction column (the per-step one may have rounded to 1)
-        ta = t0 + n_full * step
-        tm = 0.5 * (ta + t1)
-        radius, ib, jb, kb, v = _sample(sampler, bricks, leap, g, ox + tm * dx, oy + tm * dy, oz + tm * dz)
-        if radius == 0 and v == v:
-            samples += 1
-            r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
-            if a_i > 0.0:
-                sg = sigma_at(sigma, i, f)
-                state = _accumulate(marker, prec, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
-                if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
-                    depth = tm
-    cr, cg, cb, alpha = _finish(marker, state)
-    return cr, cg, cb, alpha, depth, samples
 
 
 # -- shading: specialised at compile time by the type of ``light`` -----------------------------
@@ -995,13 +644,21 @@ PAGE_SHIFT = 6
 SLOT_EDGE = (1 << PAGE_SHIFT) + 3
 
 
+def is_mip_sampler(offs):
+    """Whether the numba type ``offs`` is a ``mip_sampler`` tuple (its first item the
+    lower level's geometry, itself a tuple) rather than a storage's offsets."""
+    return isinstance(offs, numba.types.BaseTuple) and isinstance(offs[0], numba.types.BaseTuple)
+
+
 @compiled_only
 def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
     """The trilinear value at voxel position ``(x, y, z)`` (clamped to the volume;
     ``xi = int(x)`` ...; ``(ib, jb, kb)`` its empty-space block, ``bx, by`` blocks per
     row and slab) for ``_march_plain`` (compiled only).
 
-    ``offs`` picks the storage at compile time. An array: the volume in memory,
+    ``offs`` picks the storage at compile time. A ``mip_sampler`` tuple: a ray with a
+    level of detail, ``bricks`` the mip-map, interpolated between two levels
+    (``mip_value``). An array: the volume in memory,
     ``bricks`` bricked by ``make_bricks``, point ``(i, j, k)`` at ``offs[i] +
     offs[oy_off + j] + offs[oz_off + k]`` (``brick_offsets``). A tuple ``(level, base,
     dims, place, span)``: an out-of-core volume whose resident chunks sit in the pool
@@ -1022,7 +679,14 @@ def stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, z
 
 @stub_overload(stencil, jit_options=_FUSED_JIT, inline="always")
 def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
-    # no call to another jitted helper in either: see _sample
+    # Inlined into the loops (a call per sample, passing arrays, cost 5-20 %), so the
+    # full-resolution stencils are written out and call no other jitted helper: numba
+    # 0.56 deep-copies the dispatchers an inlined function refers to (compiling the loop
+    # took minutes), and its IR inlining of nested inlines trips its own scope checks.
+    if is_mip_sampler(offs):
+        def mipmapped(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
+            return mip_value(bricks, offs, x, y, z)  # a call, as it always was
+        return mipmapped
     if isinstance(offs, numba.types.Array):
         def in_memory(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi):
             fx = x - xi
@@ -1098,19 +762,42 @@ def _stencil_impl(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi,
 @compiled_only
 def span_of(offs, ib, jb, kb, by, bx):
     """Segments a sample in block ``(ib, jb, kb)`` stands for (compiled only): 1 for a
-    volume in memory (``offs`` an array); an out-of-core volume's ``offs`` tuple carries
-    a fifth array, per block the ``uint8`` count ``2**(L - F)`` (``_march_plain``)."""
+    volume in memory (``offs`` an array) and for a mip-map (a ``mip_sampler``); an
+    out-of-core volume's ``offs`` tuple carries a fifth array, per block the ``uint8``
+    count ``2**(L - F)`` (``_march_plain``)."""
     raise NotImplementedError("compiled only")
 
 
 @stub_overload(span_of, jit_options=_FUSED_JIT, inline="always")
 def _span_of_impl(offs, ib, jb, kb, by, bx):
-    if isinstance(offs, numba.types.Array):
+    if isinstance(offs, numba.types.Array) or is_mip_sampler(offs):
         return lambda offs, ib, jb, kb, by, bx: 1
 
     def paged(offs, ib, jb, kb, by, bx):
         return np.int64(offs[4][np.uint64((kb * by + jb) * bx + ib)])
     return paged
+
+
+@fused_kernel
+def probe(bricks, offs, leap, g, x, y, z):
+    """One sample off the loop's batches: ``(radius, ib, jb, kb, v)`` at voxel position
+    ``(x, y, z)`` (clamped to the grid), the block radius from ``leap`` (0: sample) with
+    the block indices, and the value through ``stencil`` (NaN where ``radius != 0``).
+    The plain loop's last segment and the labelled loop's samples (``_kernels_ext``)."""
+    nx, ny, nz, x_max, y_max, z_max, shift, by, bx, qy, qx = g
+    x = min(max(x, 0.0), x_max)
+    y = min(max(y, 0.0), y_max)
+    z = min(max(z, 0.0), z_max)
+    xi = int(x)
+    yi = int(y)
+    zi = int(z)
+    ib = min(xi, nx - 2) >> shift
+    jb = min(yi, ny - 2) >> shift
+    kb = min(zi, nz - 2) >> shift
+    radius = leap[_u((kb * by + jb) * bx + ib)]
+    if radius != 0:
+        return radius, ib, jb, kb, math.nan
+    return 0, ib, jb, kb, stencil(bricks, offs, _u(nx), _u(nx + ny), ib, jb, kb, by, bx, x, y, z, xi, yi, zi)
 
 
 @inline_kernel
@@ -1125,13 +812,12 @@ def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
 @fused_kernel
 def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step,
                  scratch, k0, k1, last):
-    """The sampling and compositing loop of ``_march`` for trilinear sampling of
-    ``bricks``, compiled once per precision ``marker``.
+    """The sampling and compositing loop of ``_march``, compiled once per precision
+    ``marker`` and storage (the type of ``offs``: ``stencil``).
 
-    The same samples and arithmetic as ``_march_in`` (sample ``k`` at
-    ``t0 + (k + 1/2) step``, the last segment shortened to the exit), arranged for a
-    short chain of dependent operations per sample, which bounds how many samples the
-    CPU overlaps:
+    Sample ``k`` lies at ``t0 + (k + 1/2) step``, the last segment shortened to the
+    exit. The loop is arranged for a short chain of dependent operations per sample,
+    which bounds how many samples the CPU overlaps:
 
     - sample ``k`` lies at ``b + k s`` (``b``, ``s`` per ray; fused multiply-adds),
       a function of ``k`` alone, so empty-space leaps change no sample;
@@ -1199,6 +885,7 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
     k = k0
     kf = float(k0)  # k as a float, counted (no conversion per sample)
     n_full = n_seg - 1
+    k1 = lattice_end(marker, k1, last)  # an extreme's lattice points: one more than the full segments
     cap = SCRATCH
     chunk = 2
     while k < k1:
@@ -1206,9 +893,9 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
         # (k after the sample), leaping empty blocks
         j = 0
         while j < chunk and k < k1:
-            x = warp_at(warp, 0, 0, nx, min(max(bx0 + kf * sx, 0.0), u_max))
-            y = warp_at(warp, y_base, 1, ny, min(max(by0 + kf * sy, 0.0), v_max))
-            z = warp_at(warp, z_base, 2, nz, min(max(bz0 + kf * sz, 0.0), w_max))
+            x = warp_at(warp, 0, 0, nx, min(max(lattice_at(marker, bx0, sx, ox, dx, t0, kf, step), 0.0), u_max))
+            y = warp_at(warp, y_base, 1, ny, min(max(lattice_at(marker, by0, sy, oy, dy, t0, kf, step), 0.0), v_max))
+            z = warp_at(warp, z_base, 2, nz, min(max(lattice_at(marker, bz0, sz, oz, dz, t0, kf, step), 0.0), w_max))
             xi = int(x)
             yi = int(y)
             zi = int(z)
@@ -1238,8 +925,8 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
                     ib, jb, kb = ic, jc, kcb
                 else:
                     kc = kf
-            # trilinear in the bricks (the stencil of _sample's plain sampler: the labelled
-            # loop samples through _sample), or in the pages of an out-of-core volume
+            # trilinear in the bricks (the labelled loop's stencil too: _kernels_ext._sample),
+            # in the pages of an out-of-core volume, or between two levels of a mip-map
             v = stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, x, y, z, xi, yi, zi)
             k += m
             kf += m
@@ -1254,6 +941,14 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
         for jj in range(j):
             samples += 1
             v = scratch[_u(jj)]
+            if projects(marker):  # a constant: the other way compiles away
+                # at the sample's lattice point (an extreme) or segment midpoint, and its length
+                kk = scratch[_u(cap + jj)] - 1.0
+                state, stopped = _take(marker, state, v, sample_t(marker, t0, kk, step),
+                                       scratch[_u(2 * cap + jj)] * step, table, sigma, n_table, p)
+                if stopped:
+                    break
+                continue
             r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
             span = scratch[_u(2 * cap + jj)]
             if span > 1.0 and a_i > 0.0:  # m segments of a coarse block: from the extinction
@@ -1277,23 +972,16 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
         # the last segment ends exactly at the exit and is shorter than a step: its
         # opacity comes from the extinction column (the per-step one may have rounded to 1)
         ta = t0 + n_full * step
-        tm = 0.5 * (ta + t1)
-        xm = warp_at(warp, 0, 0, nx, ox + tm * dx)
-        ym = warp_at(warp, y_base, 1, ny, oy + tm * dy)
-        zm = warp_at(warp, z_base, 2, nz, oz + tm * dz)
-        # as _sample's plain sampler, through the same stencil as the full segments
-        xm = min(max(xm, 0.0), x_max)
-        ym = min(max(ym, 0.0), y_max)
-        zm = min(max(zm, 0.0), z_max)
-        xi = int(xm)
-        yi = int(ym)
-        zi = int(zm)
-        ib = min(xi, nx - 2) >> shift
-        jb = min(yi, ny - 2) >> shift
-        kb = min(zi, nz - 2) >> shift
-        radius = leap[_u((kb * by + jb) * bx + ib)]
-        v = stencil(bricks, offs, oy_off, oz_off, ib, jb, kb, by, bx, xm, ym, zm, xi, yi, zi) if radius == 0 else math.nan
-        if radius == 0 and v == v:
+        tm = exit_t(marker, ta, t1)
+        # clamped as the full segments' positions, through the same stencil
+        xm = min(max(warp_at(warp, 0, 0, nx, ox + tm * dx), 0.0), x_max)
+        ym = min(max(warp_at(warp, y_base, 1, ny, oy + tm * dy), 0.0), y_max)
+        zm = min(max(warp_at(warp, z_base, 2, nz, oz + tm * dz), 0.0), z_max)
+        radius, ib, jb, kb, v = probe(bricks, offs, leap, g, xm, ym, zm)
+        if radius == 0 and v == v and projects(marker):
+            samples += 1
+            state, stopped = _take(marker, state, v, tm, t1 - ta, table, sigma, n_table, p)
+        elif radius == 0 and v == v:
             samples += 1
             r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
             if a_i > 0.0:
@@ -1303,63 +991,20 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
                 state = _accumulate(marker, p.precision, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
                 if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
                     depth = tm
-    cr, cg, cb, alpha = _finish(marker, state)
-    return cr, cg, cb, alpha, depth, samples
-
-
-@compiled_only
-def _march_loop(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
-                t1, p, step, scratch, k0, k1, last):
-    """``_march_plain`` for the plain sampler, ``_march_in`` for a mip-map sampler (compiled only)."""
-    raise NotImplementedError("compiled only")
-
-
-@stub_overload(_march_loop, jit_options=_JIT)
-def _march_loop_impl(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
-                     t0, t1, p, step, scratch, k0, k1, last):
-    if isinstance(sampler, numba.types.Integer):
-        def plain(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
-                  t1, p, step, scratch, k0, k1, last):
-            return _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
-                                t1, p, step, scratch, k0, k1, last)
-        return plain
-
-    # the mip-map loop is not lit (a shaded render with a level of detail is extended) and
-    # samples uniform grids only (warp 0: raycast/grid.py refuses a lens on a rectilinear grid)
-    def mipmapped(marker, sampler, light, warp, prec, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
-                  t1, p, step, scratch, k0, k1, last):
-        return _march_in(marker, sampler, prec, bricks, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                         step, k0, k1, last)
-    return mipmapped
-
-
-@compiled_only
-def _marker_precision(marker, p):
-    """The precision code of a compositing marker (compiled only): float64 and float32
-    markers name their precision at compile time; an integer marker leaves it to
-    ``p.precision`` (float16 or uint8, which share one emulated loop)."""
-    raise NotImplementedError("compiled only")
-
-
-@stub_overload(_marker_precision, jit_options=_JIT, inline="always")
-def _marker_precision_impl(marker, p):
-    if marker == numba.types.float64:
-        return lambda marker, p: F64
-    if marker == numba.types.float32:
-        return lambda marker, p: F32
-    return lambda marker, p: p.precision
+    return _result(marker, state, depth, samples, table, sigma, n_table, p)
 
 
 @kernel
-def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo,
-           hi, piece, p, step, scratch, t_near, t_far):
-    """Composite one ray. Returns ``(r, g, b, alpha, depth, samples)``.
+def _march(marker, light, warp, bricks, offs, table, sigma, leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece,
+           p, step, scratch, t_near, t_far):
+    """Composite or project one ray. Returns ``(r, g, b, alpha, depth, samples, value)``
+    (``value``: a projection's, else NaN).
 
-    ``sampler`` is ``0`` (trilinear in ``bricks``, whose brick offsets per axis are
-    ``offs``: ``_march_plain``, which batches samples in the float64 array ``scratch``
-    of ``3 * SCRATCH`` entries, one per lane) or a ``mip_sampler`` tuple: a ray with
-    a level of detail samples the mip-map, passed as ``bricks`` (see ``_sample``;
-    ``offs`` and ``scratch`` unused).
+    One loop serves every storage, ``_march_plain``, which batches samples in the
+    float64 array ``scratch`` of ``3 * SCRATCH`` entries, one per lane. The type of
+    ``offs`` names the storage (``stencil``): the brick offsets per axis of the volume
+    ``bricks`` in memory, an out-of-core volume's pages, or a ``mip_sampler`` tuple: a
+    ray with a level of detail samples the mip-map, passed as ``bricks``.
 
     ``grids`` holds the shapes (z, y, x) of the empty-space block grid, then of the
     brick grid. ``leap`` (flat over the block grid) is 0 for a block to sample, else the
@@ -1392,19 +1037,20 @@ def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids
     conventional ``over`` operator in that buffer precision, for comparison.
 
     ``marker`` (a float64, float32 or int64 zero, ``frame.MARKERS``) picks the
-    precision at compile time: only that precision's loop (``_march_plain``, or
-    ``_march_in`` for the mip-map) is compiled; float16 and uint8 share the emulated one
-    (``_marker_precision``). ``light`` is 0 (unshaded) or the lighting tuple
-    ``(shading, lights, gvec)`` (``lit``), also chosen at compile time: an unshaded render compiles
-    and runs no lighting. Only the plain sampler's loop is lit. ``warp`` (``warp_at``) is 0
-    for a uniform grid, else a rectilinear grid's warp (plain sampler only), also by type.
+    precision at compile time: only that precision's compositing is compiled; float16
+    and uint8 share the emulated one (``_marker_precision``). ``light`` is 0 (unshaded)
+    or the lighting tuple ``(shading, lights, gvec)`` (``lit``), also chosen at compile
+    time: an unshaded render compiles and runs no lighting. ``warp`` (``warp_at``) is 0
+    for a uniform grid, else a rectilinear grid's warp, also by type. (A ray with a
+    level of detail is neither lit nor warped: ``raycast/grid.py`` sends a lit one to
+    the extended loop and refuses a lens on a rectilinear grid.)
     """
     t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_near, t_far)
     if not t1 > t0:
-        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0, math.nan
     k0, k1, last = piece_segments(ox, oy, oz, dx, dy, dz, hi, piece, t0, t1, step, t_far)
     if k1 <= k0 and not last:
-        return 0.0, 0.0, 0.0, 0.0, math.inf, 0
+        return 0.0, 0.0, 0.0, 0.0, math.inf, 0, math.nan
     ox -= piece[6]  # into the piece's own points (t is unchanged)
     oy -= piece[7]
     oz -= piece[8]
@@ -1412,8 +1058,8 @@ def _march(marker, sampler, light, warp, bricks, offs, table, sigma, leap, grids
     ny = dims[1]
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
-    return _march_loop(marker, sampler, light, warp, _marker_precision(marker, p), bricks, offs, table, sigma, leap, g,
-                       ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
+    return _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
+                        step, scratch, k0, k1, last)
 
 
 @fused_parallel_kernel
@@ -1443,8 +1089,9 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
             if pix >= 0:
                 ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width,
                                                                        height)
-                r, g, b, a, dep, ns = _march(marker, 0, light, warp, bricks, offs, table, sigma, leap, grids, dims,
-                                             ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near, t_far)
+                r, g, b, a, dep, ns, _ = _march(marker, light, warp, bricks, offs, table, sigma, leap, grids, dims,
+                                                ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near,
+                                                t_far)
                 store_pixel(out_rgba, out_depth, out_samples, pix, r, g, b, a, dep, ns)
 
 

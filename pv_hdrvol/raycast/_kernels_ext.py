@@ -1,15 +1,15 @@
 """numba kernels for renders beyond plain emission-absorption: arrays in, arrays out.
 
-- **Projections** (``render_projection``): maximum, minimum, average and additive
-  (X-ray) blending. One scalar per ray, in float64, plus its colour.
 - **Extended compositing** (``render_ext``): emission-absorption with any of
   gradient-magnitude opacity modulation, Blinn-Phong shading by the gradient,
   two-level rendering of labelled data (a transfer function and a blending mode per
   label), also on rays with a level of detail.
-- **Lenses** (``render_lens``): rays sparser than the camera's (a lens's level of
-  detail, ``Rays.lod``) sample a mip-map in the plain loop, ``_kernels._march``; rays
-  at level 0 run that loop unchanged, so their pixels are bit-identical to a plain
-  render.
+- **Levels of detail and projections** (``render_levels``): rays sparser than the
+  camera's (a lens's level of detail, ``Rays.lod``) sample a mip-map in the one grid
+  loop, ``_kernels._march``, whose stencil the mip-map's type chooses
+  (``_kernels.stencil``); rays at level 0 run that loop unchanged, so their pixels are
+  bit-identical to a plain render. Projections (maximum, minimum, average, additive)
+  run the same loop with a projection's compositor (``_composite_kernels``).
 
 Kept apart from ``_kernels.py`` so that a plain render compiles and runs none of this
 ("model only what a scene requires"). The compositing kernels take the precision's
@@ -28,31 +28,28 @@ import numba
 import numpy as np
 
 from .._jit import fused_kernel, inline_kernel, kernel, parallel_kernel, uindex as _u
-from ._kernels import (
-    BRICK_SHIFT, SCRATCH, LOG, SYMLOG, _accumulate, _block, _finish, _leap_to, _march, _marker_precision, _opacity,
-    _sample as _probe_any, _ray_box, _start, midpoint_lattice, mip_sampler, mip_value, piece_segments, sigma_at,
-    eye_of, lit, lane_pixel, lane_pixels, pixel_ray_span, store_pixel, table_row, trilinear as _trilinear,
+from ._composite_kernels import (
+    COMPOSITE, LOG, MAXIMUM, MINIMUM, SYMLOG, _accumulate, _finish, _marker_precision, _opacity, _start, sigma_at,
+    table_row,
 )
-
-# blending codes (params.BLENDING_CODES)
-COMPOSITE, MAXIMUM, MINIMUM, AVERAGE, ADDITIVE = 0, 1, 2, 3, 4
+from ._kernels import (
+    BRICK_SHIFT, SCRATCH, _block, _leap_to, _march, _ray_box, eye_of, lane_pixel, lane_pixels,
+    lit, midpoint_lattice, mip_sampler, mip_value, piece_segments, pixel_ray_span, probe, store_pixel,
+    trilinear as _trilinear,
+)
 
 
 class ExtParams(NamedTuple):
     """Scalars of the extended renders, beside ``_kernels.GridParams``.
 
-    ``unit``: the opacity unit distance (a projection's colour uses the transfer
-    function's opacity over it). ``value_stop``: a maximum (minimum) projection stops
-    once it reaches this value (the data's maximum, or minimum); ``inf`` never.
-    ``gradient``: 1 to scale extinction by a ramp of the gradient magnitude from
+    ``unit``: the opacity unit distance (a maximum/minimum label's segment takes the
+    transfer function's opacity over it). ``gradient``: 1 to scale extinction by a ramp of the gradient magnitude from
     ``g_lo`` (0) to ``g_lo + 1 / g_inv`` (1). ``lattice``/``midpoint``: whether any
     label uses a maximum/minimum (sampled at lattice points) or a compositing mode
     (sampled at segment midpoints). (Shading is the type of ``render_ext``'s ``light``.)
     """
 
-    mode: int
     unit: float
-    value_stop: float
     gradient: int
     g_lo: float
     g_inv: float
@@ -70,10 +67,11 @@ def _lod_value(pyr, pgeo, n_levels, lod, x, y, z):
 
 
 @fused_kernel
-def _sample(bricks, leap, g, pyr, pgeo, n_levels, lod, x, y, z):
-    """``(radius, ib, jb, kb, v)`` as ``_kernels._sample``; mip-mapped where ``lod > 0``."""
+def _sample(bricks, offs, leap, g, pyr, pgeo, n_levels, lod, x, y, z):
+    """``(radius, ib, jb, kb, v)`` as ``_kernels.probe``, the plain loop's stencil;
+    mip-mapped where ``lod > 0``."""
     if lod == 0.0:
-        return _probe_any(0, bricks, leap, g, x, y, z)
+        return probe(bricks, offs, leap, g, x, y, z)
     radius, ib, jb, kb = _block(leap, g, x, y, z)
     if radius != 0:
         return radius, ib, jb, kb, math.nan
@@ -142,109 +140,6 @@ def _gradient_factor(gbricks, g, x, y, z, e):
     return min(w, 1.0)
 
 
-# -- projections ------------------------------------------------------------------------------
-@fused_kernel
-def _project(bricks, leap, g, pyr, pgeo, lod, tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_near,
-             t_far):
-    """One ray of a projection. Returns ``(value, r, g, b, alpha, depth, samples)``.
-
-    Maximum and minimum take the extreme of the samples at the lattice points
-    ``t0 + k step`` and at the exit ``t1`` (so on a view along an axis through grid
-    points they see every grid value exactly); their colour and opacity are the
-    transfer function's at that value over the opacity unit distance, and depth is
-    where it was first met. Average and additive integrate by the midpoint rule of
-    compositing: additive gives ``int v dt`` (world units) and the emission
-    ``int c(v) sigma(v) dt`` with opacity ``1 - exp(-int sigma dt)``, no absorption of
-    the colour (an X-ray); average gives ``int v dt / L`` over the length ``L`` of valid
-    (non-NaN) samples, coloured as maximum.
-    """
-    nan_out = (math.nan, 0.0, 0.0, 0.0, 0.0, math.inf, 0)
-    t0, t1 = _ray_box(ox, oy, oz, dx, dy, dz, lo, hi, t_near, t_far)
-    if not t1 > t0:
-        return nan_out
-    step = p.step
-    size = 1 << p.block_shift
-    n_table = tables.shape[0] // 4
-    rx = 1.0 / dx if dx != 0.0 else 0.0
-    ry = 1.0 / dy if dy != 0.0 else 0.0
-    rz = 1.0 / dz if dz != 0.0 else 0.0
-    n_seg = max(int(math.ceil((t1 - t0) / step)), 1)
-    n_levels = e.n_levels
-    mode = e.mode
-    samples = 0
-    if mode == MAXIMUM or mode == MINIMUM:
-        sign = 1.0 if mode == MAXIMUM else -1.0
-        best = -math.inf
-        depth = math.inf
-        k = 0
-        while k <= n_seg:
-            tk = t0 + k * step if k < n_seg else t1
-            radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod,
-                                            ox + tk * dx, oy + tk * dy, oz + tk * dz)
-            if radius != 0:
-                # the next lattice point may still lie in the empty cube: then it leaps again
-                k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
-                continue
-            k += 1
-            if v != v:
-                continue
-            samples += 1
-            sv = sign * v
-            if sv > best:
-                best = sv
-                depth = tk
-                if sv >= e.value_stop:
-                    break
-        if samples == 0:
-            return nan_out
-        value = sign * best
-        r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, p.precision == 3)
-        alpha = -math.expm1(-_sigma(sigmas, 0, n_table, i, f) * e.unit)
-        return value, alpha * r, alpha * gg, alpha * b, alpha, depth, samples
-    # average and additive: midpoint rule over the segments
-    total = 0.0
-    length = 0.0
-    tau = 0.0
-    er = 0.0
-    eg = 0.0
-    eb = 0.0
-    depth = math.inf
-    k = 0
-    while k < n_seg:
-        ta = t0 + k * step
-        tb = min(ta + step, t1) if k < n_seg - 1 else t1
-        tm = 0.5 * (ta + tb)
-        radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod,
-                                        ox + tm * dx, oy + tm * dy, oz + tm * dz)
-        if radius != 0:
-            k = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
-            continue
-        k += 1
-        if v != v:
-            continue
-        samples += 1
-        dt = tb - ta
-        if depth == math.inf:
-            depth = tm
-        total += v * dt
-        length += dt
-        if mode == ADDITIVE:
-            r, gg, b, a, i, f = _row(tables, 0, n_table, axes, v, p.precision == 3)
-            sd = _sigma(sigmas, 0, n_table, i, f) * dt
-            tau += sd
-            er += r * sd
-            eg += gg * sd
-            eb += b * sd
-    if samples == 0:
-        return nan_out
-    if mode == ADDITIVE:
-        return total, er, eg, eb, -math.expm1(-tau), depth, samples
-    value = total / length
-    r, gg, b, a, i, f = _row(tables, 0, n_table, axes, value, p.precision == 3)
-    alpha = -math.expm1(-_sigma(sigmas, 0, n_table, i, f) * e.unit)
-    return value, alpha * r, alpha * gg, alpha * b, alpha, depth, samples
-
-
 @kernel
 def grid_geometry(dims, grids, p):
     """The geometry tuple ``g`` the extended loops read: points along x, y, z, their
@@ -260,28 +155,6 @@ def pixel_lod(lods, pix, n_pixels, n_levels):
     holds one per pixel or none) and the lower of the mip-map's two levels it samples."""
     lod = lods[pix] if lods.shape[0] == n_pixels else 0.0
     return lod, min(int(lod), n_levels - 1) if lod > 0.0 else 0
-
-
-@parallel_kernel
-def render_projection(bricks, leap, leap_lod, grids, dims, pyr, pgeo, lods, tables, sigmas, axes, origins, directions,
-                      span, width, height, tile, tile_rows, lanes, lo, hi, p, e, out_value, out_rgba, out_depth,
-                      out_samples):
-    """Fill the pixels of the tiles in rows ``tile_rows`` with ``_project`` (as ``_kernels.render_tiles``)."""
-    g = grid_geometry(dims, grids, p)
-    no_cam = np.empty(0)
-    for lane in numba.prange(lanes):
-        for i in range(lane_pixels(lane, lanes, tile_rows, tile, width)):
-            pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
-            if pix < 0:
-                continue
-            lod, level = pixel_lod(lods, pix, width * height, e.n_levels)
-            ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, pix,
-                                                                   width, height)
-            v, r, gg, b, a, dep, ns = _project(bricks, leap if lod == 0.0 else leap_lod[level], g, pyr, pgeo, lod,
-                                               tables, sigmas, axes, ox, oy, oz, dx, dy, dz, lo, hi, p, e, t_near,
-                                               t_far)
-            out_value[pix] = v
-            store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
 
 
 # -- extended compositing -------------------------------------------------------------------
@@ -352,7 +225,7 @@ def _composite_ext(marker, prec, light, bricks, offs, leap, g, pyr, pgeo, lod, g
             ym = by0 + kf * sy
             zm = bz0 + kf * sz
         # one leap test per segment, at its midpoint (as the plain loop)
-        radius, ib, jb, kb, v = _sample(bricks, leap, g, pyr, pgeo, n_levels, lod, xm, ym, zm)
+        radius, ib, jb, kb, v = _sample(bricks, offs, leap, g, pyr, pgeo, n_levels, lod, xm, ym, zm)
         if radius != 0:
             kn = _leap_to(k, t0, step, ox, oy, oz, rx, ry, rz, ib, jb, kb, radius, size)
             if seg_slot >= 0:
@@ -494,16 +367,18 @@ def render_ext(marker, light, bricks, offs, leap, leap_lod, grids, dims, pyr, pg
 
 
 @parallel_kernel
-def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_levels, lods, table, sigma,
-                level_tables, level_steps, origins, directions, span, width, height, tile, tile_rows, lanes, lo, hi,
-                piece, p, out_rgba, out_depth, out_samples):
+def render_levels(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_levels, lods, table, sigma,
+                  level_tables, level_steps, origins, directions, span, width, height, tile, tile_rows, lanes, lo, hi,
+                  piece, p, out_rgba, out_depth, out_samples, out_value):
     """Fill the pixels of the tiles in rows ``tile_rows`` for rays with levels of detail
-    (``lods``, one per ray) and nothing else extended, in the one precision of
-    ``marker``. A ray at level of detail 0 goes through ``_kernels._march`` as a plain
-    render does, so it is bit-identical to one; a ray with a level of detail runs the
-    same loop on the mip-map ``pyr`` (``mip_sampler``), with the step ``level_steps[L]``
-    (the render's times ``2**L``) and its opacity table ``level_tables[L]``, and skips
-    with ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the lower of its two levels."""
+    (``lods``, one per ray; or one 0 for all) and nothing else extended, composited or
+    projected as ``marker`` says (``_composite_kernels``: a precision, or a projection,
+    whose values go to ``out_value``; empty for a composite). A ray at level of detail 0
+    goes through ``_kernels._march`` as a plain render does, so it is bit-identical to
+    one; a ray with a level of detail runs the same loop with the mip-map ``pyr`` as its
+    stencil (``mip_sampler``), the step ``level_steps[L]`` and the opacity table
+    ``level_tables[L]``, and skips with ``leap_lod[L]`` (``grid._mip_leaps``), ``L`` the
+    lower of its two levels."""
     no_cam = np.empty(0)
     for lane in numba.prange(lanes):
         scratch = np.empty(3 * SCRATCH)
@@ -511,20 +386,21 @@ def render_lens(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, n_
             pix = lane_pixel(i, lane, lanes, tile_rows, tile, width, height)
             if pix < 0:
                 continue
-            lod = lods[pix]
+            lod, level = pixel_lod(lods, pix, width * height, n_levels)
             ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(no_cam, origins, directions, span, pix,
                                                                    width, height)
             if lod == 0.0:
-                r, gg, b, a, dep, ns = _march(marker, 0, 0, 0, bricks, offs, table, sigma, leap, grids, dims, ox,
-                                              oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near, t_far)
+                r, gg, b, a, dep, ns, v = _march(marker, 0, 0, bricks, offs, table, sigma, leap, grids, dims, ox, oy,
+                                                 oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near, t_far)
             else:
-                # the plain loop, sampling two mip levels
-                level = min(int(lod), n_levels - 1)
-                r, gg, b, a, dep, ns = _march(marker, mip_sampler(pgeo, lod, n_levels), 0, 0, pyr, offs,
-                                              level_tables[level], sigma, leap_lod[level], grids, dims, ox, oy, oz,
-                                              dx, dy, dz, lo, hi, piece, p, level_steps[level], scratch, t_near,
-                                              t_far)
+                # the same loop, its stencil the mip-map's two levels (mip_sampler)
+                r, gg, b, a, dep, ns, v = _march(marker, 0, 0, pyr, mip_sampler(pgeo, lod, n_levels),
+                                                 level_tables[level], sigma, leap_lod[level], grids, dims, ox, oy, oz,
+                                                 dx, dy, dz, lo, hi, piece, p, level_steps[level], scratch, t_near,
+                                                 t_far)
             store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
+            if out_value.shape[0] > 0:
+                out_value[pix] = v
 
 
 # -- volumes derived once per dataset ---------------------------------------------------------

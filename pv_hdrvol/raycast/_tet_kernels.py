@@ -42,8 +42,8 @@ import numba
 
 from .._jit import helper_kernel, kernel, parallel_kernel
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
-from ._kernels import (_accumulate, _finish, _marker_precision, _opacity, _start, lane_pixel, lane_pixels, store_pixel,
-                       table_position)
+from ._composite_kernels import _accumulate, _finish, _marker_precision, _opacity, _start, table_position
+from ._kernels import lane_pixel, lane_pixels, store_pixel
 from ._shading_kernels import SH_FADE, fade_weight, light_factors
 
 

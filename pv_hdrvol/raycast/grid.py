@@ -19,6 +19,7 @@ from ..rays.clip import has_clip, ray_spans, with_clip
 from ..settings import settings_metadata
 from . import _kernels as K
 from . import _kernels_ext as KX
+from ._composite_kernels import projection_marker
 from .memory import check_memory
 from .frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_lod, check_progress_bar, frame_metadata,
                     frame_rays, pixel_rows, tile_lanes, voxel_rays, windowed)
@@ -993,6 +994,9 @@ def _grid_kernel(flat, extended, opts, styles, lod):
     return "extended"
 
 
+_NO_VALUE = np.empty(0)  # no projected values: a composite's
+
+
 def _cast_grid(f, tile_rows):
     """Render the rows of tiles ``tile_rows`` of the grid frame ``f``; returns the pixel rows done."""
     rows = np.ascontiguousarray(tile_rows)
@@ -1001,15 +1005,13 @@ def _cast_grid(f, tile_rows):
         K.render_tiles(f.marker, f.bricks.values, f.bricks.offsets, f.table.reshape(-1), f.sigma, f.leap, f.grids,
                        f.dims, f.cam, f.origins, f.directions, f.span, f.width, f.height, TILE, rows, f.lanes, f.lo,
                        f.hi, f.piece_box, f.params, f.light, f.warp, out.rgba, out.depth, out.counts)
-    elif f.kernel == "projection":
-        KX.render_projection(f.bricks.values, f.leap, a.leap_lod, f.grids, f.dims, a.pyr, a.pgeo, a.lods, a.tables,
-                             a.sigmas, a.axes, f.origins, f.directions, f.span, f.width, f.height, TILE, rows, f.lanes,
-                             f.lo, f.hi, f.params, a.e, out.value, out.rgba, out.depth, out.counts)
-    elif f.kernel == "lens":
-        KX.render_lens(f.marker, f.bricks.values, f.bricks.offsets, f.leap, a.leap_lod, f.grids, f.dims, a.pyr, a.pgeo,
-                       a.e.n_levels, a.lods, a.tables, f.sigma, a.level_tables, a.level_steps, f.origins,
-                       f.directions, f.span, f.width, f.height, TILE, rows, f.lanes, f.lo, f.hi, f.piece_box, f.params,
-                       out.rgba, out.depth, out.counts)
+    elif f.kernel in ("projection", "lens"):
+        # the one grid loop, compositing or projecting as the marker says, on the mip-map where a ray has a level
+        marker, value = (a.projection, out.value) if f.kernel == "projection" else (f.marker, _NO_VALUE)
+        KX.render_levels(marker, f.bricks.values, f.bricks.offsets, f.leap, a.leap_lod, f.grids, f.dims, a.pyr,
+                         a.pgeo, a.e.n_levels, a.lods, a.tables, a.sigmas, a.level_tables, a.level_steps, f.origins,
+                         f.directions, f.span, f.width, f.height, TILE, rows, f.lanes, f.lo, f.hi, f.piece_box,
+                         f.params, out.rgba, out.depth, out.counts, value)
     elif f.kernel == "extended":
         KX.render_ext(f.marker, f.light, f.bricks.values, f.bricks.offsets, f.leap, a.leap_lod, f.grids, f.dims, a.pyr,
                       a.pgeo, a.lods, a.gbricks, a.slots, a.modes, a.tables, a.sigmas, a.axes, f.origins, f.directions,
@@ -1232,6 +1234,7 @@ class _Extended(NamedTuple):
     level_tables: np.ndarray
     level_steps: np.ndarray
     e: KX.ExtParams
+    projection: object  # a projection's marker (_composite_kernels), or None
 
 
 def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active, leap, lod, styles, tf, prec, mask):
@@ -1243,8 +1246,10 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
         leap_lod = _mip_leaps(grids, blocks, opts, styles, table, params, mask)
         lods = lod
         # A ray at level L samples a volume filtered to 2**L voxels: along the ray too,
-        # a step of 2**L times the render's step resolves it (the opacity table follows)
-        steps = [params.step * 2.0 ** level for level in range(pgeo.shape[0])]
+        # a step of 2**L times the render's step resolves it (the opacity table follows).
+        # A projection keeps the render's step: a maximum's lattice points are its grid's.
+        project = opts.blending != "composite"
+        steps = [params.step * (1.0 if project else 2.0 ** level) for level in range(pgeo.shape[0])]
         level_tables = np.stack([np.column_stack([table[:, :3], -np.expm1(-sigma.astype(np.float64) * st)])
                                  .astype(table.dtype).reshape(-1) for st in steps])
         level_steps = np.array(steps)
@@ -1272,11 +1277,14 @@ def _extended_arguments(volume, opts, params, table, sigma, unit, blocks, active
             stop = float(blocks.maximum[finite].max())
         elif opts.blending == "minimum":
             stop = -float(blocks.minimum[finite].min())
-    e = KX.ExtParams(BLENDING_CODES[opts.blending], float(unit), stop, int(opts.gradient_opacity is not None),
-                     float(g_lo), float(1.0 / (g_hi - g_lo)), int(pgeo.shape[0]) if lod is not None else 0,
-                     int(styles is not None), int(lattice), int(midpoint))
+    e = KX.ExtParams(float(unit), int(opts.gradient_opacity is not None), float(g_lo), float(1.0 / (g_hi - g_lo)),
+                     int(pgeo.shape[0]) if lod is not None else 0, int(styles is not None), int(lattice),
+                     int(midpoint))
+    projection = None
+    if opts.blending != "composite":
+        projection = projection_marker(BLENDING_CODES[opts.blending], float(unit), stop)
     return _Extended(pyr, pgeo, lods, leap_lod, gbricks, slots, modes, tables, sigmas, axes, level_tables, level_steps,
-                     e)
+                     e, projection)
 
 
 def _light(volume, opts, prec, piece=None):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import pv_hdrvol as hv
-from pv_hdrvol.raycast import _kernels as K
+from pv_hdrvol.raycast import _composite_kernels as C, _kernels as K
 
 pytestmark = pytest.mark.core
 
@@ -69,7 +69,7 @@ def test_round_half_matches_numpy_float16():
         rng.standard_normal(20000) * 10.0 ** rng.integers(-9, 5, 20000),
         [0.0, 6.1e-5, 5.96e-8, 2.98e-8, 65504.0, 65519.0, 65520.0, -1e-30, 1.0 + 2**-11, 1.0 + 3 * 2**-11],
     ])
-    got = np.array([K.round_half(float(v)) for v in x])
+    got = np.array([C.round_half(float(v)) for v in x])
     with np.errstate(over="ignore"):
         expected = x.astype(np.float16).astype(np.float64)
     np.testing.assert_array_equal(got, expected)
@@ -77,7 +77,7 @@ def test_round_half_matches_numpy_float16():
 
 def test_round_u8_is_nearest_multiple_of_1_255():
     x = np.linspace(-0.1, 1.1, 2001)
-    got = np.array([K.round_u8(float(v)) for v in x])
+    got = np.array([C.round_u8(float(v)) for v in x])
     np.testing.assert_array_equal(got, np.round(np.clip(x, 0, 1) * 255) / 255)
 
 
@@ -95,11 +95,11 @@ def test_uint8_lookup_of_the_last_entry_reads_only_that_entry():
     n = 256
     table = _nan_past_the_end(np.tile(np.array([0.25, 0.5, 0.75, 0.125], np.float32), n))
     sigma = _nan_past_the_end(np.full(n, 2.0, np.float32))
-    p = K.GridParams(1.0, K.U8, K.LINEAR, 0.0, 1.0, 1.0, math.inf, 0.99, 2)
+    p = K.GridParams(1.0, C.U8, C.LINEAR, 0.0, 1.0, 1.0, math.inf, 0.99, 2)
     for v in (1.0, 1.0 - 0.4 / (n - 1), 7.0):  # the last row, its nearest-row band, clamped
-        r, g, b, a, i, f = K._lookup(table, v, n, p)
+        r, g, b, a, i, f = C._lookup(table, v, n, p)
         assert (r, g, b, a, i, f) == (0.25, 0.5, 0.75, 0.125, n - 1, 0.0)
-        assert K.sigma_at(sigma, i, f) == 2.0
+        assert C.sigma_at(sigma, i, f) == 2.0
 
 
 @pytest.mark.parametrize("blending", ["composite", "maximum"])
@@ -114,18 +114,18 @@ def test_uint8_render_ignores_memory_past_the_table(monkeypatch, blending):
     vol = column(41, value=2.0)
     tf = hv.TransferFunction([0.0, 2.0], GREY, [0.05, 0.05])
     clean = hv.render(vol, tf, looking_down(vol), (2, 2), precision="uint8", step=0.7, blending=blending)
-    tiles, projection = K.render_tiles, KX.render_projection
+    tiles, levels = K.render_tiles, KX.render_levels
 
     def padded_tiles(marker, bricks, offs, table, sigma, *rest):
         return tiles(marker, bricks, offs, _nan_past_the_end(table), _nan_past_the_end(sigma), *rest)
 
-    def padded_projection(*args):
+    def padded_levels(*args):
         args = list(args)
-        args[8], args[9] = _nan_past_the_end(args[8]), _nan_past_the_end(args[9])  # tables, sigmas
-        return projection(*args)
+        args[11], args[12] = _nan_past_the_end(args[11]), _nan_past_the_end(args[12])  # table, sigma
+        return levels(*args)
 
     monkeypatch.setattr(K, "render_tiles", padded_tiles)
-    monkeypatch.setattr(KX, "render_projection", padded_projection)
+    monkeypatch.setattr(KX, "render_levels", padded_levels)
     dirty = hv.render(vol, tf, looking_down(vol), (2, 2), precision="uint8", step=0.7, blending=blending)
     np.testing.assert_array_equal(dirty.rgba, clean.rgba)
     px = clean.rgba[0, 0]

@@ -9,12 +9,14 @@ chosen when numba.cuda is first imported; the PTX check replaces numba-cuda's de
 query), so they run as scripts in tests/gpu/.
 """
 import json
+import math
 import os
 import pathlib
 import runpy
 import subprocess
 import sys
 
+import numba
 import numpy as np
 import pytest
 
@@ -192,7 +194,7 @@ def test_the_stubs_the_gpu_resolves_are_every_stub_of_the_cpu_kernels():
 
     from pv_hdrvol import _jit
     from pv_hdrvol.gpu import _kernels as G
-    from pv_hdrvol.raycast import _kernels as K
+    from pv_hdrvol.raycast import _composite_kernels as C, _kernels as K
 
     raising = set()
     for path in (pathlib.Path(K.__file__).parent).glob("_*kernels*.py"):
@@ -202,10 +204,12 @@ def test_the_stubs_the_gpu_resolves_are_every_stub_of_the_cpu_kernels():
                 if len(body) == 1 and isinstance(body[0], ast.Raise):
                     raising.add(node.name)
                     assert any(getattr(d, "id", None) == "compiled_only" for d in node.decorator_list), node.name
-    assert {stub.__name__ for stub in _jit.STUBS} == raising and len(_jit.STUBS) == len(raising) == 14
-    for precision in ("float32", "float64"):
+    assert {stub.__name__ for stub in _jit.STUBS} == raising and len(_jit.STUBS) == len(raising) == 19
+    markers = [G.marker("float32"), G.marker("float64"), C.projection_marker(C.MAXIMUM, 1.0, 2.0),
+               C.projection_marker(C.ADDITIVE, 1.0, math.inf)]
+    for marker in markers:
         for shaded in (False, True):
-            resolved = G._resolve(precision, shaded)
+            resolved = G._resolve(numba.typeof(marker), shaded)
             assert set(resolved) == set(_jit.STUBS) | {G._make_light}
             assert all(callable(f) and not getattr(f, "compiled_only", False) for f in resolved.values())
     with pytest.raises(TypeError, match="is not marked compiled_only"):

@@ -41,7 +41,7 @@ def _grid_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
     """One pixel of ``render_tiles`` per thread: pixel column ``x``, and the ``y``-th row
     of the rows of tiles ``tile_rows`` (``raycast.frame.run_in_chunks``). Composited or
     projected as ``marker`` says (``raycast._composite_kernels``); a projection's values
-    go to ``out_value`` (empty for a composite)."""
+    go to ``out_value`` (one per pixel; a composite passes a placeholder of another length)."""
     col, y = cuda.grid(2)  # noqa: F821 (injected)
     row = launch_row(col, y, tile_rows, TILE, width, height)  # noqa: F821
     if row < 0:
@@ -53,7 +53,7 @@ def _grid_pixels(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
                                    leap, grids, dims, ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch,
                                    t_near, t_far)
     store_pixel(out_rgba, out_depth, out_samples, pix, r, g, b, a, dep, ns)
-    if out_value.shape[0] > 0:
+    if out_value.shape[0] == out_rgba.shape[0]:
         out_value[pix] = v
 
 

@@ -64,7 +64,7 @@ class CudaRunner:
         if self._out is None or self._out[0] != key:
             c = self.cuda
             self._out = (key, (c.device_array((n, 4), dtype), c.device_array(n, np.float64),
-                               c.device_array(n, np.int64), c.device_array(n if value else 0, np.float64)))
+                               c.device_array(n, np.int64), c.device_array(n if value else 1, np.float64)))
         return self._out[1]
 
     def launch(self, kernel, width, rows, *args):

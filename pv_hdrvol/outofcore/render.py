@@ -44,7 +44,7 @@ from ..data.transfer import SCALE_CODES, auto_transfer_function
 from ..params import PRECISION_CODES
 from ..raycast import _kernels as K
 from ..raycast.grid import VolumePiece, ranges_visible, dilate, leap_radius, resolve_render_options
-from ..raycast.frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_progress_bar, frame_metadata, frame_rays,
+from ..raycast.frame import (MARKERS, NO_VALUE, TILE, FrameBuffers, FramePlan, check_progress_bar, frame_metadata, frame_rays,
                               pixel_rows, tile_lanes, voxel_rays, windowed)
 from ..rays.camera import Camera, Rays, as_camera
 from ..rays.clip import ray_spans, with_clip
@@ -489,7 +489,7 @@ class MultiscalePlan(FramePlan):
             if not flat:
                 K.render_tiles(marker, cache.pool, offs, table.reshape(-1), self.sigma, leap, grids, dims, cam,
                                origins, directions, span, width, height, TILE, rows, lanes, lo, hi, piece_box,
-                               params, 0, 0, out.rgba, out.depth, out.counts)
+                               params, 0, 0, out.rgba, out.depth, out.counts, NO_VALUE)
             return pixel_rows(tile_rows, height)
 
         self.run_frame(cast, height, progress, progress_bar, chunk_seconds)

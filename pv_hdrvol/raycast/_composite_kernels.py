@@ -14,11 +14,13 @@ render compiles only its own:
   over the segments.
 
 A compositor is ``_start`` (its empty state), ``_take`` or ``_accumulate`` (one
-sample), ``_opacity`` and ``_result`` (the pixel). ``projects(marker)`` is a constant
-of the type that tells the loop which of the two ways a sample goes, and
-``lattice_at``/``sample_t``/``exit_t``/``lattice_end`` where a projection's samples lie; branches
-on it compile away. Classification (``table_position``, ``table_row``, ``sigma_at``)
-lives here too: both kinds of compositor read the transfer function.
+sample), ``_opacity`` and ``_result`` (the pixel). ``projection_of`` and
+``compositing_of`` (the marker or ``None``, by type) tell the loop which of the two ways
+a sample goes, and
+``lattice_at``/``sample_t``/``exit_t``/``lattice_end`` where a projection's samples lie;
+numba prunes the other way before typing it. Classification (``table_position``,
+``table_row``, ``sigma_at``) lives here too: both kinds of compositor read the transfer
+function.
 """
 from __future__ import annotations
 
@@ -209,8 +211,6 @@ def _start_impl(marker):
 
 @stub_overload(_accumulate, jit_options=_FUSED_JIT)
 def _accumulate_impl(marker, prec, state, a_i, r, g, b):
-    if _kind(marker) is not None:  # a projection takes its samples through _take
-        return lambda marker, prec, state, a_i, r, g, b: state
     if _is_f32(marker):
         def accumulate32(marker, prec, state, a_i, r, g, b):
             # float32 arithmetic throughout, with compensated sums
@@ -244,9 +244,6 @@ def _accumulate_impl(marker, prec, state, a_i, r, g, b):
 
 @stub_overload(_opacity, jit_options=_FUSED_JIT)
 def _opacity_impl(marker, state):
-    if _kind(marker) is not None:
-        return lambda marker, state: 0.0
-
     def opacity(marker, state):
         return np.float64(state[3])
     return opacity
@@ -254,9 +251,6 @@ def _opacity_impl(marker, state):
 
 @stub_overload(_finish, jit_options=_FUSED_JIT)
 def _finish_impl(marker, state):
-    if _kind(marker) is not None:
-        return lambda marker, state: (0.0, 0.0, 0.0, 0.0)
-
     def finish(marker, state):
         return np.float64(state[0]), np.float64(state[1]), np.float64(state[2]), np.float64(state[3])
     return finish
@@ -324,16 +318,35 @@ def _kind(marker):
 
 
 @compiled_only
-def projects(marker):
-    """Whether ``marker`` names a projection (a constant of its type; compiled only)."""
+def projection_of(marker):
+    """``marker`` if it names a projection, else ``None`` (compiled only)."""
     raise NotImplementedError("compiled only")
 
 
-@stub_overload(projects, jit_options=_FUSED_JIT, inline="always")
-def _projects_impl(marker):
+@stub_overload(projection_of, jit_options=_FUSED_JIT)
+def _projection_of_impl(marker):
     if _kind(marker) is None:
-        return lambda marker: False
-    return lambda marker: True
+        return lambda marker: None
+    return lambda marker: marker
+
+
+@compiled_only
+def compositing_of(marker):
+    """``marker`` if it names a compositing precision, else ``None`` (compiled only).
+
+    The loop takes both as arguments, ``proj`` and ``comp``, one of them ``None``, and
+    branches on ``is not None``: numba prunes a branch on an argument that is ``None``
+    before typing it (and only then: a constant-valued call, or an argument of another
+    type, is typed and lowered both ways). So a composite compiles no projection code
+    and a projection no compositing."""
+    raise NotImplementedError("compiled only")
+
+
+@stub_overload(compositing_of, jit_options=_FUSED_JIT)
+def _compositing_of_impl(marker):
+    if _kind(marker) is None:
+        return lambda marker: marker
+    return lambda marker: None
 
 
 @compiled_only
@@ -427,7 +440,9 @@ def _take_impl(marker, state, v, t, dt, table, sigma, n_table, p):
                 eb += b * sd
             return (total, length, tau, er, eg, eb, t_first), False
         return integral
-    return lambda marker, state, v, t, dt, table, sigma, n_table, p: (state, False)
+    def compositing(marker, state, v, t, dt, table, sigma, n_table, p):  # never compiled: pruned
+        return state, False
+    return compositing
 
 
 @compiled_only

@@ -37,8 +37,8 @@ from .._jit import (
 )
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
 from ._composite_kernels import (
-    LOG, SYMLOG, U8, _accumulate, _lookup, _opacity, _result, _start, _take, exit_t, lattice_at, lattice_end,
-    projects, sample_t, sigma_at, table_position, table_row,
+    LOG, SYMLOG, U8, _accumulate, _lookup, _opacity, _result, _start, _take, compositing_of, exit_t, lattice_at, lattice_end,
+    projection_of, sample_t, sigma_at, table_position, table_row,
 )
 from ._shading_kernels import (
     SH_AMBIENT, SH_DIFFUSE, SH_FADE, SH_INV_SPACING, SH_POWER, SH_SAMPLED, SH_SPACING, SH_SPECULAR,
@@ -810,10 +810,13 @@ def midpoint_lattice(ox, oy, oz, dx, dy, dz, t0, step):
 
 
 @fused_kernel
-def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step,
-                 scratch, k0, k1, last):
-    """The sampling and compositing loop of ``_march``, compiled once per precision
-    ``marker`` and storage (the type of ``offs``: ``stencil``).
+def _march_plain(marker, proj, comp, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1,
+                 p, step, scratch, k0, k1, last):
+    """The sampling and compositing loop of ``_march``, compiled once per ``marker`` (a
+    precision or a projection: ``_composite_kernels``) and storage (the type of
+    ``offs``: ``stencil``). ``proj`` and ``comp`` are the marker or ``None``
+    (``projection_of``, ``compositing_of``): each sample goes the way of the one that
+    is not ``None``, and numba prunes the other way before typing it.
 
     Sample ``k`` lies at ``t0 + (k + 1/2) step``, the last segment shortened to the
     exit. The loop is arranged for a short chain of dependent operations per sample,
@@ -941,30 +944,32 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
         for jj in range(j):
             samples += 1
             v = scratch[_u(jj)]
-            if projects(marker):  # a constant: the other way compiles away
+            # one of proj and comp is None: numba prunes the branch of the None one before typing
+            if proj is not None:
                 # at the sample's lattice point (an extreme) or segment midpoint, and its length
                 kk = scratch[_u(cap + jj)] - 1.0
                 state, stopped = _take(marker, state, v, sample_t(marker, t0, kk, step),
                                        scratch[_u(2 * cap + jj)] * step, table, sigma, n_table, p)
                 if stopped:
                     break
-                continue
-            r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
-            span = scratch[_u(2 * cap + jj)]
-            if span > 1.0 and a_i > 0.0:  # m segments of a coarse block: from the extinction
-                a_i = -math.expm1(-sigma_at(sigma, i, f) * span * step)
-            if a_i > 0.0:  # as skipped samples: skipping then changes no bit
-                kk = scratch[_u(cap + jj)] - 1.0  # the sample's k, as phase 1 placed it
-                r, gg, b = lit(light, eye, bricks, offs, g, warp_at(warp, 0, 0, nx, bx0 + kk * sx),
-                               warp_at(warp, y_base, 1, ny, by0 + kk * sy), warp_at(warp, z_base, 2, nz, bz0 + kk * sz),
-                               v, r, gg, b, p.scale, p.axis_inv_range, p.linthresh)
-                state = _accumulate(marker, p.precision, state, a_i, r, gg, b)
-                alpha = _opacity(marker, state)
-                if depth == math.inf and alpha >= p.depth_alpha:
-                    depth = t0 + (scratch[_u(cap + jj)] - 0.5) * step
-                if alpha >= p.alpha_stop:
-                    stopped = True
-                    break
+            if comp is not None:
+                r, gg, b, a_i, i, f = table_row(table, 0, n_table, table_position(v, p), u8)
+                span = scratch[_u(2 * cap + jj)]
+                if span > 1.0 and a_i > 0.0:  # m segments of a coarse block: from the extinction
+                    a_i = -math.expm1(-sigma_at(sigma, i, f) * span * step)
+                if a_i > 0.0:  # as skipped samples: skipping then changes no bit
+                    kk = scratch[_u(cap + jj)] - 1.0  # the sample's k, as phase 1 placed it
+                    r, gg, b = lit(light, eye, bricks, offs, g, warp_at(warp, 0, 0, nx, bx0 + kk * sx),
+                                   warp_at(warp, y_base, 1, ny, by0 + kk * sy),
+                                   warp_at(warp, z_base, 2, nz, bz0 + kk * sz), v, r, gg, b, p.scale,
+                                   p.axis_inv_range, p.linthresh)
+                    state = _accumulate(marker, p.precision, state, a_i, r, gg, b)
+                    alpha = _opacity(marker, state)
+                    if depth == math.inf and alpha >= p.depth_alpha:
+                        depth = t0 + (scratch[_u(cap + jj)] - 0.5) * step
+                    if alpha >= p.alpha_stop:
+                        stopped = True
+                        break
         if stopped:
             break
         chunk = min(2 * chunk, cap)
@@ -978,19 +983,19 @@ def _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, o
         ym = min(max(warp_at(warp, y_base, 1, ny, oy + tm * dy), 0.0), y_max)
         zm = min(max(warp_at(warp, z_base, 2, nz, oz + tm * dz), 0.0), z_max)
         radius, ib, jb, kb, v = probe(bricks, offs, leap, g, xm, ym, zm)
-        if radius == 0 and v == v and projects(marker):
+        if radius == 0 and v == v:
             samples += 1
-            state, stopped = _take(marker, state, v, tm, t1 - ta, table, sigma, n_table, p)
-        elif radius == 0 and v == v:
-            samples += 1
-            r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
-            if a_i > 0.0:
-                sg = sigma_at(sigma, i, f)
-                r, gg, b = lit(light, eye, bricks, offs, g, xm, ym, zm, v, r, gg, b, p.scale, p.axis_inv_range,
-                               p.linthresh)
-                state = _accumulate(marker, p.precision, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
-                if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
-                    depth = tm
+            if proj is not None:
+                state, stopped = _take(marker, state, v, tm, t1 - ta, table, sigma, n_table, p)
+            if comp is not None:
+                r, gg, b, a_i, i, f = _lookup(table, v, n_table, p)
+                if a_i > 0.0:
+                    sg = sigma_at(sigma, i, f)
+                    r, gg, b = lit(light, eye, bricks, offs, g, xm, ym, zm, v, r, gg, b, p.scale, p.axis_inv_range,
+                                   p.linthresh)
+                    state = _accumulate(marker, p.precision, state, -math.expm1(-sg * (t1 - ta)), r, gg, b)
+                    if depth == math.inf and _opacity(marker, state) >= p.depth_alpha:
+                        depth = tm
     return _result(marker, state, depth, samples, table, sigma, n_table, p)
 
 
@@ -1058,14 +1063,16 @@ def _march(marker, light, warp, bricks, offs, table, sigma, leap, grids, dims, o
     ny = dims[1]
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
-    return _march_plain(marker, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p,
-                        step, scratch, k0, k1, last)
+    return _march_plain(marker, projection_of(marker), compositing_of(marker), light, warp, bricks, offs, table, sigma,
+                        leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
 
 
 @fused_parallel_kernel
 def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, origins, directions, span, width, height,
-                 tile, tile_rows, lanes, lo, hi, piece, p, light, warp, out_rgba, out_depth, out_samples):
-    """Fill the pixels of the tiles in the rows of tiles ``tile_rows``.
+                 tile, tile_rows, lanes, lo, hi, piece, p, light, warp, out_rgba, out_depth, out_samples, out_value):
+    """Fill the pixels of the tiles in the rows of tiles ``tile_rows``, composited or
+    projected as ``marker`` says (``_composite_kernels``); a projection's values go to
+    ``out_value`` (one per pixel; a composite passes a placeholder of another length).
 
     Rays come from ``cam`` (``Camera.kernel_array``, then the volume's origin and the
     reciprocal of its spacing: ``camera_ray`` in voxel coordinates) or, when ``cam`` is
@@ -1089,10 +1096,12 @@ def render_tiles(marker, bricks, offs, table, sigma, leap, grids, dims, cam, ori
             if pix >= 0:
                 ox, oy, oz, dx, dy, dz, t_near, t_far = pixel_ray_span(cam, origins, directions, span, pix, width,
                                                                        height)
-                r, g, b, a, dep, ns, _ = _march(marker, light, warp, bricks, offs, table, sigma, leap, grids, dims,
+                r, g, b, a, dep, ns, v = _march(marker, light, warp, bricks, offs, table, sigma, leap, grids, dims,
                                                 ox, oy, oz, dx, dy, dz, lo, hi, piece, p, p.step, scratch, t_near,
                                                 t_far)
                 store_pixel(out_rgba, out_depth, out_samples, pix, r, g, b, a, dep, ns)
+                if out_value.shape[0] == out_rgba.shape[0]:
+                    out_value[pix] = v
 
 
 # -- the pixel loop's pieces, shared by every tile kernel (CPU) and pixel kernel (GPU) -----

@@ -373,7 +373,8 @@ def render_levels(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, 
     """Fill the pixels of the tiles in rows ``tile_rows`` for rays with levels of detail
     (``lods``, one per ray; or one 0 for all) and nothing else extended, composited or
     projected as ``marker`` says (``_composite_kernels``: a precision, or a projection,
-    whose values go to ``out_value``; empty for a composite). A ray at level of detail 0
+    whose values go to ``out_value``, one per pixel; a composite passes a placeholder of
+    another length). A ray at level of detail 0
     goes through ``_kernels._march`` as a plain render does, so it is bit-identical to
     one; a ray with a level of detail runs the same loop with the mip-map ``pyr`` as its
     stencil (``mip_sampler``), the step ``level_steps[L]`` and the opacity table
@@ -399,7 +400,7 @@ def render_levels(marker, bricks, offs, leap, leap_lod, grids, dims, pyr, pgeo, 
                                                  dx, dy, dz, lo, hi, piece, p, level_steps[level], scratch, t_near,
                                                  t_far)
             store_pixel(out_rgba, out_depth, out_samples, pix, r, gg, b, a, dep, ns)
-            if out_value.shape[0] > 0:
+            if out_value.shape[0] == out_rgba.shape[0]:
                 out_value[pix] = v
 
 

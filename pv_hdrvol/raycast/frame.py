@@ -284,6 +284,11 @@ def voxel_rays(camera, rays, width, height, origin, inv_spacing):
     return cam, origins, directions
 
 
+#: The ``out_value`` a composite frame passes the grid kernels: a placeholder (they write a
+#: projection's values where ``out_value`` has one per pixel).
+NO_VALUE = np.empty(0)
+
+
 class FrameBuffers:
     """A frame's outputs, flat (one row per pixel): ``rgba`` (premultiplied, float64 for
     ``precision="float64"``, else float32, from transparent), ``depth`` (float64, inf

@@ -21,7 +21,7 @@ from . import _kernels as K
 from . import _kernels_ext as KX
 from ._composite_kernels import projection_marker
 from .memory import check_memory
-from .frame import (MARKERS, TILE, FrameBuffers, FramePlan, check_lod, check_progress_bar, frame_metadata,
+from .frame import (MARKERS, NO_VALUE, TILE, FrameBuffers, FramePlan, check_lod, check_progress_bar, frame_metadata,
                     frame_rays, pixel_rows, tile_lanes, voxel_rays, windowed)
 from .shading import shading_arrays, shading_metadata
 
@@ -842,8 +842,9 @@ class GridPlan(FramePlan):
             raise ValueError(f"device={opts.device!r} renders lenses without a level of detail (Rays.lod: a lens "
                              "made with antialias=True, the default, or a sampling-rate lens): make the lens with "
                              "antialias=False, or render on device='cpu'")
-        if extended and rays is None and not on_device:
-            # the extended kernels take rays as arrays (the device kernels make a camera's own)
+        kernel = _grid_kernel(flat, extended, opts, styles, lod)
+        if kernel in ("levels", "extended") and rays is None and not on_device:
+            # these kernels take rays as arrays (the device kernels make a camera's own)
             rays = camera.rays((width, height))
             _, origins, directions = voxel_rays(camera, rays, width, height, ray_origin, inv_spacing)
         out = FrameBuffers(width, height, prec, value=opts.blending != "composite")
@@ -857,7 +858,7 @@ class GridPlan(FramePlan):
         frame = _GridFrame(prec, MARKERS[prec], light, bricks, table, sigma, leap, grids, dims, cam, origins,
                            directions, span, width, height, tile_lanes(), lo, hi, piece_box, params,
                            warp_arrays(volume, None if piece is None or nominal is None else nominal[1]), kernel_args,
-                           _grid_kernel(flat, extended, opts, styles, lod), out)
+                           kernel, out)
 
         check_progress_bar(progress_bar)
         t_start = time.perf_counter()
@@ -965,7 +966,7 @@ class _GridFrame(NamedTuple):
     params: object
     warp: object
     ext: object  # _Extended or None
-    kernel: str  # "none" (a flat volume), "plain", "projection", "lens" or "extended"
+    kernel: str  # "none" (a flat volume), "plain", "projection", "levels" or "extended"
     out: FrameBuffers
 
     def on_device(self, runner):
@@ -982,32 +983,32 @@ class _GridFrame(NamedTuple):
 
 def _grid_kernel(flat, extended, opts, styles, lod):
     """Which grid kernel a frame runs (see :class:`_GridFrame`): rays with a level of
-    detail and nothing else extended take the plain loop on the mip-map (``"lens"``)."""
+    detail and nothing else extended take the plain loop on the mip-map (``"levels"``),
+    as a projection's rays with one do; a projection without them ``render_tiles``."""
     if flat:
         return "none"
     if not extended:
         return "plain"
-    if opts.blending != "composite":
-        return "projection"
+    if opts.blending != "composite":  # (a projection is neither lit nor labelled)
+        return "projection" if lod is None else "levels"
     if lod is not None and opts.gradient_opacity is None and styles is None and not opts.shade:
-        return "lens"
+        return "levels"
     return "extended"
-
-
-_NO_VALUE = np.empty(0)  # no projected values: a composite's
 
 
 def _cast_grid(f, tile_rows):
     """Render the rows of tiles ``tile_rows`` of the grid frame ``f``; returns the pixel rows done."""
     rows = np.ascontiguousarray(tile_rows)
     out, a = f.out, f.ext
-    if f.kernel == "plain":
-        K.render_tiles(f.marker, f.bricks.values, f.bricks.offsets, f.table.reshape(-1), f.sigma, f.leap, f.grids,
+    # the one grid loop composites or projects as its marker says (a projection is not lit)
+    marker, light, value = (f.marker, f.light, NO_VALUE) if a is None or a.projection is None else \
+        (a.projection, 0, out.value)
+    if f.kernel in ("plain", "projection"):
+        K.render_tiles(marker, f.bricks.values, f.bricks.offsets, f.table.reshape(-1), f.sigma, f.leap, f.grids,
                        f.dims, f.cam, f.origins, f.directions, f.span, f.width, f.height, TILE, rows, f.lanes, f.lo,
-                       f.hi, f.piece_box, f.params, f.light, f.warp, out.rgba, out.depth, out.counts)
-    elif f.kernel in ("projection", "lens"):
-        # the one grid loop, compositing or projecting as the marker says, on the mip-map where a ray has a level
-        marker, value = (a.projection, out.value) if f.kernel == "projection" else (f.marker, _NO_VALUE)
+                       f.hi, f.piece_box, f.params, light, f.warp, out.rgba, out.depth, out.counts, value)
+    elif f.kernel == "levels":
+        # the same loop, on the mip-map where a ray has a level of detail
         KX.render_levels(marker, f.bricks.values, f.bricks.offsets, f.leap, a.leap_lod, f.grids, f.dims, a.pyr,
                          a.pgeo, a.e.n_levels, a.lods, a.tables, a.sigmas, a.level_tables, a.level_steps, f.origins,
                          f.directions, f.span, f.width, f.height, TILE, rows, f.lanes, f.lo, f.hi, f.piece_box,

@@ -256,3 +256,42 @@ def test_the_graph_reader_finds_cycles_and_face_imports(tmp_path):
     assert graph["pv_hdrvol.stage.a"] == {"pv_hdrvol.stage.b"}
     assert graph["pv_hdrvol.stage.b"] == {"pv_hdrvol.stage.a", "pv_hdrvol"}
     assert cycles(graph) == [["pv_hdrvol", "pv_hdrvol.stage.a", "pv_hdrvol.stage.b"]]
+
+
+#: The calls that leave an empty block: only a loop that marches a ray makes them.
+_LEAPS = {"leap_past", "_leap_to"}
+
+
+def marching_loops(paths):
+    """``{"module:function"}`` of the top-level functions in ``paths`` whose bodies
+    (nested functions included) call one of ``_LEAPS``, leaving out the functions that
+    define them and the overloads that implement them (``..._impl``)."""
+    found = set()
+    for path in paths:
+        for node in ast.parse(path.read_text()).body:
+            if not isinstance(node, ast.FunctionDef) or node.name in _LEAPS or node.name.endswith("_impl"):
+                continue
+            calls = {n.func.id for n in ast.walk(node) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+            if calls & _LEAPS:
+                found.add(f"{path.stem}:{node.name}")
+    return found
+
+
+def test_the_grid_kernels_have_two_marching_loops():
+    """Modes by type, not by copy: every storage (bricks in memory, out-of-core pages,
+    a mip-map), every grid kind and every compositor (the precisions, the projections)
+    runs the plain loop; per-label transfer functions, gradient-magnitude opacity and
+    shaded mip-mapped rays run the labelled one. A new mode is an argument type of
+    these, not a third loop."""
+    raycast = PACKAGE / "raycast"
+    loops = marching_loops(sorted(raycast.glob("_kernels*.py")) + [raycast / "_composite_kernels.py"])
+    assert loops == {"_kernels:_march_plain", "_kernels_ext:_composite_ext"}
+
+
+def test_the_loop_finder_sees_a_copied_loop(tmp_path):
+    """The check above can fail: a module with a loop of its own that leaps."""
+    (tmp_path / "_kernels_x.py").write_text(
+        "def leap_past(k):\n    return k + 1\n\n\ndef _leap_past_impl(k):\n    return leap_past(k)\n\n\n"
+        "def march(k, n):\n    while k < n:\n        k = leap_past(k)\n    return k\n\n\n"
+        "def helper():\n    def inner(k):\n        return _leap_to(k)\n    return inner\n")
+    assert marching_loops([tmp_path / "_kernels_x.py"]) == {"_kernels_x:march", "_kernels_x:helper"}

@@ -202,6 +202,26 @@ def test_labels_are_not_modified(random_volume):
 
 
 # -- levels of detail (lens rays) -----------------------------------------------------------------
+@pytest.mark.parametrize("blending", ["maximum", "minimum", "average", "additive"])
+def test_a_projections_rays_at_level_zero_are_the_projection_without_levels(random_volume, blending):
+    """A projection with per-ray levels of detail runs the mip-map loop kernel
+    (``render_levels``), one without them ``render_tiles``: the same loop with the
+    projection's compositor, so rays at level 0 give the same bits, and rays with a
+    level sample the mip-map (other values, same coverage)."""
+    vol = hv.volume_from_array(random_volume)
+    rays = hv.Camera.fit(vol, "iso").rays((12, 10))
+    plain = hv.render(vol, GRAY, rays, blending=blending, precision="float64")
+    lod = np.where(np.arange(120) % 3 == 0, 1.5, 0.0)
+    img = hv.render(vol, GRAY, rays._replace(lod=lod), blending=blending, precision="float64")
+    at0 = lod.reshape(10, 12) == 0.0
+    assert at0.sum() == 80
+    np.testing.assert_array_equal(img.value[at0], plain.value[at0])
+    np.testing.assert_array_equal(img.rgba[at0], plain.rgba[at0])
+    np.testing.assert_array_equal(img.depth[at0], plain.depth[at0])
+    assert np.array_equal(np.isnan(img.value), np.isnan(plain.value))
+    assert not np.array_equal(img.value[~at0], plain.value[~at0])
+
+
 def test_mip_sampling_keeps_constant_and_linear_fields():
     z, y, x = np.mgrid[0:33, 0:33, 0:33].astype(float)
     lin = 0.01 * x + 0.02 * y + 0.005 * z

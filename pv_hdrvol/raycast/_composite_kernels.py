@@ -14,8 +14,8 @@ render compiles only its own:
   over the segments.
 
 A compositor is ``_start`` (its empty state), ``_take`` or ``_accumulate`` (one
-sample), ``_opacity`` and ``_result`` (the pixel). ``projection_of`` and
-``compositing_of`` (the marker or ``None``, by type) tell the loop which of the two ways
+sample), ``_opacity`` and ``_result`` (the pixel). ``ways_of`` (the marker as a
+projection or as a compositing, the other ``None``) tells the loop which of the two ways
 a sample goes, and
 ``lattice_at``/``sample_t``/``exit_t``/``lattice_end`` where a projection's samples lie;
 numba prunes the other way before typing it. Classification (``table_position``,
@@ -318,35 +318,22 @@ def _kind(marker):
 
 
 @compiled_only
-def projection_of(marker):
-    """``marker`` if it names a projection, else ``None`` (compiled only)."""
+def ways_of(marker):
+    """``(proj, comp)``: ``(marker, None)`` if ``marker`` names a projection, ``(None,
+    marker)`` if a compositing precision (compiled only).
+
+    The loop takes both as arguments and branches on ``is not None``: numba prunes a
+    branch on an argument that is ``None`` before typing it (and only then: a
+    constant-valued call, or an argument of another type, is typed and lowered both
+    ways). So a composite compiles no projection code and a projection no compositing."""
     raise NotImplementedError("compiled only")
 
 
-@stub_overload(projection_of, jit_options=_FUSED_JIT)
-def _projection_of_impl(marker):
+@stub_overload(ways_of, jit_options=_FUSED_JIT)
+def _ways_of_impl(marker):
     if _kind(marker) is None:
-        return lambda marker: None
-    return lambda marker: marker
-
-
-@compiled_only
-def compositing_of(marker):
-    """``marker`` if it names a compositing precision, else ``None`` (compiled only).
-
-    The loop takes both as arguments, ``proj`` and ``comp``, one of them ``None``, and
-    branches on ``is not None``: numba prunes a branch on an argument that is ``None``
-    before typing it (and only then: a constant-valued call, or an argument of another
-    type, is typed and lowered both ways). So a composite compiles no projection code
-    and a projection no compositing."""
-    raise NotImplementedError("compiled only")
-
-
-@stub_overload(compositing_of, jit_options=_FUSED_JIT)
-def _compositing_of_impl(marker):
-    if _kind(marker) is None:
-        return lambda marker: marker
-    return lambda marker: None
+        return lambda marker: (None, marker)
+    return lambda marker: (marker, None)
 
 
 @compiled_only

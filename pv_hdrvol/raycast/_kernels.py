@@ -37,8 +37,8 @@ from .._jit import (
 )
 from ..rays._kernels import CAMERA_FIELDS, camera_ray
 from ._composite_kernels import (
-    LOG, SYMLOG, U8, _accumulate, _lookup, _opacity, _result, _start, _take, compositing_of, exit_t, lattice_at, lattice_end,
-    projection_of, sample_t, sigma_at, table_position, table_row,
+    LOG, SYMLOG, U8, _accumulate, _lookup, _opacity, _result, _start, _take, exit_t, lattice_at, lattice_end,
+    sample_t, sigma_at, table_position, table_row, ways_of,
 )
 from ._shading_kernels import (
     SH_AMBIENT, SH_DIFFUSE, SH_FADE, SH_INV_SPACING, SH_POWER, SH_SAMPLED, SH_SPACING, SH_SPECULAR,
@@ -815,8 +815,8 @@ def _march_plain(marker, proj, comp, light, warp, bricks, offs, table, sigma, le
     """The sampling and compositing loop of ``_march``, compiled once per ``marker`` (a
     precision or a projection: ``_composite_kernels``) and storage (the type of
     ``offs``: ``stencil``). ``proj`` and ``comp`` are the marker or ``None``
-    (``projection_of``, ``compositing_of``): each sample goes the way of the one that
-    is not ``None``, and numba prunes the other way before typing it.
+    (``ways_of``): each sample goes the way of the one that is not ``None``, and numba
+    prunes the other way before typing it.
 
     Sample ``k`` lies at ``t0 + (k + 1/2) step``, the last segment shortened to the
     exit. The loop is arranged for a short chain of dependent operations per sample,
@@ -1063,8 +1063,9 @@ def _march(marker, light, warp, bricks, offs, table, sigma, leap, grids, dims, o
     ny = dims[1]
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
-    return _march_plain(marker, projection_of(marker), compositing_of(marker), light, warp, bricks, offs, table, sigma,
-                        leap, g, ox, oy, oz, dx, dy, dz, t0, t1, p, step, scratch, k0, k1, last)
+    proj, comp = ways_of(marker)
+    return _march_plain(marker, proj, comp, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
+                        t1, p, step, scratch, k0, k1, last)
 
 
 @fused_parallel_kernel

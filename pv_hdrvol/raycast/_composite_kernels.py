@@ -308,7 +308,8 @@ def projection_marker(mode, unit, stop):
         return Extreme(1.0 if mode == MAXIMUM else -1.0, float(stop), float(unit))
     if mode == AVERAGE or mode == ADDITIVE:
         return Integral(int(mode == ADDITIVE), float(unit))
-    raise ValueError(f"blending code {mode!r} is not a projection: expected one of {MAXIMUM, MINIMUM, AVERAGE, ADDITIVE}")
+    raise ValueError(f"blending code {mode!r} is not a projection's: expected one of "
+                     f"{[MAXIMUM, MINIMUM, AVERAGE, ADDITIVE]} (params.BLENDING_CODES)")
 
 
 def _kind(marker):

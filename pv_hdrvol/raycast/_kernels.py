@@ -1064,8 +1064,8 @@ def _march(marker, light, warp, bricks, offs, table, sigma, leap, grids, dims, o
     nz = dims[2]
     g = (nx, ny, nz, nx - 1.0, ny - 1.0, nz - 1.0, p.block_shift, grids[1], grids[2], grids[4], grids[5])
     proj, comp = ways_of(marker)
-    return _march_plain(marker, proj, comp, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz, t0,
-                        t1, p, step, scratch, k0, k1, last)
+    return _march_plain(marker, proj, comp, light, warp, bricks, offs, table, sigma, leap, g, ox, oy, oz, dx, dy, dz,
+                        t0, t1, p, step, scratch, k0, k1, last)
 
 
 @fused_parallel_kernel

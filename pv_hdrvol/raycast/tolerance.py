@@ -37,7 +37,7 @@ import warnings
 
 import numpy as np
 
-from ..data.transfer import TABLE_TOLERANCE, TransferFunction
+from ..data.transfer import TransferFunction
 
 #: pixels of the pilot image (about; a regular subset of the image's rays): a 64th of
 #: the image, at least 1,024 and at most 4,096
@@ -234,7 +234,7 @@ def execute_grid(plan, camera, size, *, lens=None, block_mask=None, cull=None, w
     from ..rays.camera import Rays, check_window, fit_camera
     from .frame import check_far, window_rays
 
-    opts, tol = plan.options, plan.options.tolerance
+    opts = plan.options
     t0 = time.perf_counter()
     camera = fit_camera(plan.source, camera)  # as the plan frames it
     if lens is not None:
@@ -300,7 +300,7 @@ def execute_mesh(plan, camera, size, *, progress=None, progress_bar=None, view=N
     from ..rays.camera import Camera, as_camera
     from .frame import check_far
 
-    opts, tol = plan.options, plan.options.tolerance
+    opts = plan.options
     t0 = time.perf_counter()
     camera = as_camera(camera, plan.mesh.bounds)
     if not isinstance(camera, Camera):

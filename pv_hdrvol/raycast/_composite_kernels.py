@@ -428,6 +428,7 @@ def _take_impl(marker, state, v, t, dt, table, sigma, n_table, p):
                 eb += b * sd
             return (total, length, tau, er, eg, eb, t_first), False
         return integral
+
     def compositing(marker, state, v, t, dt, table, sigma, n_table, p):  # never compiled: pruned
         return state, False
     return compositing

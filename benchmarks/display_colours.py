@@ -63,14 +63,12 @@ def main(argv=None):
     ap.add_argument("--data", nargs="+", choices=sorted(FILES), default=sorted(FILES))
     ap.add_argument("--size", type=int, default=256)
     args = ap.parse_args(argv)
-    from offscreen import require_offscreen_vtk
+    from offscreen import require_offscreen_vtk, vtk_volume_screenshot
 
     require_offscreen_vtk()
     import pyvista as pv
-    import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: F401
     from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
-    from vtkmodules.vtkRenderingCore import vtkColorTransferFunction, vtkVolume, vtkVolumeProperty
-    from vtkmodules.vtkRenderingVolume import vtkFixedPointVolumeRayCastMapper
+    from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
 
     import pv_hdrvol as hv
     from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
@@ -91,33 +89,8 @@ def main(argv=None):
         otf.AddPoint(lo, 0.0)
         otf.AddPoint(hi, 1.0)
         unit = float(min(ds.spacing))
-        prop = vtkVolumeProperty()
-        prop.SetColor(ctf)
-        prop.SetScalarOpacity(otf)
-        prop.SetScalarOpacityUnitDistance(unit)
-        prop.SetInterpolationTypeToLinear()
-        prop.ShadeOff()
-        mapper = vtkFixedPointVolumeRayCastMapper()
-        mapper.SetInputData(ds)
-        mapper.SetAutoAdjustSampleDistances(False)
-        mapper.SetSampleDistance(STEP * unit)
-        mapper.SetInteractiveSampleDistance(STEP * unit)
-        mapper.SetImageSampleDistance(1.0)
-        volume = vtkVolume()
-        volume.SetMapper(mapper)
-        volume.SetProperty(prop)
         camera = hv.Camera.fit(ds, "iso")
-        plotter = pv.Plotter(off_screen=True, window_size=(args.size, args.size))
-        try:
-            plotter.ren_win.SetMultiSamples(0)
-            plotter.set_background("black")
-            plotter.renderer.AddVolume(volume)
-            plotter.renderer.SetActiveCamera(camera.to_vtk())
-            plotter.renderer.ResetCameraClippingRange()
-            plotter.camera_set = True
-            reference = plotter.screenshot(return_img=True).astype(np.float64)
-        finally:
-            plotter.close()
+        reference = vtk_volume_screenshot(ds, camera, ctf, otf, unit, STEP * unit, args.size).astype(np.float64)
 
         tf = transfer_function_from_vtk(ctf, otf)
         image = hv.render(ds, tf, camera, args.size, step=STEP, opacity_unit_distance=unit, precision="float32",

@@ -39,7 +39,7 @@ Offscreen rendering without X: see ``tests/offscreen.py``.
 import numpy as np
 import pytest
 
-from offscreen import require_offscreen_vtk
+from offscreen import require_offscreen_vtk, vtk_volume_screenshot
 
 pytestmark = [pytest.mark.data, pytest.mark.vtk_render]
 
@@ -47,10 +47,8 @@ pytestmark = [pytest.mark.data, pytest.mark.vtk_render]
 require_offscreen_vtk()
 
 import pyvista as pv  # noqa: E402
-import vtkmodules.vtkRenderingVolumeOpenGL2  # noqa: E402,F401 - registers vtkRayCastImageDisplayHelper
 from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction  # noqa: E402
-from vtkmodules.vtkRenderingCore import vtkColorTransferFunction, vtkVolume, vtkVolumeProperty  # noqa: E402
-from vtkmodules.vtkRenderingVolume import vtkFixedPointVolumeRayCastMapper  # noqa: E402
+from vtkmodules.vtkRenderingCore import vtkColorTransferFunction  # noqa: E402
 
 import pv_hdrvol as hv  # noqa: E402
 from pv_hdrvol.image.display import luminance, srgb_encode  # noqa: E402
@@ -76,35 +74,7 @@ def render_vtk(ds, camera, global_alpha=1.0):
     for v, a in zip(VALUES, OPACITIES):
         otf.AddPoint(v, a * global_alpha)
     unit = float(min(ds.spacing))
-    prop = vtkVolumeProperty()
-    prop.SetColor(ctf)
-    prop.SetScalarOpacity(otf)
-    prop.SetScalarOpacityUnitDistance(unit)
-    prop.SetInterpolationTypeToLinear()
-    prop.ShadeOff()
-    mapper = vtkFixedPointVolumeRayCastMapper()
-    mapper.SetInputData(ds)
-    mapper.SetAutoAdjustSampleDistances(False)
-    mapper.SetSampleDistance(STEP * unit)
-    mapper.SetInteractiveSampleDistance(STEP * unit)
-    mapper.SetImageSampleDistance(1.0)
-    volume = vtkVolume()
-    volume.SetMapper(mapper)
-    volume.SetProperty(prop)
-
-    plotter = pv.Plotter(off_screen=True, window_size=(SIZE, SIZE))
-    try:
-        plotter.ren_win.SetMultiSamples(0)
-        plotter.set_background("black")
-        plotter.renderer.AddVolume(volume)
-        plotter.renderer.SetActiveCamera(camera.to_vtk())
-        plotter.renderer.ResetCameraClippingRange()
-        plotter.camera_set = True  # keep our camera: no reset on first render
-        shot = plotter.screenshot(return_img=True)
-    finally:
-        plotter.close()
-    assert shot.shape == (SIZE, SIZE, 3) and shot.dtype == np.uint8
-    return shot
+    return vtk_volume_screenshot(ds, camera, ctf, otf, unit, STEP * unit, SIZE)
 
 
 def render_ours(ds, camera, global_alpha=1.0):

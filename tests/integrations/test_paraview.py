@@ -309,23 +309,12 @@ def _export(gui, folder, n):
     return _exported(folder, n)
 
 
-def _reference(shared_data, state, **clip):
-    """The render the GUI should show, made here with the library: hv.render of the
-    engine for the view's camera and size and the array's colour map and opacity
-    function (their points, rebuilt in this process's VTK), tone mapped as the
-    filter's display (reinhard, sRGB)."""
+def _functions_of(state):
+    """The array's colour and opacity functions the GUI exported (``state``), rebuilt as
+    ``vtkColorTransferFunction`` and ``vtkPiecewiseFunction``."""
     from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
-    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
     from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
 
-    import pv_hdrvol as hv
-    from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
-
-    assert state["settings"] == _DEFAULT_SETTINGS, state["settings"]
-    assert state["scalars"] == ["POINTS", "ImageFile"], state["scalars"]
-    assert state["filter_camera_fields"] == state["view_camera"]
-    assert (state["lut"], state["pwf"]) == (state["array_lut"], state["array_pwf"]), \
-        "HDR Volume Render does not use the array's colour map and opacity function"
     ctf = vtkColorTransferFunction()
     for x, r, g, b in np.reshape(state["rgb_points"], (-1, 4)):
         ctf.AddRGBPoint(x, r, g, b)
@@ -335,6 +324,25 @@ def _reference(shared_data, state, **clip):
     for x, a, midpoint, sharpness in np.reshape(state["opacity_points"], (-1, 4)):
         pwf.AddPoint(x, a, midpoint, sharpness)
     pwf.SetUseLogScale(int(state["opacity_log"]))
+    return ctf, pwf
+
+
+def _reference(shared_data, state, **clip):
+    """The render the GUI should show, made here with the library: hv.render of the
+    engine for the view's camera and size and the array's colour map and opacity
+    function (their points, rebuilt in this process's VTK), tone mapped as the
+    filter's display (reinhard, sRGB)."""
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+
+    import pv_hdrvol as hv
+    from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
+
+    assert state["settings"] == _DEFAULT_SETTINGS, state["settings"]
+    assert state["scalars"] == ["POINTS", "ImageFile"], state["scalars"]
+    assert state["filter_camera_fields"] == state["view_camera"]
+    assert (state["lut"], state["pwf"]) == (state["array_lut"], state["array_pwf"]), \
+        "HDR Volume Render does not use the array's colour map and opacity function"
+    ctf, pwf = _functions_of(state)
     reader = vtkXMLImageDataReader()
     reader.SetFileName(str(shared_data / "structured" / "engine_256x256x128_uint8.vti"))
     reader.Update()
@@ -541,23 +549,12 @@ def _store_reference(store, state):
     """What the GUI should show for a store: ``open_multiscale(store).render`` with the
     view's camera and size and the array's colour map and opacity (as :func:`_reference`
     rebuilds them)."""
-    from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
-    from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
-
     import pv_hdrvol as hv
     from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
 
     assert state["settings"] == _DEFAULT_SETTINGS, state["settings"]
     assert state["scalars"] == ["POINTS", "ImageFile"], state["scalars"]
-    ctf = vtkColorTransferFunction()
-    for x, r, g, b in np.reshape(state["rgb_points"], (-1, 4)):
-        ctf.AddRGBPoint(x, r, g, b)
-    getattr(ctf, f"SetColorSpaceTo{state['color_space']}")()
-    ctf.SetScale(int(state["lut_log"]))
-    pwf = vtkPiecewiseFunction()
-    for x, a, midpoint, sharpness in np.reshape(state["opacity_points"], (-1, 4)):
-        pwf.AddPoint(x, a, midpoint, sharpness)
-    pwf.SetUseLogScale(int(state["opacity_log"]))
+    ctf, pwf = _functions_of(state)
     position, focal_point, view_up, angle, parallel, scale = state["view_camera"]
     camera = hv.Camera(position, focal_point, view_up, view_angle=angle, parallel_projection=bool(parallel),
                        parallel_scale=scale)

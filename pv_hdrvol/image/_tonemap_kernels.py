@@ -16,7 +16,7 @@ from .._jit import helper_kernel, parallel_kernel
 from .display import srgb_encode
 
 # curve codes (tonemap._CURVES)
-PRECOMPUTED, LINEAR, REINHARD, DRAGO = 0, 1, 2, 3
+PRECOMPUTED, LINEAR, REINHARD, DRAGO, KNEE = 0, 1, 2, 3, 4
 # display encodings (tonemap._ENCODINGS)
 ENC_LINEAR, ENC_TABLE = 0, 1
 
@@ -57,6 +57,15 @@ def curve(y, code, p):
         # p = (key / log-average, 1 / white**2)
         lm = y * p[0]
         return lm * (1.0 + lm * p[1]) / (1.0 + lm)
+    if code == KNEE:
+        # p = (2**exposure, knee): the identity up to the knee, then a shoulder
+        # knee + (1 - knee)(1 - exp(-(x - knee) / (1 - knee))), slope 1 at the knee,
+        # approaching 1 (map_pixels applies it to the largest channel)
+        x = y * p[0]
+        if x <= p[1]:
+            return x
+        room = 1.0 - p[1]
+        return p[1] + room * -math.expm1(-(x - p[1]) / room)
     # DRAGO: p = (exposure / adaptation luminance, scaled max, log(bias)/log(0.5), scale,
     # peak): the formula falls again past its peak (near the max), so it is
     # held there to stay monotone for pixels brighter than the fitted maximum
@@ -103,7 +112,8 @@ def _encode(x, enc, lut):
 def map_pixels(rgb, display_lum, code, p, table, saturation, enc, lut, out):
     """Tone map ``rgb`` (n, >= 3; extra columns such as alpha are ignored) linear into ``out`` (n, 3) float32 display values in [0, 1].
 
-    Display luminance ``Ld`` comes from ``curve(code, p)`` (Drago: from ``table``, see
+    ``KNEE`` maps the largest channel through its curve and scales the three alike (hue
+    and chroma kept). Otherwise display luminance ``Ld`` comes from ``curve(code, p)`` (Drago: from ``table``, see
     ``_display_curve``) or, for ``PRECOMPUTED``, from ``display_lum`` (n,). Encoding:
     ``ENC_TABLE`` reads ``lut`` (``encoding_lut``), ``ENC_LINEAR`` clips. Colour: ``out_c = (c / L)**saturation * Ld`` (plain
     ``c * Ld / L`` for saturation 1). ``L = 0`` or NaN gives black; ``L = inf`` white.
@@ -123,6 +133,13 @@ def map_pixels(rgb, display_lum, code, p, table, saturation, enc, lut, out):
             out[i, 0] = 1.0
             out[i, 1] = 1.0
             out[i, 2] = 1.0
+            continue
+        if code == KNEE:  # the largest channel through the curve, the colour's ratios kept
+            m = max(r, max(g, b))
+            s = curve(m, code, p) / m
+            out[i, 0] = _encode(r * s, enc, lut)
+            out[i, 1] = _encode(g * s, enc, lut)
+            out[i, 2] = _encode(b * s, enc, lut)
             continue
         ld = display_lum[i] if code == PRECOMPUTED else _display_curve(y, code, p, table)
         if saturation == 1.0:

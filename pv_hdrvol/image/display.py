@@ -28,6 +28,18 @@ def srgb_decode(encoded):
     return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4))
 
 
+def screen_lab(display_values):
+    """CIELAB (D65, CIE 1976) of display values in [0, 1] (..., 3), read as an sRGB
+    screen shows them: the measure of how far two pictures look apart (a mean
+    Delta E = ``norm(lab1 - lab2)`` of about 2 is barely visible)."""
+    xyz = srgb_decode(display_values) @ np.array([[0.4124564, 0.3575761, 0.1804375],
+                                                   [0.2126729, 0.7151522, 0.0721750],
+                                                   [0.0193339, 0.1191920, 0.9503041]]).T
+    xyz = xyz / np.array([0.95047, 1.0, 1.08883])
+    f = np.where(xyz > (6 / 29) ** 3, np.cbrt(xyz), xyz / (3 * (6 / 29) ** 2) + 4 / 29)
+    return np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])], -1)
+
+
 def auto_exposure(rgb, percentile=99.0):
     """Stops that bring the ``percentile`` of non-zero luminance to 1.0 (0 if all black)."""
     y = luminance(rgb)

@@ -7,6 +7,9 @@ follows by the luminance-ratio rule with a saturation exponent ``s``,
 .. math:: C_d = \left(\frac{C}{L}\right)^{s} L_d ,
 
 and the result is encoded for the display (sRGB by default) and clipped to [0, 1].
+``knee`` instead scales the colour by its largest channel's mapping, so hue and chroma
+are kept, and is shown unencoded by default: it is the display of colour-map colours,
+which are display values already, as ParaView's and VTK's volume mappers show them.
 
 Operators (a name, an :class:`Operator` instance, or any callable ``f(L) -> Ld``):
 
@@ -15,6 +18,7 @@ name       kind    method
 ========== ======= ==========================================================
 linear     global  exposure in stops, clamp
 gamma      global  as ``linear``, with a pure power-law display encoding
+knee       global  colours as they are up to a knee, a shoulder above it; hue kept
 reinhard   global  photographic tone reproduction (Reinhard et al. 2002)
 reinhard   local   ``local=True``: dodging and burning, centre-surround scales
 drago      global  adaptive logarithmic mapping (Drago et al. 2003)
@@ -177,6 +181,57 @@ class Gamma(Linear):
     def __post_init__(self):
         super().__post_init__()
         _check_positive("gamma", self.gamma)
+
+
+@dataclasses.dataclass(frozen=True)
+class Knee(Operator):
+    r"""Colours as they are up to ``knee``, compressed above it, hue and chroma kept.
+
+    With :math:`m` the largest channel after the exposure :math:`2^{\text{stops}}`, the
+    colour is scaled by :math:`g(m) / m`, where :math:`g(m) = m` for :math:`m \le k`
+    and :math:`g(m) = k + (1 - k)(1 - e^{-(m - k)/(1 - k)})` above: slope 1 at the
+    knee, approaching 1, so values beyond the display range keep their hue and an
+    order among themselves instead of clipping channel by channel.
+
+    This is the display of a composite of colour-map colours: those colours are
+    display (sRGB-encoded) values, and ParaView's and VTK's volume mappers composite
+    and show them without encoding, so its default encoding is ``"linear"``. Where no
+    channel exceeds ``knee`` the picture is the composite itself, as those mappers
+    show it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> op = Knee(knee=0.8)
+    >>> [round(float(v), 4) for v in op.fit(np.ones((1, 3))).display_luminance(np.array([[0.5, 0.8, 1.0]]))[0]]
+    [0.5, 0.8, 0.9264]
+    """
+
+    exposure_stops: float = 0.0
+    knee: float = 0.8
+    name = "knee"
+
+    def __post_init__(self):
+        super().__post_init__()
+        _check_finite("exposure_stops", self.exposure_stops)
+        if not 0.0 < self.knee < 1.0:
+            raise ValueError(f"knee must be in (0, 1): the display value where compression begins; "
+                             f"got {self.knee!r}")
+        if self.saturation != 1.0:
+            raise ValueError(f"knee keeps each colour's hue and chroma: its saturation is 1; got {self.saturation!r}")
+
+    def _fit(self, y, use):
+        return {"scale": 2.0 ** float(self.exposure_stops)}
+
+    def _curve(self, stats):
+        return K.KNEE, np.array([stats["scale"], float(self.knee)])
+
+    def _inverse(self, ld, stats):
+        k = float(self.knee)
+        ld = np.asarray(ld, dtype=np.float64)
+        with np.errstate(divide="ignore"):
+            above = k - (1.0 - k) * np.log1p(-(np.minimum(ld, 1.0) - k) / (1.0 - k))
+        return np.where(ld <= k, ld, above) / stats["scale"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -519,10 +574,11 @@ EXPOSURE_PARAMETERS = {
     "drago": lambda stops: {"exposure_stops": stops},
     "linear": lambda stops: {"exposure_stops": stops},
     "gamma": lambda stops: {"exposure_stops": stops},
+    "knee": lambda stops: {"exposure_stops": stops},
 }
 
-OPERATORS = {"linear": Linear, "gamma": Gamma, "reinhard": Reinhard, "drago": Drago, "durand": Durand,
-             "fattal": Fattal}
+OPERATORS = {"linear": Linear, "gamma": Gamma, "knee": Knee, "reinhard": Reinhard, "drago": Drago,
+             "durand": Durand, "fattal": Fattal}
 
 
 def make_operator(operator="reinhard", **params):
@@ -590,7 +646,8 @@ class ToneMapped:
         -------
         ndarray (..., 3), float64
             Linear RGB. Values that clipped at 1 come back as the smallest HDR value
-            that clips, a lower bound.
+            that clips, a lower bound (``knee`` approaches 1 without reaching it: a
+            channel shown at 1 comes back infinite).
 
         Raises
         ------
@@ -602,6 +659,11 @@ class ToneMapped:
             raise ValueError(f"display must have shape (..., 3); got {d.shape}")
         d = d.astype(np.float64) / 255.0 if d.dtype == np.uint8 else d.astype(np.float64)
         lin = _decode(d, self.encoding)
+        if isinstance(self.operator, Knee):  # the largest channel was mapped, the ratios kept
+            md = lin.max(axis=-1)
+            m = self.fitted.inverse_luminance(md)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return np.where(md[..., None] > 0, lin * (m / md)[..., None], 0.0)
         s = self.operator.saturation
         # colour rule C_d = (C/L)^s Ld with lum(C) = L gives Ld = (sum_c w_c C_d,c^(1/s))^s
         ld = np.power(np.power(lin, 1.0 / s) @ LUMINANCE_WEIGHTS, s)
@@ -646,7 +708,18 @@ def _luminance(pixels):
     return y.reshape(pixels.shape[:2])
 
 
-def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=None, **params):
+def default_encoding(op):
+    """The display encoding an operator implies: the ``gamma`` operator's gamma,
+    ``"linear"`` for ``knee`` (colour-map colours are display values already), else
+    ``"srgb"``."""
+    if isinstance(op, Gamma):
+        return float(op.gamma)
+    if isinstance(op, Knee):
+        return "linear"
+    return "srgb"
+
+
+def tonemap(image, operator="reinhard", *, roi=None, encoding=None, fitted=None, **params):
     """Tone map an HDR image for display.
 
     Parameters
@@ -654,13 +727,14 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
     image : HDRImage or ndarray, shape (rows, cols, 3 or 4)
         Linear (premultiplied) colour; alpha is ignored (the image over black).
     operator : str, Operator or callable
-        ``"linear"``, ``"gamma"``, ``"reinhard"``, ``"drago"``, ``"durand"``,
+        ``"linear"``, ``"gamma"``, ``"knee"``, ``"reinhard"``, ``"drago"``, ``"durand"``,
         ``"fattal"``, an :class:`Operator`, or ``f(L) -> Ld`` on luminance arrays.
     roi : (col, row, radius) or ndarray of bool (rows, cols), optional
         Region of interest in pixels: the operator fits its parameters there.
-    encoding : "srgb", "linear" or float
-        Display encoding; a float is a gamma (``x**(1/gamma)``). The ``gamma``
-        operator defaults to its own ``gamma``.
+    encoding : "srgb", "linear", float or None
+        Display encoding; a float is a gamma (``x**(1/gamma)``). None (default): the
+        operator's own (:func:`default_encoding`): sRGB, the ``gamma`` operator's
+        ``gamma``, ``"linear"`` for ``knee``.
     fitted : Fitted, optional
         Reuse the statistics of an earlier fit (consistent mapping across frames).
     **params
@@ -683,7 +757,9 @@ def tonemap(image, operator="reinhard", *, roi=None, encoding="srgb", fitted=Non
     shape = pixels.shape[:2]
     op = make_operator(operator, **params)
     weights = _roi_weights(roi, shape)
-    if isinstance(op, Gamma) and encoding == "srgb":
+    if encoding is None:
+        encoding = default_encoding(op)
+    elif isinstance(op, Gamma) and encoding == "srgb":  # as before the operator's own default
         encoding = float(op.gamma)
     enc_code, gamma = display_encoding(encoding)
     if fitted is not None and not isinstance(fitted, Fitted):

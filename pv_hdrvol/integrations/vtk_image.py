@@ -125,7 +125,7 @@ class HDRToneMapper(_ImageOutput, ReportingAlgorithm):
     input, rows in VTK order, bit for bit.
 
     Properties: :meth:`SetOperator` (default ``"reinhard"``), :meth:`SetEncoding`
-    (``"srgb"``), :meth:`SetParameter` / :meth:`SetParameters` (the operator's
+    (``None``: the operator's own, sRGB for most), :meth:`SetParameter` / :meth:`SetParameters` (the operator's
     parameters, none by default), :meth:`SetRGBAArray` (``None``: ``"rgba"`` if the
     input has it, else the active scalars). The parameters are checked against the
     operator in ``RequestData`` (by :func:`~pv_hdrvol.image.tonemap.make_operator`),
@@ -150,13 +150,13 @@ class HDRToneMapper(_ImageOutput, ReportingAlgorithm):
     def __init__(self):
         super().__init__(nInputPorts=1, inputType="vtkImageData", nOutputPorts=1, outputType="vtkImageData")
         self._operator = "reinhard"
-        self._encoding = "srgb"
+        self._encoding = None
         self._parameters = {}
         self._rgba_array = None
 
     def SetOperator(self, name):
         """The tone-mapping operator: a name of :data:`pv_hdrvol.image.tonemap.OPERATORS`
-        (``"linear"``, ``"gamma"``, ``"reinhard"``, ``"drago"``, ``"durand"``, ``"fattal"``)."""
+        (``"linear"``, ``"gamma"``, ``"knee"``, ``"reinhard"``, ``"drago"``, ``"durand"``, ``"fattal"``)."""
         if not isinstance(name, str) or name not in OPERATORS:
             raise ValueError(f"operator must be one of {sorted(OPERATORS)}; got {name!r}")
         if name != self._operator:
@@ -168,20 +168,22 @@ class HDRToneMapper(_ImageOutput, ReportingAlgorithm):
         return self._operator
 
     def SetEncoding(self, encoding):
-        """Display encoding: ``"srgb"``, ``"linear"``, or a gamma > 0 (``x**(1/gamma)``).
-        The ``"gamma"`` operator with ``"srgb"`` uses its own ``gamma`` parameter, as
+        """Display encoding: ``"srgb"``, ``"linear"``, a gamma > 0 (``x**(1/gamma)``), or
+        ``None``, the operator's own (:func:`~pv_hdrvol.image.tonemap.default_encoding`:
+        sRGB, the ``"gamma"`` operator's gamma, linear for ``"knee"``), as
         :func:`pv_hdrvol.tonemap` does."""
-        if isinstance(encoding, bool) or not isinstance(encoding, (str, numbers.Real)):
-            raise TypeError(f"encoding must be 'srgb', 'linear' or a gamma > 0; got {encoding!r}")
-        display_encoding(encoding)  # the one validation, tonemap's
-        if not isinstance(encoding, str):
+        if encoding is not None and (isinstance(encoding, bool) or not isinstance(encoding, (str, numbers.Real))):
+            raise TypeError(f"encoding must be 'srgb', 'linear', a gamma > 0 or None; got {encoding!r}")
+        if encoding is not None:
+            display_encoding(encoding)  # the one validation, tonemap's
+        if encoding is not None and not isinstance(encoding, str):
             encoding = float(encoding)
         if not _same(encoding, self._encoding):
             self._encoding = encoding
             self.Modified()
 
     def GetEncoding(self):
-        """``"srgb"``, ``"linear"`` or the gamma (float)."""
+        """``"srgb"``, ``"linear"``, the gamma (float), or ``None`` (the operator's own)."""
         return self._encoding
 
     def SetParameter(self, name, value):

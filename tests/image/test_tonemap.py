@@ -151,6 +151,56 @@ def test_reinhard_local_equals_global_on_a_constant_image():
     np.testing.assert_allclose(ld, 0.18 / 1.18, rtol=1e-9)
 
 
+def _knee(m, k):
+    """The knee operator's curve, written out: m up to k, then k + (1 - k)(1 - e^-(m - k)/(1 - k))."""
+    m = np.asarray(m, dtype=np.float64)
+    return np.where(m <= k, m, k + (1 - k) * (1 - np.exp(-(m - k) / (1 - k))))
+
+
+@pytest.mark.parametrize("knee", [0.8, 0.5])
+def test_knee_shows_colours_up_to_the_knee_as_they_are_and_keeps_hue_above(knee):
+    rng = np.random.default_rng(3)
+    img = rng.random((40, 50, 3)) * np.array([4.0, 1.0, 0.3])
+    out = hv.tonemap(img, "knee", knee=knee)
+    assert out.encoding == "linear"  # colour-map colours are display values: shown unencoded
+    m = img.max(axis=-1)
+    below = m <= knee
+    assert below.sum() > 100 and (~below).sum() > 100
+    np.testing.assert_allclose(out.rgb[below], img[below], rtol=0, atol=6e-8)  # float32 of the input
+    # above: the colour scaled by g(m) / m, every channel alike
+    want = img * (_knee(m, knee) / m)[..., None]
+    np.testing.assert_allclose(out.rgb, want, rtol=2e-7, atol=6e-8)
+    assert want.max() < 1.0 and out.rgb.max() <= 1.0  # approaches 1 (float32 may round to it)
+    # exposure scales before the curve; sRGB on request
+    np.testing.assert_allclose(hv.tonemap(img, "knee", knee=knee, exposure_stops=-1).rgb,
+                               img * 0.5 * (_knee(m * 0.5, knee) / (m * 0.5))[..., None], rtol=2e-7, atol=6e-8)
+    np.testing.assert_allclose(hv.tonemap(img, "knee", knee=knee, encoding="srgb").rgb, srgb_encode(want),
+                               rtol=0, atol=2e-6)
+
+
+def test_knee_extremes_and_inverse():
+    v = np.concatenate([[0.0], np.logspace(-20, 20, 4001)]).reshape(1, -1)
+    out = hv.tonemap(grey(v), "knee")
+    assert out.rgb[0, 0, 0] == 0.0 and np.all(np.diff(out.rgb[0, :, 0]) >= 0) and out.rgb.max() <= 1.0
+    odd = grey(np.ones((2, 2)))
+    odd[0, 0, 1], odd[0, 1] = np.nan, np.inf
+    odd[1, 0] = (1e30, 1e10, 0.0)
+    got = hv.tonemap(odd, "knee").rgb
+    assert got[0, 0].tolist() == [0.0, 0.0, 0.0] and got[0, 1].tolist() == [1.0, 1.0, 1.0]
+    assert got[1, 0, 0] == 1.0 and got[1, 0, 1] < 1e-19 and got[1, 0, 2] == 0.0  # hue kept at 1e30
+    img = hdr_scene()
+    out = hv.tonemap(img, "knee", exposure_stops=-12)
+    back = out.inverse()
+    ok = (out.rgb.max(axis=-1) < 0.98) & (out.rgb.min(axis=-1) > 0.02)
+    assert ok.sum() > 200
+    np.testing.assert_allclose(back[ok], img[ok], rtol=5e-5)
+    with pytest.raises(ValueError, match=r"knee must be in \(0, 1\): the display value where compression "
+                                         r"begins; got 1.0"):
+        hv.tonemap(img, "knee", knee=1.0)
+    with pytest.raises(ValueError, match="knee keeps each colour's hue and chroma: its saturation is 1; got 0.5"):
+        hv.tonemap(img, "knee", saturation=0.5)
+
+
 # -- properties, every operator ------------------------------------------------------------
 @pytest.mark.parametrize("name", GLOBAL)
 def test_global_operators_are_monotone_and_map_zero_to_zero(name):
@@ -292,3 +342,11 @@ def test_errors_name_the_value():
         hv.tonemap(np.ones((4, 4, 3), np.uint8), "linear")
     with pytest.raises(ValueError, match="beta must be in \\(0, 1\\]; got 1.2"):
         hv.tonemap(img, "fattal", beta=1.2)
+
+
+def test_screen_lab_gives_the_standard_cielab_of_srgb_colours():
+    from pv_hdrvol.image.display import screen_lab
+
+    # CIELAB (D65) of sRGB white, red and mid grey (#777777), as colour references give them
+    got = screen_lab(np.array([[1.0, 1.0, 1.0], [1.0, 0.0, 0.0], [0x77 / 255] * 3]))
+    np.testing.assert_allclose(got, [[100.0, 0.0, 0.0], [53.24, 80.09, 67.20], [50.03, 0.0, 0.0]], atol=0.01)

@@ -175,7 +175,7 @@ def test_tone_mapper_rgb_array_and_active_scalars():
 def test_tone_mapper_setters_validate_and_modify_only_on_change(volume_render):
     alg = _mapper(volume_render[1].to_vtk())
     assert (alg.GetOperator(), alg.GetEncoding(), alg.GetParameters(), alg.GetRGBAArray()) == \
-        ("reinhard", "srgb", {}, None)
+        ("reinhard", None, {}, None)
     alg.SetOperator("linear")
     alg.SetParameter("exposure_stops", 1.0)
     assert alg.Update() is True
@@ -185,7 +185,7 @@ def test_tone_mapper_setters_validate_and_modify_only_on_change(volume_render):
     alg.SetOperator("linear")
     alg.SetParameter("exposure_stops", 1.0)
     alg.SetParameters({"exposure_stops": 1.0, "percentile": None})
-    alg.SetEncoding("srgb")
+    alg.SetEncoding(None)
     alg.SetRGBAArray(None)
     alg.SetParameter("key", None)  # removing what is not there
     assert alg.GetMTime() == t0
@@ -208,14 +208,14 @@ def test_tone_mapper_setters_validate_and_modify_only_on_change(volume_render):
     assert alg.GetParameters() == {} and alg.GetMTime() > t2
 
     with pytest.raises(ValueError, match=r"operator must be one of \['drago', 'durand', 'fattal', 'gamma', "
-                                         r"'linear', 'reinhard'\]; got 'aces'"):
+                                         r"'knee', 'linear', 'reinhard'\]; got 'aces'"):
         alg.SetOperator("aces")
     with pytest.raises(ValueError, match=r"encoding must be 'srgb', 'linear' or a gamma > 0; got 'rec709'"):
         alg.SetEncoding("rec709")
     with pytest.raises(ValueError, match=r"encoding gamma must be finite and > 0; got -1"):
         alg.SetEncoding(-1)
-    with pytest.raises(TypeError, match=r"encoding must be 'srgb', 'linear' or a gamma > 0; got None"):
-        alg.SetEncoding(None)
+    with pytest.raises(TypeError, match=r"encoding must be 'srgb', 'linear', a gamma > 0 or None; got True"):
+        alg.SetEncoding(True)
     with pytest.raises(TypeError, match=r"a parameter name must be a str \(an identifier\); got 3"):
         alg.SetParameter(3, 1.0)
     with pytest.raises(TypeError, match=r"parameters must be a dict \{name: value\}; got list"):

@@ -35,23 +35,13 @@ FILES = {"engine": "structured/engine_256x256x128_uint8.vti", "ct_head": "struct
 STEP = 0.5  # of the smallest spacing, both renderers
 
 
-def srgb_to_lab(rgb, encoded):
-    """CIELAB (D65) of RGB in [0, 1]; ``encoded``: the values are sRGB-encoded."""
-    c = np.clip(np.asarray(rgb, np.float64), 0.0, 1.0)
-    if encoded:
-        c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    m = np.array([[0.4124564, 0.3575761, 0.1804375], [0.2126729, 0.7151522, 0.0721750],
-                  [0.0193339, 0.1191920, 0.9503041]])
-    xyz = c @ m.T / np.array([0.95047, 1.0, 1.08883])
-    f = np.where(xyz > (6 / 29) ** 3, np.cbrt(xyz), xyz / (3 * (6 / 29) ** 2) + 4 / 29)
-    return np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])], -1)
-
-
 def compare(shown, reference, mask):
     """``(mean Delta E, chroma ratio)`` of the displayed values ``shown`` (in [0, 1])
     against VTK's 8-bit screenshot ``reference``, both read as a screen shows them (sRGB)."""
-    lab_ref = srgb_to_lab(reference / 255.0, True)
-    lab = srgb_to_lab(shown, True)
+    from pv_hdrvol.image.display import screen_lab
+
+    lab_ref = screen_lab(reference / 255.0)
+    lab = screen_lab(shown)
     de = np.linalg.norm(lab - lab_ref, axis=-1)[mask]
     chroma = np.hypot(lab[..., 1], lab[..., 2])[mask].mean()
     chroma_ref = np.hypot(lab_ref[..., 1], lab_ref[..., 2])[mask].mean()

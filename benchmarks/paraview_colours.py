@@ -7,7 +7,9 @@ rescaled to the data range, the representation's Scalar Opacity Unit Distance, a
 background, the same camera (``hv.Camera.fit(bounds, "iso")`` set on the view). The HDR
 image is rendered in the same process with the transfer function read from ParaView's
 colour map (``transfer_function_from_vtk``) and that unit distance, then shown through
-each candidate display; the table gives the mean CIE76 difference over the pixels either
+each candidate display; the first row is HDR Volume Render itself (the plugin's filter
+given the array's colour map, that unit distance and the view's camera, its default
+Display Tone Map, the ``tonemapped`` array it shows); the table gives the mean CIE76 difference over the pixels either
 image covers and the ratio of mean chroma:
 
     PYTHONPATH=paraview_plugin/shim:.:.paraview-site xvfb-run -a -s '-screen 0 1280x1024x24' \\
@@ -48,11 +50,30 @@ def screenshot(view, size):
     return rgb.astype(np.float64)
 
 
+def filter_display(reader, array, lut, pwf, unit, camera, size):
+    """The colours HDR Volume Render shows (its ``tonemapped`` array) for ``camera``,
+    the array's colour map and ParaView's unit distance, rows top first, in [0, 1]."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    render = simple.HDRVolumeRender(Input=reader, FollowView=0, ImageSize=[size, size], LookupTable=lut,
+                                    ScalarOpacityFunction=pwf, OpacityUnitDistance=unit)
+    render.Scalars = ["POINTS", array]
+    render.CameraPosition = list(camera.position)
+    render.CameraFocalPoint = list(camera.focal_point)
+    render.CameraViewUp = list(camera.view_up)
+    render.CameraViewAngle = camera.view_angle
+    out = servermanager.Fetch(render)
+    shown = vtk_to_numpy(out.GetPointData().GetArray("tonemapped")).reshape(size, size, 3)[::-1]
+    simple.Delete(render)
+    return shown.astype(np.float64) / 255.0
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", nargs="+", choices=sorted(DATA), default=["ct_head", "engine", "bluntfin"])
     ap.add_argument("--size", type=int, default=256)
     args = ap.parse_args(argv)
+    simple.LoadPlugin(os.path.join(ROOT, "paraview_plugin", "pv_hdrvol_plugin.py"), ns=vars(simple))
 
     import pv_hdrvol as hv
     from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
@@ -97,7 +118,10 @@ def main(argv=None):
         image = hv.render(data, tf, camera, args.size, scalars=array, opacity_unit_distance=unit, progress_bar=False)
         mask = (image.rgba[..., 3] > 0.02) | (reference.max(axis=-1) > 5)
         displays = {
-            "reinhard, sRGB (HDR Volume Render's default display)": hv.tonemap(image, "reinhard").rgb,
+            "HDR Volume Render, its default display (knee)": filter_display(reader, array, lut, pwf, unit, camera,
+                                                                            args.size),
+            "knee (hv.tonemap default encoding: none)": hv.tonemap(image, "knee").rgb,
+            "reinhard, sRGB (the filter's display before knee)": hv.tonemap(image, "reinhard").rgb,
             "linear, exposure 0, sRGB": hv.tonemap(image, "linear", exposure_stops=0.0).rgb,
             "linear, exposure 0, no encoding": hv.tonemap(image, "linear", exposure_stops=0.0, encoding="linear").rgb,
         }

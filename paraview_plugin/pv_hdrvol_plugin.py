@@ -72,7 +72,7 @@ TRANSFER_FUNCTIONS = ("Color Map Editor", "pv_hdrvol default")
 PRECISIONS = ("float32", "float64", "float16", "uint8")
 BLENDINGS = ("composite", "maximum", "minimum", "average", "additive")
 DEVICES = ("cpu", "cuda")
-TONEMAP_OPERATORS = ("reinhard", "drago", "linear", "gamma", "durand", "fattal")
+TONEMAP_OPERATORS = ("knee", "reinhard", "drago", "linear", "gamma", "durand", "fattal")
 SCALES = ("auto", "linear", "log", "symlog")
 LENSES = ("none", "magnifier", "fisheye")
 #: The render view's camera properties, which HDR Volume Render has under the same names.
@@ -197,8 +197,11 @@ if HDRVolumeRenderer is not None:
             self._opacity_function = None
             self._pof_file, self._pof_weights = "", ""
             self._pof = None  # (path, modification time, PlenopticOpacity)
+            # the display: knee (colour-map colours as ParaView's Volume representation
+            # shows them, hue kept above the knee), unencoded as its own default
             self._display = vtk_image.HDRToneMapper()
-            self._display_operator = "reinhard"
+            self._display.SetOperator("knee")
+            self._display_operator = "knee"
             # Step and Precision as the panel holds them: passed on while Tolerance is 0,
             # kept aside while it is on (the renderer chooses them then)
             defaults = pv_hdrvol.RenderOptions()
@@ -679,11 +682,13 @@ if HDRVolumeRenderer is not None:
             _setting(self, "Cache Size", lambda: HDRVolumeRenderer.SetCacheBytes(self, int(mib) * 2 ** 20))
 
         # -- display ----------------------------------------------------------------
-        @smproperty.stringvector(name="DisplayToneMap", label="Display Tone Map", default_values="reinhard",
+        @smproperty.stringvector(name="DisplayToneMap", label="Display Tone Map", default_values="knee",
                                  number_of_elements=1)
         @smdomain.xml(_string_list(TONEMAP_OPERATORS) + _documentation(
             "The operator of the 'tonemapped' array shown on screen (the HDR 'rgba' array is unchanged; "
-            "HDR Tone Map gives every parameter)."))
+            "HDR Tone Map gives every parameter). knee (default): the colour map's colours as ParaView's "
+            "Volume representation shows them, compressed keeping their hue only above 0.8; reinhard, drago...: "
+            "photographic mappings of the whole range, sRGB-encoded."))
         def SetDisplayToneMap(self, value):
             self._display.SetOperator(value)  # validates the name
             if value != self._display_operator:
@@ -1047,13 +1052,17 @@ if HDRVolumeRenderer is not None:
         def SetOperatorName(self, value):
             _setting(self, "Operator", lambda: vtk_image.HDRToneMapper.SetOperator(self, value))
 
-        @smproperty.stringvector(name="Encoding", default_values="srgb", number_of_elements=1)
-        @smdomain.xml(_documentation("srgb, linear, or a display gamma such as 2.2"))
+        @smproperty.stringvector(name="Encoding", default_values="auto", number_of_elements=1)
+        @smdomain.xml(_documentation("auto (the operator's own: srgb, the gamma operator's gamma, linear for "
+                                     "knee), srgb, linear, or a display gamma such as 2.2"))
         def SetEncodingText(self, value):
-            try:
-                value = float(value)
-            except ValueError:
-                pass
+            if value in (None, "", "auto"):  # 5.11 pushes None for an empty string
+                value = None
+            else:
+                try:
+                    value = float(value)
+                except ValueError:
+                    pass
             self.SetEncoding(value)
 
         @smproperty.stringvector(name="Parameters", default_values="", number_of_elements=1)

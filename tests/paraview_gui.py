@@ -198,19 +198,19 @@ def view_rectangle(shot):
     return rows[0], cols[0], rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1
 
 
-def screen_model(reference, operator="reinhard"):
+def screen_model(reference, operator="knee"):
     """What the render view shows of HDR Volume Render's 'In View' surface for the
     HDRImage ``reference``: ``(expected, covered)``, expected (rows, cols, 3) float
     screen levels and covered (rows, cols) bool, the pixels the surface draws.
 
-    The tone-mapped picture over black (sRGB, 8 bits) is drawn as quads of straight
+    The tone-mapped picture over black (8 bits, the operator's own encoding) is drawn as quads of straight
     alpha, ``colors / alpha`` clipped to 255 with alpha in 8 bits
     (pv_hdrvol.integrations.vtk_surface), blended over the view's background; pixels
     with less alpha than half a level are not drawn (the background shows)."""
     import pv_hdrvol as hv
     from pv_hdrvol.integrations.vtk_surface import MIN_ALPHA
 
-    colors = hv.tonemap(reference, operator, encoding="srgb").rgb8.astype(np.float64)
+    colors = hv.tonemap(reference, operator).rgb8.astype(np.float64)
     alpha = np.nan_to_num(reference.rgba[..., 3].astype(np.float64), nan=0.0)
     covered = alpha >= MIN_ALPHA
     straight = np.clip(np.rint(colors / np.maximum(alpha, MIN_ALPHA)[..., None]), 0, 255)

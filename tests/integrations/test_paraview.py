@@ -260,7 +260,7 @@ _EXPORT = ("import json; r = FindSource('HDRVolumeRender1'); v = GetActiveView()
 #: The filter's settings the reference render assumes (its defaults)
 _DEFAULT_SETTINGS = {"Precision": "float32", "Step": 0.5, "GlobalAlpha": 1.0, "OpacityUnitDistance": 0.0,
                      "Blending": "composite", "Shade": 0, "Lens": "none", "TransferFunction": "Color Map Editor",
-                     "DisplayToneMap": "reinhard", "POFFile": ""}
+                     "DisplayToneMap": "knee", "POFFile": ""}
 
 
 def _exported(folder, n):
@@ -331,7 +331,7 @@ def _reference(shared_data, state, **clip):
     """The render the GUI should show, made here with the library: hv.render of the
     engine for the view's camera and size and the array's colour map and opacity
     function (their points, rebuilt in this process's VTK), tone mapped as the
-    filter's display (reinhard, sRGB)."""
+    filter's display (knee, unencoded)."""
     from vtkmodules.vtkIOXML import vtkXMLImageDataReader
 
     import pv_hdrvol as hv

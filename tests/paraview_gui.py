@@ -1,5 +1,6 @@
 """Drive ParaView's GUI as a person does: real X events (XTest through ``xdotool``) on a
-private Xvfb, screenshots of the X screen (ImageMagick's ``import``).
+private Xvfb, screenshots read from the X screen's framebuffer (Xvfb's ``-fbdir`` file:
+a copy of memory, so polling the screen takes little from the GUI being timed).
 
 Used by tests/integrations/test_paraview.py from the main suite's interpreter (not inside ParaView).
 What the GUI holds is read back the way a user would: typed into View > Python Shell,
@@ -29,13 +30,17 @@ class GUIError(AssertionError):
 
 
 class ParaViewGUI:
-    """A ParaView GUI on its own Xvfb display, started with ``args`` and ``env``."""
+    """A ParaView GUI on its own Xvfb display of ``screen`` pixels, started with
+    ``args`` and ``env``."""
 
-    def __init__(self, args, env, log_path, shot_dir):
+    def __init__(self, args, env, log_path, shot_dir, screen=SCREEN):
+        import tempfile
+
         self.shot_dir = shot_dir
-        self.xvfb = subprocess.Popen(["Xvfb", "-displayfd", "1", "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24",
-                                      "-nolisten", "tcp"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                     text=True)
+        self._fbdir = tempfile.TemporaryDirectory(prefix="xvfb-fb-")
+        self.xvfb = subprocess.Popen(["Xvfb", "-displayfd", "1", "-screen", "0", f"{screen[0]}x{screen[1]}x24",
+                                      "-fbdir", self._fbdir.name, "-nolisten", "tcp"], stdout=subprocess.PIPE,
+                                     stderr=subprocess.DEVNULL, text=True)
         display = self.xvfb.stdout.readline().strip()
         if not display.isdigit():
             self.xvfb.kill()
@@ -50,24 +55,37 @@ class ParaViewGUI:
     def xdotool(self, *args):
         subprocess.run(["xdotool", *map(str, args)], env=self.env, check=True, timeout=60)
 
+    def grab(self):
+        """The X screen now as an (rows, cols, 3) uint8 array, read from Xvfb's
+        framebuffer file (XWD: a big-endian header, a colour map, then 32-bit pixels
+        B, G, R, unused, least significant byte first)."""
+        with open(os.path.join(self._fbdir.name, "Xvfb_screen0"), "rb") as f:
+            data = f.read()
+        header = np.frombuffer(data[:100], ">u4")
+        size, cols, rows, bits, line, colours = (int(header[i]) for i in (0, 4, 5, 11, 12, 19))
+        if bits != 32 or int(header[7]) != 0:
+            raise GUIError(f"unexpected framebuffer layout: {bits} bits a pixel, byte order {int(header[7])}")
+        start = size + 12 * colours
+        pixels = np.frombuffer(data, np.uint8, rows * line, start).reshape(rows, line // 4, 4)[:, :cols]
+        return np.ascontiguousarray(pixels[..., 2::-1])
+
     def screenshot(self, name=None):
         """The X screen as an (rows, cols, 3) uint8 array (and a PNG in shot_dir)."""
-        from vtkmodules.util.numpy_support import vtk_to_numpy
-        from vtkmodules.vtkIOImage import vtkPNGReader
+        from vtkmodules.util.numpy_support import numpy_to_vtk
+        from vtkmodules.vtkCommonDataModel import vtkImageData
+        from vtkmodules.vtkIOImage import vtkPNGWriter
 
         self.shots += 1
-        path = os.path.join(self.shot_dir, name or f"shot{self.shots:02d}.png")
-        # PNG24: always 8-bit RGB (ImageMagick writes a grey PNG of a screen of one colour)
-        subprocess.run(["import", "-window", "root", f"PNG24:{path}"], env=self.env, check=True, timeout=60)
-        reader = vtkPNGReader()
-        reader.SetFileName(path)
-        reader.Update()
-        image = reader.GetOutput()
-        cols, rows, _ = image.GetDimensions()
-        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(rows, cols, -1)[::-1]
-        if pixels.shape[2] < 3:  # grey (and alpha): the same value in R, G and B
-            pixels = np.repeat(pixels[..., :1], 3, axis=2)
-        return np.ascontiguousarray(pixels[..., :3])
+        pixels = self.grab()
+        rows, cols = pixels.shape[:2]
+        image = vtkImageData()
+        image.SetDimensions(cols, rows, 1)
+        image.GetPointData().SetScalars(numpy_to_vtk(np.ascontiguousarray(pixels[::-1]).reshape(-1, 3), deep=True))
+        writer = vtkPNGWriter()
+        writer.SetFileName(os.path.join(self.shot_dir, name or f"shot{self.shots:02d}.png"))
+        writer.SetInputData(image)
+        writer.Write()
+        return pixels
 
     def alive(self):
         return self.process.poll() is None
@@ -100,6 +118,17 @@ class ParaViewGUI:
             return done.stdout.split()
 
         self.wait_for("ParaView's window", found, timeout)
+
+    def resize_window(self, width, height):
+        """Move ParaView's main window to the screen's corner and give it this size (what
+        a person does by dragging its corner; the layout of the panels follows)."""
+        found = subprocess.run(["xdotool", "search", "--onlyvisible", "--name", "ParaView"], env=self.env,
+                               stdout=subprocess.PIPE, text=True, timeout=60).stdout.split()
+        if not found:
+            raise GUIError("no ParaView window to resize")
+        self.xdotool("windowmove", found[0], 0, 0)
+        self.xdotool("windowsize", found[0], width, height)
+        time.sleep(3)
 
     # -- what a person does ----------------------------------------------------------
     def click(self, x, y, button=1):
@@ -186,6 +215,7 @@ class ParaViewGUI:
                 proc.kill()
                 proc.wait()
         self._log.close()
+        self._fbdir.cleanup()
 
 
 def view_rectangle(shot):

@@ -483,7 +483,7 @@ if HDRVolumeRenderer is not None:
         # -- the camera -------------------------------------------------------------
         @smproperty.stringvector(name="Camera", default_values="Render View", number_of_elements=1)
         @smdomain.xml(_string_list(CAMERA_MODES) + _documentation(
-            "Render View: the camera properties below, which the plugin links to the active render view "
+            "Render View: the camera properties below, which follow the active render view "
             "(Follow View); a view name frames the input."))
         def SetCameraMode(self, value):
             if value not in CAMERA_MODES:
@@ -493,9 +493,9 @@ if HDRVolumeRenderer is not None:
 
         @smproperty.intvector(name="FollowView", label="Follow View", default_values=1)
         @smdomain.xml('<BooleanDomain name="bool"/>' + _documentation(
-            "Keep the camera properties linked to the active render view (the one active when the filter "
-            "was made, or when this is switched on): rotating the view re-renders. Off: the camera stays "
-            "where it is."))
+            "Keep the camera properties equal to the active render view's (the one active when the filter "
+            "was made, or when this is switched on): each render of the view renders its camera. Off: the "
+            "camera stays where it is."))
         def SetFollowView(self, value):
             pass  # nothing for the filter: the client side (this plugin's hook) links and unlinks
 
@@ -734,10 +734,14 @@ if HDRVolumeRenderer is not None:
     # there between proxies of the first crashed the GUI (Filters > pv_hdrvol > HDR
     # Volume Render, SIGSEGV in pqCore), and the Python Shell saw none of the pipeline.
     # ------------------------------------------------------------------------------
-    #: Filter global ID -> the vtkSMPropertyLinks that make its camera follow a view.
-    #: Held here, not registered with the proxy manager: a registered link is shown in
-    #: the Link Manager and saved in state files, and the plugin links again on load.
-    _CAMERA_LINKS = {}
+    #: Filter global ID -> how it follows a view: {"view": the view's global ID,
+    #: "size": whether Image Size follows the view's size, "kept": the view's camera
+    #: (and size) when a filter with a camera of its own was linked: that camera is kept
+    #: until the view's moves away from it}. Not registered with the proxy manager (no
+    #: Link Manager entry, nothing saved in state files: the plugin links again on load).
+    _FOLLOWERS = {}
+    #: View global ID -> {"interacting": a mouse interaction is under way}
+    _VIEWS = {}
     #: Filter global ID -> the lookup table the plugin chose for it (followed when the
     #: filter's Scalars change); a table set by the user is never replaced.
     _AUTO_LUT = {}
@@ -768,36 +772,132 @@ if HDRVolumeRenderer is not None:
         view = model.GetCurrentProxy() if model is not None else None
         return view if view is not None and view.GetXMLName() == "RenderView" else None
 
-    def _link_camera(proxy, view, copy=True):
-        """Keep ``proxy``'s camera properties equal to ``view``'s (one link per pair);
-        ``copy``: take the view's camera now, else from its next change."""
-        from paraview.modules.vtkRemotingServerManager import vtkSMPropertyLink
+    class _Bookkeeping:
+        """Property changes the plugin makes for the user (a camera copied from the view,
+        a colour map chosen) are not the user's: the GUI's undo stack does not record
+        them (an "Undo Changed ..." entry after loading a state, or after each rotation,
+        would undo the plugin's choice, not the user's)."""
 
-        _unlink_camera(proxy)
-        links = []
+        def __enter__(self):
+            from paraview.modules.vtkRemotingServerManager import vtkSMProxyManager
+
+            manager = vtkSMProxyManager.GetProxyManager()
+            self.builder = manager.GetUndoStackBuilder() if manager is not None else None
+            if self.builder is not None:
+                self.before = self.builder.GetIgnoreAllChanges()
+                self.builder.SetIgnoreAllChanges(True)
+            return self
+
+        def __exit__(self, *exc):
+            if self.builder is not None:
+                self.builder.SetIgnoreAllChanges(self.before)
+            return False
+
+    def _render_view(view):
+        """The vtkPVRenderView of a render view proxy (its camera, its interactor). Not
+        the proxy's own GetActiveCamera: a proxy first seen by Python through a base-class
+        pointer (a selection model, an iterator) is wrapped as a plain vtkSMProxy."""
+        from paraview.modules.vtkRemotingViews import vtkPVRenderView
+
+        return vtkPVRenderView.SafeDownCast(view.GetClientSideObject())
+
+    def _view_camera(view):
+        """The camera ``view`` renders with now, as HDR Volume Render's properties: the
+        VTK camera itself, which ParaView's buttons (view direction, Reset Camera) and
+        scripts (``GetActiveCamera().Azimuth(30)``) change before the view's camera
+        properties catch up, after the render."""
+        camera = _render_view(view).GetActiveCamera()
+        return {"CameraPosition": list(camera.GetPosition()), "CameraFocalPoint": list(camera.GetFocalPoint()),
+                "CameraViewUp": list(camera.GetViewUp()), "CameraViewAngle": [camera.GetViewAngle()],
+                "CameraParallelProjection": [int(camera.GetParallelProjection())],
+                "CameraParallelScale": [camera.GetParallelScale()]}
+
+    def _copy_from_view(proxy, view, values, follow):
+        """Set the filter's camera (and Image Size, if it follows) to ``values`` of
+        ``view``; only properties that differ, so that an unchanged camera re-renders
+        nothing. Whether anything changed."""
+        if follow["size"]:
+            values = dict(values, ImageSize=_property(view, "ViewSize"))
+        changed = False
+        with _Bookkeeping():
+            for name, value in values.items():
+                if _property(proxy, name) != value:
+                    prop = proxy.GetProperty(name)
+                    for i, v in enumerate(value):
+                        prop.SetElement(i, v)
+                    changed = True
+            if changed:
+                proxy.UpdateVTKObjects()
+        return changed
+
+    def _before_render(pxm, view_gid):
+        """A render of the view starts: give each filter that follows it the camera it
+        renders with now, so that the picture is the final camera's (a view-direction
+        button, Reset Camera, undo, a linked camera, an animation track, a loaded state
+        all end in such a render). Not while the mouse moves the camera: the 'In View'
+        surface, the picture at the volume's depth, turns with the view then, and the
+        still render that ends the interaction renders the volume again."""
+        if _VIEWS.get(view_gid, {}).get("interacting"):
+            return
+        view = next((v for v in _registered(pxm, "views") if v.GetGlobalIDAsString() == view_gid), None)
+        if view is None:
+            return
+        values = None
+        for proxy in _filters(pxm):
+            follow = _FOLLOWERS.get(proxy.GetGlobalIDAsString())
+            if follow is None or follow["view"] != view_gid:
+                continue
+            values = values or _view_camera(view)
+            if follow["kept"] is not None:
+                if follow["kept"] == (values, _property(view, "ViewSize")):
+                    continue  # the filter's own camera (and size) until the view moves
+                follow["kept"] = None
+            try:
+                _copy_from_view(proxy, view, values, follow)
+            except Exception as exc:  # an observer must not break ParaView: say it, go on
+                _say(f"could not give HDR Volume Render the view's camera ({type(exc).__name__}: {exc})")
+
+    def _interaction(view_gid, interacting):
+        _VIEWS.setdefault(view_gid, {})["interacting"] = interacting
+
+    def _watch_view(pxm, view):
+        """Observe ``view``'s renders and its mouse interactions, once per view."""
+        gid = view.GetGlobalIDAsString()
+        if gid in _VIEWS:
+            return
+        _VIEWS[gid] = {"interacting": False}
+        view.AddObserver("StartEvent", lambda *_: _before_render(pxm, gid))
+        interactor = _render_view(view).GetInteractor()
+        if interactor is not None:
+            # before ParaView's own observer, whose still render ends the interaction
+            interactor.AddObserver("StartInteractionEvent", lambda *_: _interaction(gid, True), 10.0)
+            interactor.AddObserver("EndInteractionEvent", lambda *_: _interaction(gid, False), 10.0)
+
+    def _link_camera(proxy, view, copy=True):
+        """Make ``proxy``'s camera follow ``view``'s: from now (``copy``), or from the
+        view's next move away from the camera it has now (a filter with a camera of its
+        own: a state file's, a script's)."""
+        gid = proxy.GetGlobalIDAsString()
         # the image size follows the view's, so that each pixel of the view is one ray,
         # unless the user chose a size (not the default) when the filter was made; a
         # filter whose size followed (a state file's) follows again
         follow_size = bool(proxy.GetProperty("ImageSize").IsValueDefault()
                            or _property(proxy, "ImageSizeFollowsView")[0])
-        proxy.GetProperty("ImageSizeFollowsView").SetElement(0, int(follow_size))
-        pairs = [(n, n) for n in CAMERA_PROPERTIES] + ([("ViewSize", "ImageSize")] if follow_size else [])
-        for view_name, name in pairs:
-            link = vtkSMPropertyLink()
-            link.AddLinkedProperty(view, view_name, 1)   # vtkSMLink::INPUT
-            link.AddLinkedProperty(proxy, name, 2)  # vtkSMLink::OUTPUT
-            links.append(link)
-            if copy or name == "ImageSize":
-                proxy.GetProperty(name).Copy(view.GetProperty(view_name))
-        _CAMERA_LINKS[proxy.GetGlobalIDAsString()] = links
-        proxy.UpdateVTKObjects()
+        with _Bookkeeping():
+            proxy.GetProperty("ImageSizeFollowsView").SetElement(0, int(follow_size))
+        _watch_view(proxy.GetSessionProxyManager(), view)
+        follow = {"view": view.GetGlobalIDAsString(), "size": follow_size, "kept": None}
+        _FOLLOWERS[gid] = follow
+        if copy:
+            _copy_from_view(proxy, view, _view_camera(view), follow)
+        else:
+            follow["kept"] = (_view_camera(view), _property(view, "ViewSize"))
 
     def _unlink_camera(proxy):
-        for link in _CAMERA_LINKS.pop(_sm(proxy).GetGlobalIDAsString(), ()):
-            link.RemoveAllLinks()
+        _FOLLOWERS.pop(_sm(proxy).GetGlobalIDAsString(), None)
 
     def follow_view(proxy, view=None):
-        """Link an HDR Volume Render's camera to ``view`` (default the session's active
+        """Make an HDR Volume Render's camera follow ``view``'s (default the session's active
         render view) and use the colour map of its array; what the plugin does for each
         new filter. ``proxy`` and ``view``: ``paraview.simple`` proxies or vtkSMProxy."""
         proxy = _sm(proxy)
@@ -929,7 +1029,7 @@ if HDRVolumeRenderer is not None:
             return
         for proxy in _filters(pxm):
             gid = proxy.GetGlobalIDAsString()
-            if gid in _seen and gid not in _CAMERA_LINKS and _property(proxy, "FollowView")[0]:
+            if gid in _seen and gid not in _FOLLOWERS and _property(proxy, "FollowView")[0]:
                 try:
                     _link_camera(proxy, view, copy=_camera_unset(proxy))
                 except Exception as exc:  # an observer must not break ParaView
@@ -969,11 +1069,10 @@ if HDRVolumeRenderer is not None:
             representation.UpdateVTKObjects()
 
     def _on_unregister(pxm, _event):
-        """Drop the links of filters that are no longer registered (they hold the proxy)."""
+        """Forget filters that are no longer registered."""
         alive = {proxy.GetGlobalIDAsString() for proxy in _filters(pxm)}
-        for gid in [g for g in _CAMERA_LINKS if g not in alive]:
-            for link in _CAMERA_LINKS.pop(gid):
-                link.RemoveAllLinks()
+        for gid in [g for g in _FOLLOWERS if g not in alive]:
+            del _FOLLOWERS[gid]
         for gid in [g for g in _AUTO_LUT if g not in alive]:
             del _AUTO_LUT[gid]
 

@@ -180,6 +180,20 @@ def test_camera_follows_the_render_view(plugin, shared_data):
     assert not np.array_equal(before, after.rgba)
     camera = after.settings().camera
     np.testing.assert_allclose(camera.position, view.CameraPosition, rtol=1e-12)
+    # what a view-direction button does (a direction, then Reset Camera, then one
+    # render): that one render is the final camera's, not the one before the reset
+    simple.Show(simple.OutputPort(render, 1), view)
+    for direction in ("PositiveX", "NegativeY", "PositiveZ"):
+        getattr(view.SMProxy, f"ResetActiveCameraTo{direction}")()
+        view.SMProxy.ResetCamera()
+        simple.Render(view)
+        final = view.GetActiveCamera()
+        # the image the view's render made (no update after it: Fetch would run the
+        # filter again with whatever camera it has by then)
+        shown = hv.HDRImage.from_pyvista(render.GetClientSideObject().GetOutputDataObject(0))
+        np.testing.assert_array_equal(shown.settings().camera.position, final.GetPosition())
+        np.testing.assert_array_equal(render.CameraFocalPoint, final.GetFocalPoint())
+        assert (shown.rgba[..., 3] > 0.01).mean() > 0.05, direction  # the volume, not a speck
     # Follow View off: the camera stays
     render.FollowView = 0
     view.GetActiveCamera().Azimuth(30)

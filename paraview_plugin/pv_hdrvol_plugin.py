@@ -167,7 +167,7 @@ if HDRVolumeRenderer is not None:
     # view like a plane. Port 1, the image as a surface facing the camera at the
     # volume's depth, is what the render view shows (pv_hdrvol.integrations.vtk_surface).
     @smhint.xml('<ShowInMenu category="pv_hdrvol"/>'
-                '<View type="None" port="0"/><Visibility replace_input="0"/>'
+                '<View type="None" port="0"/><Visibility replace_input="2"/>'
                 '<RepresentationType view="RenderView" type="Surface" port="1"/>')
     @smproperty.xml('<OutputPort name="HDR Image" index="0"/>')
     @smproperty.xml('<OutputPort name="In View" index="1"/>')
@@ -249,26 +249,30 @@ if HDRVolumeRenderer is not None:
             self._lens_settings["name"] = value
             self._push_lens()
 
-        @smproperty.doublevector(name="LensCenter", label="Lens Center", default_values=[0.5, 0.5])
+        @smproperty.doublevector(name="LensCenter", label="Lens Center", default_values=[0.5, 0.5],
+                                 panel_visibility="advanced")
         @smdomain.xml(_documentation("The magnifier's centre as fractions of the image width and height "
                                      "(0, 0: top left)."))
         def SetLensCenter(self, x, y):
             self._lens_settings["center"] = (x, y)
             self._push_lens()
 
-        @smproperty.doublevector(name="LensRadius", label="Lens Radius", default_values=0.25)
+        @smproperty.doublevector(name="LensRadius", label="Lens Radius", default_values=0.25,
+                                 panel_visibility="advanced")
         @smdomain.doublerange(min=0.01, max=1.0)
         def SetLensRadius(self, value):
             self._lens_settings["radius"] = value
             self._push_lens()
 
-        @smproperty.doublevector(name="LensMagnification", label="Lens Magnification", default_values=2.0)
+        @smproperty.doublevector(name="LensMagnification", label="Lens Magnification", default_values=2.0,
+                                 panel_visibility="advanced")
         @smdomain.doublerange(min=0.1, max=16.0)
         def SetLensMagnification(self, value):
             self._lens_settings["factor"] = value
             self._push_lens()
 
-        @smproperty.doublevector(name="FisheyeFieldOfView", label="Fisheye Field Of View", default_values=180.0)
+        @smproperty.doublevector(name="FisheyeFieldOfView", label="Fisheye Field Of View", default_values=180.0,
+                                 panel_visibility="advanced")
         @smdomain.doublerange(min=1.0, max=360.0)
         def SetFisheyeFieldOfView(self, value):
             self._lens_settings["fov_degrees"] = value
@@ -354,7 +358,7 @@ if HDRVolumeRenderer is not None:
         def SetBlending(self, value):
             super().SetBlending(value)
 
-        @smproperty.stringvector(name="Device", default_values="cpu", number_of_elements=1)
+        @smproperty.stringvector(name="Device", default_values="cpu", number_of_elements=1, panel_visibility="advanced")
         @smdomain.xml(_string_list(DEVICES) + _documentation(
             "Where an image volume renders: cpu (default), or cuda: the same kernels on an NVIDIA GPU through "
             "numba-cuda (pip install 'pv_hdrvol[gpu]' into ParaView's Python). float32/float64, no labels, uniform "
@@ -367,29 +371,31 @@ if HDRVolumeRenderer is not None:
         def SetShade(self, value):
             super().SetShade(value)
 
-        @smproperty.doublevector(name="Ambient", default_values=0.1)
+        @smproperty.doublevector(name="Ambient", default_values=0.1, panel_visibility="advanced")
         @smdomain.doublerange(min=0.0, max=1.0)
         def SetAmbient(self, value):
             super().SetAmbient(value)
 
-        @smproperty.doublevector(name="Diffuse", default_values=0.7)
+        @smproperty.doublevector(name="Diffuse", default_values=0.7, panel_visibility="advanced")
         @smdomain.doublerange(min=0.0, max=1.0)
         def SetDiffuse(self, value):
             super().SetDiffuse(value)
 
-        @smproperty.doublevector(name="Specular", default_values=0.2)
+        @smproperty.doublevector(name="Specular", default_values=0.2, panel_visibility="advanced")
         @smdomain.doublerange(min=0.0, max=1.0)
         def SetSpecular(self, value):
             super().SetSpecular(value)
 
-        @smproperty.doublevector(name="SpecularPower", label="Specular Power", default_values=10.0)
+        @smproperty.doublevector(name="SpecularPower", label="Specular Power", default_values=10.0,
+                                 panel_visibility="advanced")
         @smdomain.doublerange(min=1.0, max=128.0)
         def SetSpecularPower(self, value):
             super().SetSpecularPower(value)
 
         # -- the transfer function ------------------------------------------------
         @smproperty.stringvector(name="TransferFunction", label="Transfer Function",
-                                 default_values=TRANSFER_FUNCTIONS[0], number_of_elements=1)
+                                 default_values=TRANSFER_FUNCTIONS[0], number_of_elements=1,
+                                 panel_visibility="advanced")
         @smdomain.xml(_string_list(TRANSFER_FUNCTIONS) + _documentation(
             "Color Map Editor: the colour map and opacity ParaView has for the array (its log scale "
             "too), followed when edited. pv_hdrvol default: chosen from the data, shaped by Cmap and Scale."))
@@ -419,13 +425,13 @@ if HDRVolumeRenderer is not None:
             self._opacity_function = function
             self._push_transfer_function()
 
-        @smproperty.stringvector(name="Cmap", default_values="", number_of_elements=1)
+        @smproperty.stringvector(name="Cmap", default_values="", number_of_elements=1, panel_visibility="advanced")
         @smdomain.xml(_documentation("pv_hdrvol default only: a matplotlib colormap name (empty: magma)."))
         def SetCmapName(self, value):
             self._cmap = value or None
             self._push_transfer_function()
 
-        @smproperty.stringvector(name="Scale", default_values="auto", number_of_elements=1)
+        @smproperty.stringvector(name="Scale", default_values="auto", number_of_elements=1, panel_visibility="advanced")
         @smdomain.xml(_string_list(SCALES) + _documentation("pv_hdrvol default only: the axis of the "
                                                             "transfer function (auto: chosen from the data)."))
         def SetScaleName(self, value):
@@ -441,7 +447,8 @@ if HDRVolumeRenderer is not None:
             HDRVolumeRenderer.SetScale(self, self._scale if default else None)
 
         # -- visibility culling -----------------------------------------------------
-        @smproperty.stringvector(name="POFFile", label="POF File", default_values="", number_of_elements=1)
+        @smproperty.stringvector(name="POFFile", label="POF File", default_values="", number_of_elements=1,
+                                 panel_visibility="advanced")
         @smdomain.filelist()
         @smhint.filechooser(extensions="npz", file_description="plenoptic opacity functions")
         @smdomain.xml(_documentation(
@@ -453,7 +460,7 @@ if HDRVolumeRenderer is not None:
             _setting(self, "POF File", self._push_culling)
 
         @smproperty.stringvector(name="FamilyWeights", label="Family Weights", default_values="",
-                                 number_of_elements=1)
+                                 number_of_elements=1, panel_visibility="advanced")
         @smdomain.xml(_documentation("The weight k_i >= 0 of each basis of the POF File, comma-separated "
                                      "(empty: all 1)."))
         def SetFamilyWeights(self, value):
@@ -491,7 +498,7 @@ if HDRVolumeRenderer is not None:
             self._camera_mode = value
             self._push_camera()
 
-        @smproperty.intvector(name="FollowView", label="Follow View", default_values=1)
+        @smproperty.intvector(name="FollowView", label="Follow View", default_values=1, panel_visibility="advanced")
         @smdomain.xml('<BooleanDomain name="bool"/>' + _documentation(
             "Keep the camera properties equal to the active render view's (the one active when the filter "
             "was made, or when this is switched on): each render of the view renders its camera. Off: the "
@@ -509,30 +516,34 @@ if HDRVolumeRenderer is not None:
         def SetImageSizeFollowsView(self, value):
             pass  # nothing for the filter: the client side (this plugin's hook) links the size
 
-        @smproperty.doublevector(name="CameraPosition", label="Camera Position", default_values=[0.0, 0.0, 0.0])
+        @smproperty.doublevector(name="CameraPosition", label="Camera Position", default_values=[0.0, 0.0, 0.0],
+                                 panel_visibility="advanced")
         def SetCameraPosition(self, x, y, z):
             self._set_view_camera("position", (x, y, z))
 
         @smproperty.doublevector(name="CameraFocalPoint", label="Camera Focal Point",
-                                 default_values=[0.0, 0.0, 0.0])
+                                 default_values=[0.0, 0.0, 0.0], panel_visibility="advanced")
         def SetCameraFocalPoint(self, x, y, z):
             self._set_view_camera("focal_point", (x, y, z))
 
-        @smproperty.doublevector(name="CameraViewUp", label="Camera View Up", default_values=[0.0, 0.0, 1.0])
+        @smproperty.doublevector(name="CameraViewUp", label="Camera View Up", default_values=[0.0, 0.0, 1.0],
+                                 panel_visibility="advanced")
         def SetCameraViewUp(self, x, y, z):
             self._set_view_camera("view_up", (x, y, z))
 
-        @smproperty.doublevector(name="CameraViewAngle", label="Camera View Angle", default_values=30.0)
+        @smproperty.doublevector(name="CameraViewAngle", label="Camera View Angle", default_values=30.0,
+                                 panel_visibility="advanced")
         def SetCameraViewAngle(self, value):
             self._set_view_camera("view_angle", value)
 
         @smproperty.intvector(name="CameraParallelProjection", label="Camera Parallel Projection",
-                              default_values=0)
+                              default_values=0, panel_visibility="advanced")
         @smdomain.xml('<BooleanDomain name="bool"/>')
         def SetCameraParallelProjection(self, value):
             self._set_view_camera("parallel_projection", bool(value))
 
-        @smproperty.doublevector(name="CameraParallelScale", label="Camera Parallel Scale", default_values=1.0)
+        @smproperty.doublevector(name="CameraParallelScale", label="Camera Parallel Scale", default_values=1.0,
+                                 panel_visibility="advanced")
         def SetCameraParallelScale(self, value):
             self._set_view_camera("parallel_scale", value)
 
@@ -660,7 +671,7 @@ if HDRVolumeRenderer is not None:
             HDRVolumeRenderer.SetCropBox(self, box)
 
         # -- multiresolution stores (the store reader's output) -------------------------
-        @smproperty.intvector(name="OutOfCore", label="Out Of Core", default_values=1)
+        @smproperty.intvector(name="OutOfCore", label="Out Of Core", default_values=1, panel_visibility="advanced")
         @smdomain.xml('<BooleanDomain name="bool"/>' + _documentation(
             "For a level of a multiresolution store (*.ome.zarr, opened with pv_hdrvol's store reader): render "
             "the whole store out of core (pv_hdrvol.open_multiscale), with finer levels where the camera needs "
@@ -668,14 +679,15 @@ if HDRVolumeRenderer is not None:
         def SetOutOfCore(self, value):
             super().SetOutOfCore(bool(value))
 
-        @smproperty.doublevector(name="ScreenError", label="Screen Error", default_values=1.0)
+        @smproperty.doublevector(name="ScreenError", label="Screen Error", default_values=1.0,
+                                 panel_visibility="advanced")
         @smdomain.doublerange(min=0.25, max=16.0)
         @smdomain.xml(_documentation("Out of core: the largest projected voxel, in pixels, a block of the "
                                      "store may show (smaller: finer levels, more reading)."))
         def SetScreenError(self, value):
             _setting(self, "Screen Error", lambda: HDRVolumeRenderer.SetScreenError(self, value))
 
-        @smproperty.intvector(name="CacheSize", label="Cache Size", default_values=2048)
+        @smproperty.intvector(name="CacheSize", label="Cache Size", default_values=2048, panel_visibility="advanced")
         @smdomain.intrange(min=64, max=262144)
         @smdomain.xml(_documentation("Out of core: the most memory, in MiB, for the store's chunks."))
         def SetCacheSize(self, mib):
@@ -734,6 +746,13 @@ if HDRVolumeRenderer is not None:
     # there between proxies of the first crashed the GUI (Filters > pv_hdrvol > HDR
     # Volume Render, SIGSEGV in pqCore), and the Python Shell saw none of the pipeline.
     # ------------------------------------------------------------------------------
+    # The views' own wrapping, before this plugin hands any view to Python: VTK wraps an
+    # object once, as the most derived class its loaded modules know, and a render view
+    # first met through a base-class pointer (the active-view selection, an iterator)
+    # with this module not yet imported would stay a plain vtkSMProxy, also for the
+    # Python Shell's paraview.simple (GetDisplayProperties: no FindRepresentation).
+    import paraview.modules.vtkRemotingViews  # noqa: E402,F401
+
     #: Filter global ID -> how it follows a view: {"view": the view's global ID,
     #: "size": whether Image Size follows the view's size, "kept": the view's camera
     #: (and size) when a filter with a camera of its own was linked: that camera is kept
@@ -927,7 +946,12 @@ if HDRVolumeRenderer is not None:
 
     def _use_array_color_map(proxy):
         """Set Lookup Table and Scalar Opacity Function to ParaView's for the filter's
-        array (spanning the data if ParaView had no range yet), unless the user set them."""
+        array (spanning the data if ParaView had no range yet), unless the user set them
+        (not recorded on the undo stack: the plugin's choice, not the user's)."""
+        with _Bookkeeping():
+            _choose_array_color_map(proxy)
+
+    def _choose_array_color_map(proxy):
         from paraview.modules.vtkRemotingViews import vtkSMTransferFunctionManager, vtkSMTransferFunctionProxy
 
         gid = proxy.GetGlobalIDAsString()

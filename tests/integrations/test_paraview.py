@@ -678,7 +678,8 @@ def _store_reference(store, state):
 
 def test_gui_loads_a_state_saved_in_pvbatch(shared_data, tmp_path):
     """File > Load State's path (``paraview --state``) for a state saved in pvbatch with HDR
-    Volume Render shown: no traceback, the view shows the render, a drag re-renders it."""
+    Volume Render shown: no traceback, nothing on the undo stack, the view shows the
+    render, a drag re-renders it."""
     pvbatch = _tool("pvbatch")
     xvfb_run = _tool("xvfb-run")
     env = _paraview_environment()
@@ -693,6 +694,16 @@ def test_gui_loads_a_state_saved_in_pvbatch(shared_data, tmp_path):
     try:
         time.sleep(5)
         _open_python_shell(gui)
+        # the plugin's bookkeeping (the camera and size it gives the filter, the colour
+        # map it chooses; the view's resize by the Python Shell made it render again) is
+        # not the user's: nothing to undo after loading a state (the Edit menu's list)
+        gui.click(700, 600)
+        gui.type_line(f"u = servermanager.vtkSMProxyManager.GetProxyManager().GetUndoStackBuilder().GetUndoStack(); "
+                      f"open('{tmp_path}/undo.part', 'w').write(repr([u.GetUndoSetLabel(i) for i in "
+                      f"range(u.GetNumberOfUndoSets())])); import os; os.replace('{tmp_path}/undo.part', "
+                      f"'{tmp_path}/undo.txt')")
+        gui.wait_for("the undo list", lambda: (tmp_path / "undo.txt").exists(), 120)
+        assert (tmp_path / "undo.txt").read_text() == "[]", (tmp_path / "undo.txt").read_text()
         rgba1, shown1, state1 = _export(gui, tmp_path, 1)
         assert state1["connections"] == 1
         assert state1["lut"] == state1["array_lut"]
@@ -703,6 +714,40 @@ def test_gui_loads_a_state_saved_in_pvbatch(shared_data, tmp_path):
         rgba2, shown2, state2 = _export(gui, tmp_path, 2)
         assert state2["camera"] != state1["camera"] and state2["filter_camera"] == state2["camera"]
         _on_screen(gui, _reference(shared_data, state2), rgba2, "state_rotated.png", control=reference1)
+        _quit_cleanly(gui)
+    finally:
+        _keep_screenshots(gui, tmp_path, ())
+
+
+def test_gui_apply_on_a_mesh_hides_its_opaque_surface(shared_data, tmp_path):
+    """Open the Blunt Fin (tetrahedra: ParaView shows it as an opaque Surface), Apply,
+    Filters > pv_hdrvol > HDR Volume Render, Apply: the mesh's surface is hidden, as
+    ParaView's own filters hide an input they replace (the Visibility hint), so nothing
+    of the input stands in front of the volume; the 'In View' output is shown. A grid
+    shown as its Outline keeps it (the engine tests: the outline stays)."""
+    mesh = shared_data / "unstructured" / "bluntfin_187395tets.vtu"
+    gui = _start_gui([str(mesh)], tmp_path)
+    try:
+        gui.press_apply(timeout=120)  # the reader: a Surface
+        time.sleep(2)
+        gui.menu(215, ["Up", "Right", "Up", "Return"])  # Filters > pv_hdrvol > HDR Volume Render
+        gui.press_apply()
+        time.sleep(2)
+        _open_python_shell(gui)
+        gui.click(700, 600)
+        gui.type_line(
+            "import json; v = GetActiveView(); m = FindSource('bluntfin_187395tets.vtu'); "
+            "r = FindSource('HDRVolumeRender1'); "
+            f"json.dump(dict(representation=GetDisplayProperties(m, v).Representation, "
+            f"input=GetDisplayProperties(m, v).Visibility, shown=GetDisplayProperties(OutputPort(r, 1), v).Visibility),"
+            f" open('{tmp_path}/mesh.part', 'w'), default=lambda p: p.GetData()); import os; "
+            f"os.replace('{tmp_path}/mesh.part', '{tmp_path}/mesh.json')")
+        gui.wait_for("the Python Shell's export", lambda: (tmp_path / "mesh.json").exists(), 60)
+        import json
+
+        facts = json.loads((tmp_path / "mesh.json").read_text())
+        assert facts == {"representation": "Surface", "input": 0, "shown": 1}, facts
+        gui.screenshot("mesh_applied.png")
         _quit_cleanly(gui)
     finally:
         _keep_screenshots(gui, tmp_path, ())

@@ -155,9 +155,11 @@ def progress_of(algorithm, compiles):
     is to stop (``AbortExecute``). The first render of ``compiles`` in a process (numba
     compiles its kernels, or loads them from its cache) says so in the progress text and
     the output window, with the time it took."""
-    first = _first_use(compiles, _compiled_precision(algorithm.GetOptions()))
+    first = _first_use(compiles, algorithm.GetOptions())
     if first:
-        algorithm.SetProgressText("compiling the ray caster (first render)")
+        # said before numba blocks the thread: ParaView's status bar shows it while it compiles
+        algorithm.SetProgressText(f"compiling the {first} ray caster (first use)")
+        algorithm.UpdateProgress(0.0)
         _display_text(f"pv_hdrvol: first {first} render in this process: compiling the ray caster, or loading "
                       f"it from numba's cache ({_numba_cache_dir()}); the first time this takes about a minute")
     started = time.perf_counter()
@@ -679,15 +681,18 @@ def _blocks_are_meshes(data):
 _RENDERED = set()
 
 
-def _first_use(what, precision):
-    """``"<precision> <what>"`` (``"float32 image volume"``, ``"... tetrahedral mesh"``)
-    the first time a process renders it (when numba compiles or loads its kernels),
-    else ``""``."""
-    key = (what, precision)
+def _first_use(what, options):
+    """``"<precision> [shaded] <what>"`` (``"float32 image volume"``, ``"float32 shaded
+    tetrahedral mesh"``) the first time a process renders that variant (when numba
+    compiles its kernels or loads them from its cache), else ``""``. The variants
+    named are those numba compiles apart and a user switches between: the precision
+    (a tolerance's is float64) and shading."""
+    precision = _compiled_precision(options)
+    key = (what, precision, bool(options.shade))
     if key in _RENDERED:
         return ""
     _RENDERED.add(key)
-    return f"{precision} {what}"
+    return f"{precision} {'shaded ' if options.shade else ''}{what}"
 
 
 def _compiled_precision(options):

@@ -751,7 +751,7 @@ if HDRVolumeRenderer is not None:
     # first met through a base-class pointer (the active-view selection, an iterator)
     # with this module not yet imported would stay a plain vtkSMProxy, also for the
     # Python Shell's paraview.simple (GetDisplayProperties: no FindRepresentation).
-    import paraview.modules.vtkRemotingViews  # noqa: E402,F401
+    from paraview.modules.vtkRemotingViews import vtkPVRenderView
 
     #: Filter global ID -> how it follows a view: {"view": the view's global ID,
     #: "size": whether Image Size follows the view's size, "kept": the view's camera
@@ -816,8 +816,6 @@ if HDRVolumeRenderer is not None:
         """The vtkPVRenderView of a render view proxy (its camera, its interactor). Not
         the proxy's own GetActiveCamera: a proxy first seen by Python through a base-class
         pointer (a selection model, an iterator) is wrapped as a plain vtkSMProxy."""
-        from paraview.modules.vtkRemotingViews import vtkPVRenderView
-
         return vtkPVRenderView.SafeDownCast(view.GetClientSideObject())
 
     def _view_camera(view):
@@ -875,6 +873,49 @@ if HDRVolumeRenderer is not None:
                 _copy_from_view(proxy, view, values, follow)
             except Exception as exc:  # an observer must not break ParaView: say it, go on
                 _say(f"could not give HDR Volume Render the view's camera ({type(exc).__name__}: {exc})")
+        try:
+            with _Bookkeeping():
+                _data_legends(pxm, view)
+        except Exception as exc:  # an observer must not break ParaView: say it, go on
+            _say(f"could not show the data's colour legend ({type(exc).__name__}: {exc})")
+
+    #: 'In View' representations whose pixel legend was replaced by the data's
+    _LEGENDS = set()
+
+    def _gid(proxy):
+        return None if proxy is None else proxy.GetGlobalIDAsString()
+
+    def _data_legends(pxm, view):
+        """The legend of an 'In View' output would describe its pixels' colours (the
+        'colors' array, 0-255), not data: where ParaView shows it in ``view`` (its "show
+        color legend" setting, or the legend button), hide it and show the legend of the
+        colour map the render follows, titled by the data array's name. Once per
+        representation: what the user does with the legends afterwards stands."""
+        from paraview.modules.vtkRemotingViews import vtkSMTransferFunctionManager
+
+        in_view = view.GetProperty("Representations")
+        members = {_gid(in_view.GetProxy(i)) for i in range(in_view.GetNumberOfProxies())} if in_view else set()
+        bars = [b for b in _registered(pxm, "scalar_bars") if _gid(b) in members and _property(b, "Visibility")[0]]
+        for representation in _registered(pxm, "representations"):
+            gid = _gid(representation)
+            if gid not in _shown or gid in _LEGENDS or gid not in members:
+                continue
+            pixels = _gid(_property(representation, "LookupTable"))
+            shown = [b for b in bars if _gid(_property(b, "LookupTable")) == pixels]
+            source = representation.GetProperty("Input").GetProxy(0)
+            data_lut = _property(source, "LookupTable")
+            if not shown or pixels is None or data_lut is None:
+                continue
+            _LEGENDS.add(gid)
+            for bar in shown:
+                bar.GetProperty("Visibility").SetElement(0, 0)
+                bar.UpdateVTKObjects()
+            bar = vtkSMTransferFunctionManager().GetScalarBarRepresentation(data_lut, view)
+            if bar is not None:
+                bar.GetProperty("Title").SetElement(0, _array_of(source)[1])
+                bar.GetProperty("ComponentTitle").SetElement(0, "")
+                bar.GetProperty("Visibility").SetElement(0, 1)
+                bar.UpdateVTKObjects()
 
     def _interaction(view_gid, interacting):
         _VIEWS.setdefault(view_gid, {})["interacting"] = interacting
@@ -1161,6 +1202,36 @@ if HDRVolumeRenderer is not None:
                  f"all of the data and they write the same files.")
 
     _check_mpi_launch()
+
+    def _warm_in_background():
+        """Compile the common variants (Shade, Tolerance, tetrahedra...) in a background
+        process of ParaView's Python when numba's cache lacks them, so that their first
+        use in the GUI loads them in about a second instead of compiling for half a
+        minute (pv_hdrvol.integrations.warm; its log in the cache folder).
+        ``PV_HDRVOL_WARM=0`` turns it off; one MPI rank starts it."""
+        if os.environ.get("PV_HDRVOL_WARM", "1") == "0" or not os.environ.get("NUMBA_CACHE_DIR"):
+            return
+        rank = next((os.environ[n] for n in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK") if n in os.environ), "0")
+        if rank != "0":
+            return
+        import shutil
+
+        from pv_hdrvol.integrations.warm import start_in_background
+
+        # ParaView runs Python embedded (sys.executable is vtkpython or paraview itself):
+        # the interpreter of the same version beside it has the same numba
+        version = f"python{sys.version_info[0]}.{sys.version_info[1]}"
+        python = os.path.join(sys.base_prefix, "bin", version)
+        python = python if os.access(python, os.X_OK) else shutil.which(version)
+        if python is None:
+            return
+        try:
+            start_in_background(os.environ["NUMBA_CACHE_DIR"], python=python)
+        except OSError as exc:
+            _say(f"could not start compiling the common variants in the background ({exc}); their first use "
+                 f"compiles them")
+
+    _warm_in_background()
 
     # --------------------------------------------------------------------------------
     @smproxy.filter(name="HDRToneMap", label="HDR Tone Map", support_reload=False)

@@ -44,6 +44,8 @@ def _paraview_environment():
         path.append(os.environ["PV_HDRVOL_PARAVIEW_SITE"])
     env["PYTHONPATH"] = os.pathsep.join(path)
     env["PYTHONNOUSERSITE"] = "1"
+    # no compiling in the background while tests run and time things (one test turns it on)
+    env["PV_HDRVOL_WARM"] = "0"
     if os.environ.get("PV_HDRVOL_PARAVIEW_NUMBA_CACHE"):
         env["NUMBA_CACHE_DIR"] = os.environ["PV_HDRVOL_PARAVIEW_NUMBA_CACHE"]
     return env
@@ -254,7 +256,9 @@ _EXPORT = ("import json; r = FindSource('HDRVolumeRender1'); v = GetActiveView()
            "'OpacityUnitDistance', 'Blending', 'Shade', 'Lens', 'TransferFunction', 'DisplayToneMap', "
            "'POFFile')), scalars=list(r.Scalars), "
            "clip=[r.Clip, list(r.ClipOrigin), list(r.ClipNormal)], "
-           "connections=len(servermanager.Connections)), open('{dir}/state{n}.part', 'w'), default=lambda p: p.GetData()); "
+           "connections=len(servermanager.Connections), "
+           "legends=sorted([b.Title, b.ComponentTitle, b.LookupTable.SMProxy.GetGlobalIDAsString()] for b in "
+           "servermanager.ProxyManager().GetProxiesInGroup('scalar_bars').values() if b.Visibility)), open('{dir}/state{n}.part', 'w'), default=lambda p: p.GetData()); "
            "import os; os.replace('{dir}/state{n}.part', '{dir}/state{n}.json')")  # whole when it appears
 
 #: The filter's settings the reference render assumes (its defaults)
@@ -432,6 +436,9 @@ def test_gui_filters_menu_apply_rotate_and_exit(shared_data, tmp_path):
         assert state1["lut"] == state1["array_lut"], "HDR Volume Render does not use the array's colour map"
         assert state1["filter_camera"] == state1["camera"]
         assert state1["image_size"] == state1["view_size"] == [shown1.shape[1], shown1.shape[0]]
+        # the legend shown is the data's colour map (the one the render follows), not
+        # one of the output's pixel colours ("colors Magnitude")
+        assert state1["legends"] == [["ImageFile", "", state1["array_lut"]]], state1["legends"]
         reference1 = _reference(shared_data, state1)
         top, left = _on_screen(gui, reference1, rgba1, "before_rotation.png")[:2]
         # turn the view with the mouse: the filter renders the volume again for the new camera
@@ -751,6 +758,54 @@ def test_gui_apply_on_a_mesh_hides_its_opaque_surface(shared_data, tmp_path):
         _quit_cleanly(gui)
     finally:
         _keep_screenshots(gui, tmp_path, ())
+
+
+def _warm_processes(cache):
+    """PIDs of the processes compiling variants into the numba cache folder ``cache``."""
+    found = []
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                command = f.read().split(b"\0")
+            with open(f"/proc/{pid}/environ", "rb") as f:
+                environ = f.read().split(b"\0")
+        except OSError:
+            continue
+        if b"pv_hdrvol.integrations.warm" in command and f"NUMBA_CACHE_DIR={cache}".encode() in environ:
+            found.append(int(pid))
+    return found
+
+
+def test_loading_the_plugin_compiles_the_common_variants_in_the_background(tmp_path):
+    """With numba's cache lacking them, loading the plugin starts ParaView's Python on
+    ``pv_hdrvol.integrations.warm`` at the lowest priority, detached (pvbatch is done
+    long before it); with the stamp of this source in the cache, nothing starts.
+    tests/integrations/test_warm.py checks that a warmed cache serves a later render."""
+    pvbatch = _tool("pvbatch")
+    cache = tmp_path / "numba"
+    env = _paraview_environment()
+    env.pop("PV_HDRVOL_WARM")
+    env["NUMBA_CACHE_DIR"] = str(cache)
+    script = str(REPO_ROOT / "tests" / "paraview" / "load_only.py")
+    done = subprocess.run([pvbatch, script], env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True, timeout=300)
+    assert done.returncode == 0 and "loaded: True" in done.stdout, done.stdout[-3000:]
+    try:
+        pids = _warm_processes(cache)
+        assert len(pids) == 1, f"warming processes for {cache}: {pids}"
+        assert os.getpriority(os.PRIO_PROCESS, pids[0]) == 19
+        assert (cache / "pv_hdrvol-warm.log").exists()
+    finally:
+        for pid in _warm_processes(cache):
+            os.kill(pid, 9)
+    # a cache stamped for this source: loading starts nothing
+    stamp = subprocess.run(["/usr/bin/python3", "-c", "import sys; from pv_hdrvol.integrations.warm import "
+                            "stamp_path; print(stamp_path(sys.argv[1]))", str(cache)], env=env, cwd=REPO_ROOT,
+                           stdout=subprocess.PIPE, text=True, check=True).stdout.strip()
+    open(stamp, "w").close()
+    done = subprocess.run([pvbatch, script], env=env, cwd=REPO_ROOT, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True, timeout=300)
+    assert done.returncode == 0 and _warm_processes(cache) == []
 
 
 def test_without_numba_the_plugin_says_so_and_paraview_goes_on(tmp_path):

@@ -80,6 +80,22 @@ CAMERA_PROPERTIES = ("CameraPosition", "CameraFocalPoint", "CameraViewUp", "Came
                      "CameraParallelProjection", "CameraParallelScale")
 
 
+#: The Properties panel's groups of HDR Volume Render, in the order a user goes through
+#: them (the rare properties of each behind the gear)
+PANEL_GROUPS = (
+    ("Output", ("ImageSize", "DisplayToneMap")),
+    ("Transfer Function", ("TransferFunction", "Cmap", "Scale", "GlobalAlpha", "OpacityUnitDistance", "Blending")),
+    ("Sampling and Accuracy", ("Tolerance", "Step", "Precision", "Device")),
+    ("Shading", ("Shade", "Ambient", "Diffuse", "Specular", "SpecularPower")),
+    ("Camera", ("Camera", "FollowView") + CAMERA_PROPERTIES),
+    ("Lens", ("Lens", "LensCenter", "LensRadius", "LensMagnification", "FisheyeFieldOfView")),
+    ("Culling", ("POFFile", "FamilyWeights")),
+    ("Out Of Core", ("OutOfCore", "ScreenError", "CacheSize")),
+)
+_GROUPS = "".join(f'<PropertyGroup label="{label}">' + "".join(f'<Property name="{n}"/>' for n in names)
+                  + "</PropertyGroup>" for label, names in PANEL_GROUPS)
+
+
 def _string_list(values, name="list"):
     strings = "".join(f'<String value="{v}"/>' for v in values)
     return f'<StringListDomain name="{name}">{strings}</StringListDomain>'
@@ -393,12 +409,19 @@ if HDRVolumeRenderer is not None:
             super().SetSpecularPower(value)
 
         # -- the transfer function ------------------------------------------------
-        @smproperty.stringvector(name="TransferFunction", label="Transfer Function",
-                                 default_values=TRANSFER_FUNCTIONS[0], number_of_elements=1,
-                                 panel_visibility="advanced")
-        @smdomain.xml(_string_list(TRANSFER_FUNCTIONS) + _documentation(
-            "Color Map Editor: the colour map and opacity ParaView has for the array (its log scale "
-            "too), followed when edited. pv_hdrvol default: chosen from the data, shaped by Cmap and Scale."))
+        # The panel's groups: a PropertyGroup must follow the properties it names, and the
+        # decorators write properties in the order of their methods' names, so the groups
+        # are in the XML of the last method (SetTransferFunctionSource)
+        @smproperty.xml(f"""
+          <StringVectorProperty name="TransferFunction" label="Transfer Function"
+                                command="SetTransferFunctionSource" number_of_elements="1"
+                                default_values="{TRANSFER_FUNCTIONS[0]}" panel_visibility="advanced">
+            {_string_list(TRANSFER_FUNCTIONS)}
+            {_documentation("Color Map Editor: the colour map and opacity ParaView has for the array (its log "
+                            "scale too), followed when edited. pv_hdrvol default: chosen from the data, shaped "
+                            "by Cmap and Scale.")}
+          </StringVectorProperty>
+          {_GROUPS}""")
         def SetTransferFunctionSource(self, value):
             if value not in TRANSFER_FUNCTIONS:
                 raise ValueError(f"Transfer Function must be one of {list(TRANSFER_FUNCTIONS)}; got {value!r}")

@@ -789,6 +789,13 @@ if HDRVolumeRenderer is not None:
     _AUTO_LUT = {}
     _seen = set()
 
+    def _key(proxy):
+        """What the plugin's bookkeeping knows a proxy by: its global ID and its address.
+        The ID alone is not enough: a new session (Reset Session, then Load State)
+        numbers its proxies from the start again, and a view or filter of it would be
+        taken for the old one of the same ID (never observed, never followed)."""
+        return f"{proxy.GetGlobalIDAsString()}@{proxy.GetAddressAsString('vtkObject')}"
+
     def _sm(proxy):
         """The vtkSMProxy of a ``servermanager`` proxy wrapper, or the proxy itself."""
         return getattr(proxy, "SMProxy", proxy)
@@ -879,12 +886,16 @@ if HDRVolumeRenderer is not None:
         still render that ends the interaction renders the volume again."""
         if _VIEWS.get(view_gid, {}).get("interacting"):
             return
-        view = next((v for v in _registered(pxm, "views") if v.GetGlobalIDAsString() == view_gid), None)
+        views = _registered(pxm, "views")
+        view = next((v for v in views if _key(v) == view_gid), None)
         if view is None:
             return
+        alive = {_key(v) for v in views}
+        if any(follow["view"] not in alive for follow in _FOLLOWERS.values()):
+            _link_followers(pxm)  # filters whose view is gone follow the active one
         values = None
         for proxy in _filters(pxm):
-            follow = _FOLLOWERS.get(proxy.GetGlobalIDAsString())
+            follow = _FOLLOWERS.get(_key(proxy))
             if follow is None or follow["view"] != view_gid:
                 continue
             values = values or _view_camera(view)
@@ -906,7 +917,7 @@ if HDRVolumeRenderer is not None:
     _LEGENDS = set()
 
     def _gid(proxy):
-        return None if proxy is None else proxy.GetGlobalIDAsString()
+        return None if proxy is None else _key(proxy)
 
     def _data_legends(pxm, view):
         """The legend of an 'In View' output would describe its pixels' colours (the
@@ -945,7 +956,7 @@ if HDRVolumeRenderer is not None:
 
     def _watch_view(pxm, view):
         """Observe ``view``'s renders and its mouse interactions, once per view."""
-        gid = view.GetGlobalIDAsString()
+        gid = _key(view)
         if gid in _VIEWS:
             return
         _VIEWS[gid] = {"interacting": False}
@@ -960,7 +971,7 @@ if HDRVolumeRenderer is not None:
         """Make ``proxy``'s camera follow ``view``'s: from now (``copy``), or from the
         view's next move away from the camera it has now (a filter with a camera of its
         own: a state file's, a script's)."""
-        gid = proxy.GetGlobalIDAsString()
+        gid = _key(proxy)
         # the image size follows the view's, so that each pixel of the view is one ray,
         # unless the user chose a size (not the default) when the filter was made; a
         # filter whose size followed (a state file's) follows again
@@ -969,7 +980,7 @@ if HDRVolumeRenderer is not None:
         with _Bookkeeping():
             proxy.GetProperty("ImageSizeFollowsView").SetElement(0, int(follow_size))
         _watch_view(proxy.GetSessionProxyManager(), view)
-        follow = {"view": view.GetGlobalIDAsString(), "size": follow_size, "kept": None}
+        follow = {"view": _key(view), "size": follow_size, "kept": None}
         _FOLLOWERS[gid] = follow
         if copy:
             _copy_from_view(proxy, view, _view_camera(view), follow)
@@ -977,7 +988,7 @@ if HDRVolumeRenderer is not None:
             follow["kept"] = (_view_camera(view), _property(view, "ViewSize"))
 
     def _unlink_camera(proxy):
-        _FOLLOWERS.pop(_sm(proxy).GetGlobalIDAsString(), None)
+        _FOLLOWERS.pop(_key(_sm(proxy)), None)
 
     def follow_view(proxy, view=None):
         """Make an HDR Volume Render's camera follow ``view``'s (default the session's active
@@ -1018,7 +1029,7 @@ if HDRVolumeRenderer is not None:
     def _choose_array_color_map(proxy):
         from paraview.modules.vtkRemotingViews import vtkSMTransferFunctionManager, vtkSMTransferFunctionProxy
 
-        gid = proxy.GetGlobalIDAsString()
+        gid = _key(proxy)
         current = _property(proxy, "LookupTable")
         if current is not None and current is not _AUTO_LUT.get(gid):
             return  # the user's table
@@ -1090,7 +1101,7 @@ if HDRVolumeRenderer is not None:
             _say(f"could not show HDR Volume Render's colours ({type(exc).__name__}: {exc}); colour its "
                  f"'In View' output by 'colors' with Map Scalars off")
         for proxy in _filters(pxm):
-            gid = proxy.GetGlobalIDAsString()
+            gid = _key(proxy)
             if gid in _seen:
                 continue
             _seen.add(gid)
@@ -1107,17 +1118,19 @@ if HDRVolumeRenderer is not None:
         _link_followers(pxm)  # the new filters' cameras follow the active render view
 
     def _link_followers(pxm, *_):
-        """Link each filter that follows the view but has no view yet (just made; made
-        before any render view; loaded from a state file before its view became active)
-        to the session's active render view; a camera given when it was made is kept
-        until the view moves."""
+        """Link each filter that follows the view but has no view (just made; made
+        before any render view; loaded from a state file before its view became active;
+        its view deleted, as Load State replaces the views) to the session's active
+        render view; a camera given when it was made is kept until the view moves."""
         _watch_active_view(pxm)
         view = _active_render_view(pxm)
         if view is None:
             return
+        views = {_key(v) for v in _registered(pxm, "views")}
         for proxy in _filters(pxm):
-            gid = proxy.GetGlobalIDAsString()
-            if gid in _seen and gid not in _FOLLOWERS and _property(proxy, "FollowView")[0]:
+            gid = _key(proxy)
+            follow = _FOLLOWERS.get(gid)
+            if gid in _seen and (follow is None or follow["view"] not in views) and _property(proxy, "FollowView")[0]:
                 try:
                     _link_camera(proxy, view, copy=_camera_unset(proxy))
                 except Exception as exc:  # an observer must not break ParaView
@@ -1145,7 +1158,7 @@ if HDRVolumeRenderer is not None:
             if inputs is None or not inputs.GetNumberOfProxies() or representation.GetProperty("MapScalars") is None:
                 continue
             source = inputs.GetProxy(0)
-            gid = representation.GetGlobalIDAsString()
+            gid = _key(representation)
             if gid in _shown or source is None or source.GetXMLName() != "HDRVolumeRender" \
                     or inputs.GetOutputPortForConnection(0) != 1:
                 continue
@@ -1157,15 +1170,19 @@ if HDRVolumeRenderer is not None:
             representation.UpdateVTKObjects()
 
     def _on_unregister(pxm, _event):
-        """Forget filters that are no longer registered."""
-        alive = {proxy.GetGlobalIDAsString() for proxy in _filters(pxm)}
+        """Forget filters and views that are no longer registered."""
+        alive = {_key(proxy) for proxy in _filters(pxm)}
         for gid in [g for g in _FOLLOWERS if g not in alive]:
             del _FOLLOWERS[gid]
         for gid in [g for g in _AUTO_LUT if g not in alive]:
             del _AUTO_LUT[gid]
+        # a view's observers went with it: a new view at its address is observed again
+        views = {_key(view) for view in _registered(pxm, "views")}
+        for key in [k for k in _VIEWS if k not in views]:
+            del _VIEWS[key]
 
     def _find(pxm, gid):
-        return next((p for p in _filters(pxm) if p.GetGlobalIDAsString() == gid), None)
+        return next((p for p in _filters(pxm) if _key(p) == gid), None)
 
     def _follow_changed(pxm, gid):
         proxy = _find(pxm, gid)

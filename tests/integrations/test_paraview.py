@@ -760,6 +760,22 @@ def test_gui_apply_on_a_mesh_hides_its_opaque_surface(shared_data, tmp_path):
         _keep_screenshots(gui, tmp_path, ())
 
 
+def test_a_state_loaded_after_reset_session_follows_its_view(shared_data, tmp_path):
+    """Reset Session, then Load State (tests/paraview/reset_session.py): the new session
+    numbers its proxies from 1 again and the state's view replaces the session's first;
+    the filter follows the state's view (its saved Image Size kept until the view is
+    resized), where it kept following a deleted view of the same ID before."""
+    pvbatch = _tool("pvbatch")
+    xvfb_run = _tool("xvfb-run")
+    env = _paraview_environment()
+    env.update(PV_PLUGIN_PATH=str(REPO_ROOT / "paraview_plugin"), PV_HDRVOL_DATA=str(shared_data))
+    done = subprocess.run([xvfb_run, "-a", "-s", "-screen 0 1280x1024x24", pvbatch,
+                           str(REPO_ROOT / "tests" / "paraview" / "reset_session.py"), str(tmp_path)], env=env,
+                          cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=600)
+    assert done.returncode == 0 and "followed the state's view after Reset Session" in done.stdout, \
+        _failure_text(done.stdout)
+
+
 def _warm_processes(cache):
     """PIDs of the processes compiling variants into the numba cache folder ``cache``."""
     found = []

@@ -776,15 +776,15 @@ if HDRVolumeRenderer is not None:
     # Python Shell's paraview.simple (GetDisplayProperties: no FindRepresentation).
     from paraview.modules.vtkRemotingViews import vtkPVRenderView
 
-    #: Filter global ID -> how it follows a view: {"view": the view's global ID,
+    #: Filter (its _key) -> how it follows a view: {"view": the view's _key,
     #: "size": whether Image Size follows the view's size, "kept": the view's camera
     #: (and size) when a filter with a camera of its own was linked: that camera is kept
     #: until the view's moves away from it}. Not registered with the proxy manager (no
     #: Link Manager entry, nothing saved in state files: the plugin links again on load).
     _FOLLOWERS = {}
-    #: View global ID -> {"interacting": a mouse interaction is under way}
+    #: View (its _key) -> {"interacting": a mouse interaction is under way}
     _VIEWS = {}
-    #: Filter global ID -> the lookup table the plugin chose for it (followed when the
+    #: Filter (its _key) -> the lookup table the plugin chose for it (followed when the
     #: filter's Scalars change); a table set by the user is never replaced.
     _AUTO_LUT = {}
     _seen = set()
@@ -863,8 +863,9 @@ if HDRVolumeRenderer is not None:
         """Set the filter's camera (and Image Size, if it follows) to ``values`` of
         ``view``; only properties that differ, so that an unchanged camera re-renders
         nothing. Whether anything changed."""
-        if follow["size"]:
-            values = dict(values, ImageSize=_property(view, "ViewSize"))
+        size = _property(view, "ViewSize")
+        if follow["size"] and min(size) >= 1:  # not a hidden view's 0 x 0
+            values = dict(values, ImageSize=size)
         changed = False
         with _Bookkeeping():
             for name, value in values.items():

@@ -96,6 +96,10 @@ _GROUPS = "".join(f'<PropertyGroup label="{label}">' + "".join(f'<Property name=
                   + "</PropertyGroup>" for label, names in PANEL_GROUPS)
 
 
+#: The hint that shows a property in the panel only for a store's input
+_FOR_STORES = '<PropertyWidgetDecorator type="GenericDecorator" mode="visibility" property="InputIsStore" value="1"/>'
+
+
 def _string_list(values, name="list"):
     strings = "".join(f'<String value="{v}"/>' for v in values)
     return f'<StringListDomain name="{name}">{strings}</StringListDomain>'
@@ -694,7 +698,9 @@ if HDRVolumeRenderer is not None:
             HDRVolumeRenderer.SetCropBox(self, box)
 
         # -- multiresolution stores (the store reader's output) -------------------------
-        @smproperty.intvector(name="OutOfCore", label="Out Of Core", default_values=1, panel_visibility="advanced")
+        # shown only for a store (InputIsStore, set by the plugin when the filter is made)
+        @smproperty.intvector(name="OutOfCore", label="Out Of Core", default_values=1)
+        @smhint.xml(_FOR_STORES)
         @smdomain.xml('<BooleanDomain name="bool"/>' + _documentation(
             "For a level of a multiresolution store (*.ome.zarr, opened with pv_hdrvol's store reader): render "
             "the whole store out of core (pv_hdrvol.open_multiscale), with finer levels where the camera needs "
@@ -704,6 +710,7 @@ if HDRVolumeRenderer is not None:
 
         @smproperty.doublevector(name="ScreenError", label="Screen Error", default_values=1.0,
                                  panel_visibility="advanced")
+        @smhint.xml(_FOR_STORES)
         @smdomain.doublerange(min=0.25, max=16.0)
         @smdomain.xml(_documentation("Out of core: the largest projected voxel, in pixels, a block of the "
                                      "store may show (smaller: finer levels, more reading)."))
@@ -711,10 +718,21 @@ if HDRVolumeRenderer is not None:
             _setting(self, "Screen Error", lambda: HDRVolumeRenderer.SetScreenError(self, value))
 
         @smproperty.intvector(name="CacheSize", label="Cache Size", default_values=2048, panel_visibility="advanced")
+        @smhint.xml(_FOR_STORES)
         @smdomain.intrange(min=64, max=262144)
         @smdomain.xml(_documentation("Out of core: the most memory, in MiB, for the store's chunks."))
         def SetCacheSize(self, mib):
             _setting(self, "Cache Size", lambda: HDRVolumeRenderer.SetCacheBytes(self, int(mib) * 2 ** 20))
+
+        @smproperty.xml("""
+          <IntVectorProperty name="InputIsStore" command="SetInputIsStore" number_of_elements="1"
+                             default_values="0" panel_visibility="never">
+            <BooleanDomain name="bool"/>
+            <Documentation>Set by the plugin: the input is a multiresolution store's level (the
+            out-of-core properties are shown only then).</Documentation>
+          </IntVectorProperty>""")
+        def SetInputIsStore(self, value):
+            pass  # nothing for the filter: the store is found from the input when it executes
 
         # -- display ----------------------------------------------------------------
         @smproperty.stringvector(name="DisplayToneMap", label="Display Tone Map", default_values="knee",
@@ -1068,6 +1086,17 @@ if HDRVolumeRenderer is not None:
         _AUTO_LUT[gid] = lut
         proxy.UpdateVTKObjects()
 
+    def _mark_store_input(proxy):
+        """InputIsStore: whether the filter's input is pv_hdrvol's store reader (its
+        out-of-core properties are shown then)."""
+        inputs = proxy.GetProperty("Input")
+        source = inputs.GetProxy(0) if inputs is not None and inputs.GetNumberOfProxies() else None
+        store = int(source is not None and source.GetXMLName() == "MultiscaleStoreReader")
+        if _property(proxy, "InputIsStore") != [store]:
+            with _Bookkeeping():
+                proxy.GetProperty("InputIsStore").SetElement(0, store)
+                proxy.UpdateVTKObjects()
+
     def _say(text):
         from vtkmodules.vtkCommonCore import vtkOutputWindow
 
@@ -1107,6 +1136,7 @@ if HDRVolumeRenderer is not None:
                 continue
             _seen.add(gid)
             try:
+                _mark_store_input(proxy)
                 _use_array_color_map(proxy)
                 # by the ID and the session, not the proxy itself: an observer on the proxy's
                 # own property that held it would keep the deleted filter (and its plan) alive

@@ -398,6 +398,22 @@ def _on_screen(gui, reference, rgba, name, control=None):
     return found
 
 
+def _panel_lists(gui, label):
+    """Whether the Properties panel shows a property labelled ``label``: typed into its
+    search box, the panel differs from the panel for a search that matches nothing
+    (the advanced properties stay hidden: the gear is off). The search is cleared."""
+    from paraview_gui import PROPERTIES_SEARCH
+
+    panels = []
+    for text in (label, "zzzzqq"):
+        gui.search_properties(text)
+        panels.append(gui.screenshot()[PROPERTIES_SEARCH[1] + 15:PROPERTIES_SEARCH[1] + 245, :280].astype(int))
+    gui.click(*PROPERTIES_SEARCH)
+    gui.xdotool("key", "Escape")
+    time.sleep(1.0)
+    return bool(np.abs(panels[0] - panels[1]).max() > 0)
+
+
 def _quit_cleanly(gui):
     status = gui.quit()
     log = gui.log()
@@ -430,6 +446,9 @@ def test_gui_filters_menu_apply_rotate_and_exit(shared_data, tmp_path):
         gui.menu(215, ["Up", "Right", "Up", "Return"])  # Filters > pv_hdrvol (last) > HDR Volume Render (last)
         gui.press_apply()
         time.sleep(2)
+        # not a store: no out-of-core properties; the common ones are there
+        assert not _panel_lists(gui, "Out Of Core"), "out-of-core properties in the panel for a plain image"
+        assert _panel_lists(gui, "Global Alpha")
         _open_python_shell(gui)
         rgba1, shown1, state1 = _export(gui, tmp_path, 1)
         assert state1["connections"] == 1, "a second session (ParaView's Python has a builtin server of its own)"
@@ -652,6 +671,8 @@ def test_gui_opens_a_store_and_renders_it_out_of_core(shared_data, tmp_path):
         gui.menu(215, ["Up", "Right", "Up", "Return"])  # Filters > pv_hdrvol (last) > HDR Volume Render (last)
         gui.press_apply()
         time.sleep(2)
+        # a store's input: the out-of-core properties are in the panel
+        assert _panel_lists(gui, "Out Of Core"), "no Out Of Core property in the panel for a store"
         _open_python_shell(gui)
         rgba, shown, state = _export(gui, tmp_path, 1)
         assert state["connections"] == 1

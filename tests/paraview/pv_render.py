@@ -170,6 +170,7 @@ def test_camera_follows_the_render_view(plugin, shared_data):
     simple.ResetCamera(view)
     render = plugin["HDRVolumeRender"](Input=reader, ImageSize=[24, 24])
     assert list(render.CameraPosition) == list(view.CameraPosition)
+    assert render.InputIsStore == 0  # no out-of-core properties in the panel for a plain image
     # the filter took the array's colour map, as ParaView shows it
     assert render.LookupTable is not None and render.LookupTable == simple.GetColorTransferFunction(array)
     before = _image(render).rgba.copy()

@@ -77,6 +77,8 @@ def test_hdr_volume_render_renders_the_store_out_of_core(plugin, store):
                                        ScalarOpacityFunction=pwf)
     render.Scalars = ["POINTS", "density"]
     assert render.OutOfCore == 1 and render.ScreenError == 1.0 and render.CacheSize == 2048
+    # the plugin marks a store's input: its out-of-core properties show in the panel
+    assert render.InputIsStore == 1
     image = _image(render)
 
     volume = hv.open_multiscale(store)

@@ -130,12 +130,13 @@ def _frames(frames):
     return out
 
 
-def tonemap_sequence(frames, operator="reinhard", *, adapt="sequence", roi=None, encoding="srgb", **params):
+def tonemap_sequence(frames, operator="reinhard", *, adapt="sequence", roi=None, encoding=None, **params):
     """Tone map frames with one mapping (``adapt="sequence"``) or one per frame.
 
     With ``"sequence"``, the operator is fitted once on all frames stacked together
     (for local operators their global anchors: base range, output reference), so a
     pixel value maps to the same display value in every frame of a global operator.
+    ``encoding``: as :func:`~pv_hdrvol.tonemap` (None: the operator's own).
 
     Returns
     -------

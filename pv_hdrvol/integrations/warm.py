@@ -128,11 +128,18 @@ def start_in_background(cache_dir, python=None, env=None):
     env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH", "")) if p)
     log = open(os.path.join(cache_dir, "pv_hdrvol-warm.log"), "a")
     try:
-        return subprocess.Popen([python or sys.executable, "-m", "pv_hdrvol.integrations.warm", "--stamp"], env=env,
-                                stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
-                                start_new_session=True, preexec_fn=lambda: os.nice(19))
+        process = subprocess.Popen([python or sys.executable, "-m", "pv_hdrvol.integrations.warm", "--stamp"],
+                                   env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+                                   start_new_session=True)
     finally:
         log.close()
+    # the lowest priority, set from here: a preexec_fn is unsafe in a threaded process
+    # such as ParaView's GUI; the import of numba takes longer than this gap
+    try:
+        os.setpriority(os.PRIO_PROCESS, process.pid, 19)
+    except OSError:
+        pass
+    return process
 
 
 def main(argv=None):

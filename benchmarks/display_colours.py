@@ -35,19 +35,6 @@ FILES = {"engine": "structured/engine_256x256x128_uint8.vti", "ct_head": "struct
 STEP = 0.5  # of the smallest spacing, both renderers
 
 
-def compare(shown, reference, mask):
-    """``(mean Delta E, chroma ratio)`` of the displayed values ``shown`` (in [0, 1])
-    against VTK's 8-bit screenshot ``reference``, both read as a screen shows them (sRGB)."""
-    from pv_hdrvol.image.display import screen_lab
-
-    lab_ref = screen_lab(reference / 255.0)
-    lab = screen_lab(shown)
-    de = np.linalg.norm(lab - lab_ref, axis=-1)[mask]
-    chroma = np.hypot(lab[..., 1], lab[..., 2])[mask].mean()
-    chroma_ref = np.hypot(lab_ref[..., 1], lab_ref[..., 2])[mask].mean()
-    return float(de.mean()), float(chroma / chroma_ref)
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", nargs="+", choices=sorted(FILES), default=sorted(FILES))
@@ -61,6 +48,7 @@ def main(argv=None):
     from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
 
     import pv_hdrvol as hv
+    from pv_hdrvol.image.display import colour_difference
     from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
 
     data_root = Path(os.environ.get("PV_HDRVOL_DATA", ROOT.parent / "shared" / "data"))
@@ -87,14 +75,15 @@ def main(argv=None):
                           progress_bar=False)
         mask = (image.rgba[..., 3] > 0.02) | (reference.max(axis=-1) > 5)
         displays = {
-            "reinhard, sRGB (HDR Volume Render's default display)": hv.tonemap(image, "reinhard").rgb,
+            "knee (HDR Volume Render's default display)": hv.tonemap(image, "knee").rgb,
+            "reinhard, sRGB (HDR Volume Render's display before knee)": hv.tonemap(image, "reinhard").rgb,
             "linear, auto exposure, sRGB": hv.tonemap(image, "linear").rgb,
             "linear, exposure 0, sRGB": hv.tonemap(image, "linear", exposure_stops=0.0).rgb,
             "linear, exposure 0, no encoding (VTK's)": hv.tonemap(image, "linear", exposure_stops=0.0,
                                                                    encoding="linear").rgb,
         }
         for label, rgb in displays.items():
-            de, chroma = compare(rgb, reference, mask)
+            de, chroma = colour_difference(rgb, reference / 255.0, mask)
             print(f"| {name} | {label} | {de:.1f} | {chroma:.2f} |")
     return 0
 

@@ -21,51 +21,15 @@ image covers and the ratio of mean chroma:
 import argparse
 import os
 import sys
-import tempfile
 
-import numpy as np
 from paraview import servermanager, simple
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(ROOT, "tests", "paraview"))  # paraview_volume: the same views as the check
 DATA = {"engine": ("structured/engine_256x256x128_uint8.vti", "ImageFile"),
         "ct_head": ("structured/ct_head_120x120x130_uint8.vtk", "nrrd94920"),
         "bluntfin": ("unstructured/bluntfin_187395tets.vtu", "Density")}
-
-
-def screenshot(view, size):
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-    from vtkmodules.vtkIOImage import vtkPNGReader
-
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "view.png")
-        simple.SaveScreenshot(path, view, ImageResolution=[size, size], TransparentBackground=0)
-        reader = vtkPNGReader()
-        reader.SetFileName(path)
-        reader.Update()
-        img = reader.GetOutput()
-        cols, rows, _ = img.GetDimensions()
-        rgb = vtk_to_numpy(img.GetPointData().GetScalars()).reshape(rows, cols, -1)[::-1, :, :3]
-    return rgb.astype(np.float64)
-
-
-def filter_display(reader, array, lut, pwf, unit, camera, size):
-    """The colours HDR Volume Render shows (its ``tonemapped`` array) for ``camera``,
-    the array's colour map and ParaView's unit distance, rows top first, in [0, 1]."""
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-
-    render = simple.HDRVolumeRender(Input=reader, FollowView=0, ImageSize=[size, size], LookupTable=lut,
-                                    ScalarOpacityFunction=pwf, OpacityUnitDistance=unit)
-    render.Scalars = ["POINTS", array]
-    render.CameraPosition = list(camera.position)
-    render.CameraFocalPoint = list(camera.focal_point)
-    render.CameraViewUp = list(camera.view_up)
-    render.CameraViewAngle = camera.view_angle
-    out = servermanager.Fetch(render)
-    shown = vtk_to_numpy(out.GetPointData().GetArray("tonemapped")).reshape(size, size, 3)[::-1]
-    simple.Delete(render)
-    return shown.astype(np.float64) / 255.0
 
 
 def main(argv=None):
@@ -77,7 +41,9 @@ def main(argv=None):
 
     import pv_hdrvol as hv
     from pv_hdrvol.integrations.vtk_transfer import transfer_function_from_vtk
-    from display_colours import compare
+    from paraview_volume import filter_display, volume_screenshot
+
+    from pv_hdrvol.image.display import colour_difference
 
     data_root = os.environ.get("PV_HDRVOL_DATA", os.path.join(os.path.dirname(ROOT), "shared", "data"))
     print(f"# ParaView {servermanager.vtkSMProxyManager.GetParaViewSourceVersion()}: Volume representation against "
@@ -89,44 +55,25 @@ def main(argv=None):
         path, array = DATA[name]
         reader = simple.OpenDataFile(os.path.join(data_root, path))
         reader.UpdatePipeline()
-        view = simple.CreateView("RenderView")
-        view.ViewSize = [args.size, args.size]
-        view.OrientationAxesVisibility = 0
-        if hasattr(view, "UseColorPaletteForBackground"):
-            view.UseColorPaletteForBackground = 0
-        view.Background = [0.0, 0.0, 0.0]
-        display = simple.Show(reader, view)
-        simple.ColorBy(display, ("POINTS", array))
-        display.SetRepresentationType("Volume")
-        display.RescaleTransferFunctionToDataRange(True, False)
+        camera = hv.Camera.fit(reader.GetDataInformation().GetBounds(), "iso")
+        view, display, reference = volume_screenshot(reader, array, camera, args.size)
         lut = simple.GetColorTransferFunction(array)
         pwf = simple.GetOpacityTransferFunction(array)
-        bounds = reader.GetDataInformation().GetBounds()
-        camera = hv.Camera.fit(bounds, "iso")
-        cam = view.GetActiveCamera()
-        cam.SetPosition(*camera.position)
-        cam.SetFocalPoint(*camera.focal_point)
-        cam.SetViewUp(*camera.view_up)
-        cam.SetViewAngle(camera.view_angle)
-        view.CenterOfRotation = list(camera.focal_point)
-        simple.Render(view)
-        reference = screenshot(view, args.size)
-
         unit = float(display.ScalarOpacityUnitDistance)
         tf = transfer_function_from_vtk(lut.GetClientSideObject(), pwf.GetClientSideObject())
         data = servermanager.Fetch(reader)
         image = hv.render(data, tf, camera, args.size, scalars=array, opacity_unit_distance=unit, progress_bar=False)
-        mask = (image.rgba[..., 3] > 0.02) | (reference.max(axis=-1) > 5)
+        mask = (image.rgba[..., 3] > 0.02) | (reference.max(axis=-1) > 5 / 255)
         displays = {
-            "HDR Volume Render, its default display (knee)": filter_display(reader, array, lut, pwf, unit, camera,
-                                                                            args.size),
+            "HDR Volume Render, its default display (knee)": filter_display(simple.HDRVolumeRender, reader, array,
+                                                                            display, camera, args.size)[0],
             "knee (hv.tonemap default encoding: none)": hv.tonemap(image, "knee").rgb,
             "reinhard, sRGB (the filter's display before knee)": hv.tonemap(image, "reinhard").rgb,
             "linear, exposure 0, sRGB": hv.tonemap(image, "linear", exposure_stops=0.0).rgb,
             "linear, exposure 0, no encoding": hv.tonemap(image, "linear", exposure_stops=0.0, encoding="linear").rgb,
         }
         for label, rgb in displays.items():
-            de, chroma = compare(rgb, reference, mask)
+            de, chroma = colour_difference(rgb, reference, mask)
             print(f"| {name} | {label} | {de:.1f} | {chroma:.2f} |", flush=True)
         simple.Delete(view)
     return 0

@@ -40,6 +40,17 @@ def screen_lab(display_values):
     return np.stack([116 * f[..., 1] - 16, 500 * (f[..., 0] - f[..., 1]), 200 * (f[..., 1] - f[..., 2])], -1)
 
 
+def colour_difference(shown, reference, mask):
+    """``(mean Delta E, chroma ratio)`` of two pictures of display values in [0, 1]
+    (..., 3), over the pixels of ``mask``: the mean CIE76 difference of their
+    :func:`screen_lab` colours, and the mean chroma of ``shown`` over that of
+    ``reference`` (below 1: ``shown`` is paler)."""
+    lab, lab_reference = screen_lab(shown), screen_lab(reference)
+    delta_e = np.linalg.norm(lab - lab_reference, axis=-1)[mask].mean()
+    chroma = np.hypot(lab[..., 1], lab[..., 2])[mask].mean()
+    return float(delta_e), float(chroma / np.hypot(lab_reference[..., 1], lab_reference[..., 2])[mask].mean())
+
+
 def auto_exposure(rgb, percentile=99.0):
     """Stops that bring the ``percentile`` of non-zero luminance to 1.0 (0 if all black)."""
     y = luminance(rgb)

@@ -350,3 +350,16 @@ def test_screen_lab_gives_the_standard_cielab_of_srgb_colours():
     # CIELAB (D65) of sRGB white, red and mid grey (#777777), as colour references give them
     got = screen_lab(np.array([[1.0, 1.0, 1.0], [1.0, 0.0, 0.0], [0x77 / 255] * 3]))
     np.testing.assert_allclose(got, [[100.0, 0.0, 0.0], [53.24, 80.09, 67.20], [50.03, 0.0, 0.0]], atol=0.01)
+
+
+def test_colour_difference_is_zero_for_one_picture_and_the_mean_over_the_mask():
+    from pv_hdrvol.image.display import colour_difference, screen_lab
+
+    rng = np.random.default_rng(5)
+    picture = rng.random((6, 7, 3))
+    mask = rng.random((6, 7)) > 0.3
+    assert colour_difference(picture, picture, mask) == (0.0, 1.0)
+    grey = np.full((6, 7, 3), 0.5)  # no chroma: any coloured picture has more
+    delta_e, chroma = colour_difference(grey, picture, mask)
+    want = np.linalg.norm(screen_lab(grey) - screen_lab(picture), axis=-1)[mask].mean()
+    assert delta_e == pytest.approx(want, rel=1e-12) and chroma == pytest.approx(0.0, abs=1e-6)

@@ -811,7 +811,10 @@ if HDRVolumeRenderer is not None:
         """What the plugin's bookkeeping knows a proxy by: its global ID and its address.
         The ID alone is not enough: a new session (Reset Session, then Load State)
         numbers its proxies from the start again, and a view or filter of it would be
-        taken for the old one of the same ID (never observed, never followed)."""
+        taken for the old one of the same ID (never observed, never followed). None for
+        no proxy (an empty proxy property)."""
+        if proxy is None:
+            return None
         return f"{proxy.GetGlobalIDAsString()}@{proxy.GetAddressAsString('vtkObject')}"
 
     def _sm(proxy):
@@ -935,9 +938,6 @@ if HDRVolumeRenderer is not None:
     #: 'In View' representations whose pixel legend was replaced by the data's
     _LEGENDS = set()
 
-    def _gid(proxy):
-        return None if proxy is None else _key(proxy)
-
     def _data_legends(pxm, view):
         """The legend of an 'In View' output would describe its pixels' colours (the
         'colors' array, 0-255), not data: where ParaView shows it in ``view`` (its "show
@@ -947,14 +947,14 @@ if HDRVolumeRenderer is not None:
         from paraview.modules.vtkRemotingViews import vtkSMTransferFunctionManager
 
         in_view = view.GetProperty("Representations")
-        members = {_gid(in_view.GetProxy(i)) for i in range(in_view.GetNumberOfProxies())} if in_view else set()
-        bars = [b for b in _registered(pxm, "scalar_bars") if _gid(b) in members and _property(b, "Visibility")[0]]
+        members = {_key(in_view.GetProxy(i)) for i in range(in_view.GetNumberOfProxies())} if in_view else set()
+        bars = [b for b in _registered(pxm, "scalar_bars") if _key(b) in members and _property(b, "Visibility")[0]]
         for representation in _registered(pxm, "representations"):
-            gid = _gid(representation)
+            gid = _key(representation)
             if gid not in _shown or gid in _LEGENDS or gid not in members:
                 continue
-            pixels = _gid(_property(representation, "LookupTable"))
-            shown = [b for b in bars if _gid(_property(b, "LookupTable")) == pixels]
+            pixels = _key(_property(representation, "LookupTable"))
+            shown = [b for b in bars if _key(_property(b, "LookupTable")) == pixels]
             source = representation.GetProperty("Input").GetProxy(0)
             data_lut = _property(source, "LookupTable")
             if not shown or pixels is None or data_lut is None:

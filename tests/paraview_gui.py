@@ -187,14 +187,18 @@ class ParaViewGUI:
             self.xdotool("key", key)
             time.sleep(0.5)
 
-    def drag(self, start, delta, steps=12):
+    def drag(self, start, delta, steps=12, pause=0.05, after_move=None):
+        """Press the left button at ``start``, move by ``delta`` in ``steps`` moves
+        ``pause`` s apart (``after_move(i)`` after the i-th, 1-based), release."""
         x, y = start
         self.xdotool("mousemove", x, y)
         time.sleep(0.2)
         self.xdotool("mousedown", 1)
         for i in range(1, steps + 1):
             self.xdotool("mousemove", x + delta[0] * i // steps, y + delta[1] * i // steps)
-            time.sleep(0.05)
+            time.sleep(pause)
+            if after_move is not None:
+                after_move(i)
         self.xdotool("mouseup", 1)
 
     def type_line(self, text):

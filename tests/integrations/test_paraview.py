@@ -493,21 +493,13 @@ def _drag_and_watch(gui, rectangle, delta, steps=30, pause=0.03, every=6, watch=
     ``after`` as ``(seconds since the release when the grab was complete, array)``: an
     upper bound of when that picture was on screen."""
     top, left, rows, cols = rectangle
-    x, y = left + cols // 2, top + rows // 2
 
     def view():
         return gui.grab()[top:top + rows, left:left + cols]
 
-    gui.xdotool("mousemove", x, y)
-    time.sleep(0.3)
-    gui.xdotool("mousedown", 1)
     during = []
-    for i in range(1, steps + 1):
-        gui.xdotool("mousemove", x + delta[0] * i // steps, y + delta[1] * i // steps)
-        time.sleep(pause)
-        if i % every == 0:
-            during.append(view())
-    gui.xdotool("mouseup", 1)
+    gui.drag((left + cols // 2, top + rows // 2), delta, steps, pause,
+             after_move=lambda i: during.append(view()) if i % every == 0 else None)
     released = time.monotonic()
     after = []
     while time.monotonic() - released < watch:
@@ -525,7 +517,7 @@ def test_gui_view_direction_buttons_and_a_drag_end_on_the_final_camera(shared_da
     view's camera. A mouse drag in a 1296x779 view: the view follows the mouse (the picture at
     the volume's depth turns with it; the volume is not rendered while the button is
     down), and the still frame, the render of the final camera, comes once, for the
-    final camera: on screen within 3 s of the release on 2 cores (measured 1.62-1.90 s: the
+    final camera: on screen within 3 s of the release on 2 cores (measured 1.62-2.20 s: the
     ray cast about 0.4-0.75 s, ParaView's update and drawing of the million-quad 'In
     View' surface about 0.8 s; docs/paraview.md; before, the view settled 7.1 s after
     a drag, rendering at full size during it)."""
